@@ -5,7 +5,8 @@
 namespace tsf::app {
 
 void add_import_command(CLI::App& app) {
-  CLI::App* sub = app.add_subcommand("import", "Read a CT (DICOM series, NRRD, MHA, NIfTI) into HU");
+  CLI::App* sub =
+      app.add_subcommand("import", "Read a CT (DICOM series, NRRD, MHA, NIfTI) into HU");
   sub->callback([] { tsf::import::register_itk_io_factories(); });
 }
 

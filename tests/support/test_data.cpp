@@ -9,9 +9,13 @@
 namespace tsf::test {
 namespace fs = std::filesystem;
 
-fs::path source_dir() { return fs::path(TSF_SOURCE_DIR); }
+fs::path source_dir() {
+  return fs::path(TSF_SOURCE_DIR);
+}
 
-fs::path samples_dir() { return source_dir() / "data-samples"; }
+fs::path samples_dir() {
+  return source_dir() / "data-samples";
+}
 
 std::optional<fs::path> shared_data_dir() {
   if (const char* env = std::getenv("TSF_SHARED_DATA"); env && *env) {
@@ -38,8 +42,8 @@ fs::path scratch_dir(const std::string& name) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string tag = name;
   if (info) tag = std::string(info->test_suite_name()) + "." + info->name() + "." + name;
-  const fs::path dir = fs::temp_directory_path() / ("tsf-test-" + std::to_string(::getpid()) +
-                                                    "-" + tag);
+  const fs::path dir =
+      fs::temp_directory_path() / ("tsf-test-" + std::to_string(::getpid()) + "-" + tag);
   fs::remove_all(dir);
   fs::create_directories(dir);
   scratch_dirs.push_back(dir);

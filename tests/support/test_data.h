@@ -20,9 +20,9 @@ std::filesystem::path scratch_dir(const std::string& name);
 }  // namespace tsf::test
 
 /// Declares `var` = the shared data path, or skips the test with a reason.
-#define TSF_SHARED_DATA_OR_SKIP(var)                                                        \
-  const auto var##_opt = ::tsf::test::shared_data_dir();                                    \
-  if (!var##_opt)                                                                           \
+#define TSF_SHARED_DATA_OR_SKIP(var)                                                         \
+  const auto var##_opt = ::tsf::test::shared_data_dir();                                     \
+  if (!var##_opt)                                                                            \
     GTEST_SKIP() << "not run: the wider corpus ../shared/data (or $TSF_SHARED_DATA) is not " \
-                    "present on this machine";                                              \
+                    "present on this machine";                                               \
   const std::filesystem::path var = *var##_opt

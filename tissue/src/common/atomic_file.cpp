@@ -37,7 +37,8 @@ void write_file_atomically(const fs::path& target,
     fs::remove(temp, ec);
     throw;
   }
-  if (!fs::exists(temp)) throw Error("writer produced no file for output '" + target.string() + "'");
+  if (!fs::exists(temp))
+    throw Error("writer produced no file for output '" + target.string() + "'");
   fs::rename(temp, target, ec);
   if (ec) {
     std::error_code ignored;

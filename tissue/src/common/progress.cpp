@@ -7,7 +7,9 @@
 
 namespace tsf {
 
-bool Progress::stderr_is_terminal() { return ::isatty(STDERR_FILENO) == 1; }
+bool Progress::stderr_is_terminal() {
+  return ::isatty(STDERR_FILENO) == 1;
+}
 
 Progress::Progress(std::string label, std::uint64_t total, bool enabled)
     : label_(std::move(label)),
@@ -16,7 +18,9 @@ Progress::Progress(std::string label, std::uint64_t total, bool enabled)
       start_(std::chrono::steady_clock::now()),
       last_draw_(start_ - std::chrono::seconds(1)) {}
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  finish();
+}
 
 void Progress::advance(std::uint64_t units) {
   done_.fetch_add(units, std::memory_order_relaxed);

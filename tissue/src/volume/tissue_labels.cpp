@@ -4,17 +4,28 @@ namespace tsf {
 
 const char* tissue_label_name(std::uint8_t label) {
   switch (label) {
-    case kLabelOutside: return "outside";
-    case kLabelSoftTissue: return "soft-tissue";
-    case kLabelMucosa: return "mucosa";
-    case kLabelFat: return "fat";
-    case kLabelCartilage: return "cartilage";
-    case kLabelCancellousBone: return "cancellous-bone";
-    case kLabelCorticalBone: return "cortical-bone";
-    case kLabelTumour: return "tumour";
-    case kLabelVessel: return "vessel";
-    case kLabelNerve: return "nerve";
-    case kLabelInvalid: return "invalid";
+    case kLabelOutside:
+      return "outside";
+    case kLabelSoftTissue:
+      return "soft-tissue";
+    case kLabelMucosa:
+      return "mucosa";
+    case kLabelFat:
+      return "fat";
+    case kLabelCartilage:
+      return "cartilage";
+    case kLabelCancellousBone:
+      return "cancellous-bone";
+    case kLabelCorticalBone:
+      return "cortical-bone";
+    case kLabelTumour:
+      return "tumour";
+    case kLabelVessel:
+      return "vessel";
+    case kLabelNerve:
+      return "nerve";
+    case kLabelInvalid:
+      return "invalid";
     default:
       if (is_overlay_label(label)) return "overlay";
       if (label >= kLabelFirstUser) return "user";

@@ -34,8 +34,8 @@ bool VolumeGeometry::identity_direction() const {
 VoxelVolume::VoxelVolume(const VolumeGeometry& geometry, bool with_material_weights)
     : geometry_(geometry) {
   require(geometry.dims.x > 0 && geometry.dims.y > 0 && geometry.dims.z > 0,
-          "voxel volume dimensions must be positive, got " + std::to_string(geometry.dims.x) +
-              "x" + std::to_string(geometry.dims.y) + "x" + std::to_string(geometry.dims.z));
+          "voxel volume dimensions must be positive, got " + std::to_string(geometry.dims.x) + "x" +
+              std::to_string(geometry.dims.y) + "x" + std::to_string(geometry.dims.z));
   require(geometry.spacing.x > 0 && geometry.spacing.y > 0 && geometry.spacing.z > 0,
           "voxel spacing must be positive (mm)");
   const std::size_t n = geometry.voxel_count();
@@ -48,8 +48,8 @@ void VoxelVolume::validate() const {
   const std::size_t n = voxel_count();
   require(density_.size() == n, "density has " + std::to_string(density_.size()) +
                                     " values, expected " + std::to_string(n));
-  require(labels_.size() == n,
-          "labels have " + std::to_string(labels_.size()) + " values, expected " + std::to_string(n));
+  require(labels_.size() == n, "labels have " + std::to_string(labels_.size()) +
+                                   " values, expected " + std::to_string(n));
   require(weights_.empty() || weights_.size() == n,
           "material weights have " + std::to_string(weights_.size()) + " values, expected " +
               std::to_string(n) + " or none");

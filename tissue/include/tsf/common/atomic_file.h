@@ -15,8 +15,9 @@ namespace tsf {
 /// If `write` throws, or the rename fails, the temporary is removed and a tsf::Error naming
 /// `target` is thrown. The temporary keeps the target's extension (writers such as ITK choose
 /// the format from it). Missing parent directories are created.
-void write_file_atomically(const std::filesystem::path& target,
-                           const std::function<void(const std::filesystem::path& temp_path)>& write);
+void write_file_atomically(
+    const std::filesystem::path& target,
+    const std::function<void(const std::filesystem::path& temp_path)>& write);
 
 /// Writes `contents` to `target` atomically (text or binary bytes).
 void write_text_atomically(const std::filesystem::path& target, const std::string& contents);

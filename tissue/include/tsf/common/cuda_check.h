@@ -17,10 +17,10 @@ namespace tsf::detail {
 }
 }  // namespace tsf::detail
 
-#define TSF_CUDA_CHECK(call)                                                      \
-  do {                                                                            \
-    const cudaError_t tsf_cuda_status_ = (call);                                  \
-    if (tsf_cuda_status_ != cudaSuccess)                                          \
+#define TSF_CUDA_CHECK(call)                                                        \
+  do {                                                                              \
+    const cudaError_t tsf_cuda_status_ = (call);                                    \
+    if (tsf_cuda_status_ != cudaSuccess)                                            \
       ::tsf::detail::throw_cuda_error(tsf_cuda_status_, #call, __FILE__, __LINE__); \
   } while (0)
 

@@ -21,7 +21,8 @@ struct Int3 {
   TSF_HD_INLINE bool operator!=(const Int3& o) const { return !(*this == o); }
   /// Number of cells x*y*z as a 64-bit count (volumes of 512³ and more overflow int).
   TSF_HD_INLINE std::int64_t volume() const {
-    return static_cast<std::int64_t>(x) * static_cast<std::int64_t>(y) * static_cast<std::int64_t>(z);
+    return static_cast<std::int64_t>(x) * static_cast<std::int64_t>(y) *
+           static_cast<std::int64_t>(z);
   }
 };
 
@@ -78,8 +79,12 @@ template <typename T>
 TSF_HD_INLINE T length_squared(const Vec3<T>& a) {
   return dot(a, a);
 }
-TSF_HD_INLINE float length(const Vec3<float>& a) { return sqrtf(dot(a, a)); }
-TSF_HD_INLINE double length(const Vec3<double>& a) { return sqrt(dot(a, a)); }
+TSF_HD_INLINE float length(const Vec3<float>& a) {
+  return sqrtf(dot(a, a));
+}
+TSF_HD_INLINE double length(const Vec3<double>& a) {
+  return sqrt(dot(a, a));
+}
 /// a/|a|, or the zero vector when |a| is below `eps` (callers decide what a zero direction means).
 template <typename T>
 TSF_HD_INLINE Vec3<T> normalized_or_zero(const Vec3<T>& a, T eps = T(1e-20)) {
@@ -97,6 +102,8 @@ using Vec3d = Vec3<double>;
 TSF_HD_INLINE Vec3f to_float(const Vec3d& v) {
   return {static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)};
 }
-TSF_HD_INLINE Vec3d to_double(const Vec3f& v) { return {v.x, v.y, v.z}; }
+TSF_HD_INLINE Vec3d to_double(const Vec3f& v) {
+  return {v.x, v.y, v.z};
+}
 
 }  // namespace tsf

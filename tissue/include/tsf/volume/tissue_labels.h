@@ -16,8 +16,8 @@ namespace tsf {
 
 enum TissueLabel : std::uint8_t {
   kLabelOutside = 0,
-  kLabelSoftTissue = 1,     ///< generic soft tissue (muscle, skin, connective)
-  kLabelMucosa = 2,         ///< mucosa lining the air spaces
+  kLabelSoftTissue = 1,  ///< generic soft tissue (muscle, skin, connective)
+  kLabelMucosa = 2,      ///< mucosa lining the air spaces
   kLabelFat = 3,
   kLabelCartilage = 4,
   kLabelCancellousBone = 5,
@@ -30,7 +30,9 @@ enum TissueLabel : std::uint8_t {
   kLabelInvalid = 255,
 };
 
-TSF_HD_INLINE bool is_tissue_label(std::uint8_t l) { return l >= 1 && l < kLabelFirstOverlay; }
+TSF_HD_INLINE bool is_tissue_label(std::uint8_t l) {
+  return l >= 1 && l < kLabelFirstOverlay;
+}
 TSF_HD_INLINE bool is_overlay_label(std::uint8_t l) {
   return l >= kLabelFirstOverlay && l < kLabelFirstUser;
 }

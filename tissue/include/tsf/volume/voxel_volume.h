@@ -23,9 +23,9 @@
 namespace tsf {
 
 struct VolumeGeometry {
-  Int3 dims;                      ///< voxels along i, j, k
-  Vec3d spacing{1.0, 1.0, 1.0};   ///< mm
-  Vec3d origin{0.0, 0.0, 0.0};    ///< mm, LPS position of voxel (0,0,0)'s centre
+  Int3 dims;                     ///< voxels along i, j, k
+  Vec3d spacing{1.0, 1.0, 1.0};  ///< mm
+  Vec3d origin{0.0, 0.0, 0.0};   ///< mm, LPS position of voxel (0,0,0)'s centre
   std::array<double, 9> direction{1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< row-major, columns = axes
 
   std::size_t voxel_count() const { return static_cast<std::size_t>(dims.volume()); }
@@ -59,8 +59,8 @@ class VoxelVolume {
   std::size_t index(int i, int j, int k) const {
     return static_cast<std::size_t>(i) +
            static_cast<std::size_t>(geometry_.dims.x) *
-               (static_cast<std::size_t>(j) + static_cast<std::size_t>(geometry_.dims.y) *
-                                                  static_cast<std::size_t>(k));
+               (static_cast<std::size_t>(j) +
+                static_cast<std::size_t>(geometry_.dims.y) * static_cast<std::size_t>(k));
   }
   bool contains(int i, int j, int k) const {
     return i >= 0 && j >= 0 && k >= 0 && i < geometry_.dims.x && j < geometry_.dims.y &&
