@@ -341,7 +341,7 @@ void add_import_command(CLI::App& app) {
                 "Refuse a series that needs resampling (uneven spacing, missing slices, gantry "
                 "tilt) instead of resampling it");
   sub->add_option("--slice-spacing", o->import.resampled_slice_spacing_mm,
-                  "Slice spacing in mm when resampling (default: the smallest regular gap)")
+                  "Slice spacing in mm when resampling (default: the most frequent slice gap)")
       ->check(CLI::PositiveNumber);
   sub->add_option("--sidecar", o->sidecar, "Where to write the JSON sidecar (default: OUT.json)");
   sub->add_flag("--any-modality", o->import.allow_non_ct,

@@ -146,11 +146,13 @@ void analyze_series(DicomSeries& s, const fs::path& root, const SliceStackOption
   if (!no_spacing.empty())
     s.problems.push_back("no PixelSpacing (0028,0030) in " + join_limited(no_spacing));
 
+  bool structural_problem = false;
   if (no_orientation.empty()) {
     const auto orientations = group_slices(s, [&](int a, int b) {
       return same_vector(frame_of(a).row, frame_of(b).row, 1e-4) &&
              same_vector(frame_of(a).column, frame_of(b).column, 1e-4);
     });
+    structural_problem = structural_problem || orientations.size() > 1;
     if (orientations.size() > 1)
       s.problems.push_back(
           "images differ in orientation: " + describe_groups(orientations, [&](int k) {
@@ -165,6 +167,7 @@ void analyze_series(DicomSeries& s, const fs::path& root, const SliceStackOption
       return std::abs(fa.spacing_between_rows - fb.spacing_between_rows) <= tol &&
              std::abs(fa.spacing_between_columns - fb.spacing_between_columns) <= tol;
     });
+    structural_problem = structural_problem || spacings.size() > 1;
     if (spacings.size() > 1)
       s.problems.push_back("images differ in pixel spacing: " +
                            describe_groups(spacings, [&](int k) {
@@ -188,7 +191,11 @@ void analyze_series(DicomSeries& s, const fs::path& root, const SliceStackOption
                            " is repeated in " + plural(names.size(), "file") + " (" +
                            join_limited(names) +
                            "): copies or re-encodings of one image, not slices of a volume");
-  if (!s.problems.empty()) return;
+  // Duplicate positions are looked for even when other problems were found, so a refusal names
+  // every reason; the geometry needs one size, orientation and spacing to be meaningful.
+  if (sizes.size() > 1 || !no_position.empty() || !no_orientation.empty() || !no_spacing.empty() ||
+      structural_problem)
+    return;
 
   std::vector<Vec3d> positions;
   for (int k = 0; k < s.slice_count(); ++k) positions.push_back(frame_of(k).position);

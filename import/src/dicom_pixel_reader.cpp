@@ -4,10 +4,17 @@
 #include <dcmtk/dcmdata/dcfilefo.h>
 #include <itkGDCMImageIO.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <mutex>
 #include <new>
+#include <optional>
 
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
@@ -19,6 +26,57 @@ template <typename T>
 void convert(const void* src, std::size_t n, float* out) {
   const T* s = static_cast<const T*>(src);
   for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(s[i]);
+}
+
+/// While alive, the process's stderr (fd 2) goes to /dev/null. GDCM tries JPEG data with its
+/// 8-bit libjpeg first; for 12-bit data that libjpeg prints "Unsupported JPEG data precision 12"
+/// to stderr before GDCM retries with the 12-bit one, which decodes correctly. The message
+/// would only confuse users. Reference counted across threads; used only around JPEG decoding.
+class JpegStderrSilence {
+ public:
+  JpegStderrSilence() {
+    std::lock_guard<std::mutex> lock(mutex());
+    if (depth()++ > 0) return;
+    std::fflush(stderr);
+    saved() = ::dup(STDERR_FILENO);
+    const int null_fd = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (saved() >= 0 && null_fd >= 0) ::dup2(null_fd, STDERR_FILENO);
+    if (null_fd >= 0) ::close(null_fd);
+  }
+  ~JpegStderrSilence() {
+    std::lock_guard<std::mutex> lock(mutex());
+    if (--depth() > 0) return;
+    std::fflush(stderr);
+    if (saved() >= 0) {
+      ::dup2(saved(), STDERR_FILENO);
+      ::close(saved());
+      saved() = -1;
+    }
+  }
+  JpegStderrSilence(const JpegStderrSilence&) = delete;
+  JpegStderrSilence& operator=(const JpegStderrSilence&) = delete;
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static int& depth() {
+    static int d = 0;
+    return d;
+  }
+  static int& saved() {
+    static int fd = -1;
+    return fd;
+  }
+};
+
+/// JPEG baseline/extended/lossless transfer syntaxes (1.2.840.10008.1.2.4.50 - .70).
+bool is_libjpeg_syntax(const std::string& uid) {
+  const std::string prefix = "1.2.840.10008.1.2.4.";
+  if (uid.rfind(prefix, 0) != 0) return false;
+  const int process = std::atoi(uid.c_str() + prefix.size());
+  return process >= 50 && process <= 70;
 }
 
 std::string where(const DicomFileInfo& info) {
@@ -74,6 +132,8 @@ DecodedFrameValues decode_dicom_frames(const DicomFileInfo& info, float* out) {
                 " pixels of " + std::to_string(info.bits_allocated) + " bits (" +
                 std::to_string(declared) + " bytes)");
 
+  std::optional<JpegStderrSilence> silence;
+  if (is_libjpeg_syntax(info.transfer_syntax_uid)) silence.emplace();
   auto io = itk::GDCMImageIO::New();
   io->SetFileName(info.path.string());
   io->LoadPrivateTagsOff();

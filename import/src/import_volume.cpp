@@ -358,7 +358,7 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
     rs.slice_spacing_rule = options.resampled_slice_spacing_mm > 0
                                 ? "requested (" + fmt("%.3f", options.resampled_slice_spacing_mm) +
                                       " mm), adjusted so whole slices span the volume"
-                                : std::string("the smallest regular gap") +
+                                : std::string("the most frequent slice gap") +
                                       (g.tilted ? " along the table axis" : "") +
                                       ", adjusted so whole slices span the volume";
     Progress progress("resampling", static_cast<std::uint64_t>(g.grid.dims.z),

@@ -116,12 +116,32 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
 
   for (int k = 0; k + 1 < m; ++k) g.gaps_mm.push_back(g.offsets_mm[k + 1] - g.offsets_mm[k]);
   g.median_gap_mm = median_of(g.gaps_mm);
-  g.regular_gap_mm = g.median_gap_mm;
-  for (double gap : g.gaps_mm)
-    if (gap >= 0.5 * g.median_gap_mm) g.regular_gap_mm = std::min(g.regular_gap_mm, gap);
-
   const double tol =
       std::max(options.even_gap_tolerance_mm, options.even_gap_tolerance_rel * g.median_gap_mm);
+  // The regular gap: the most frequent gap (clusters of gaps within the tolerance), the smaller
+  // one on a tie, so a series of 4 mm then 7 mm slices keeps its 4 mm detail.
+  {
+    std::vector<double> sorted_gaps = g.gaps_mm;
+    std::sort(sorted_gaps.begin(), sorted_gaps.end());
+    std::size_t best_count = 0;
+    for (std::size_t b = 0; b < sorted_gaps.size();) {
+      std::size_t e = b;
+      double sum = 0;
+      while (e < sorted_gaps.size() && sorted_gaps[e] - sorted_gaps[b] <= tol)
+        sum += sorted_gaps[e++];
+      if (e - b > best_count) {
+        best_count = e - b;
+        g.regular_gap_mm = sum / static_cast<double>(e - b);
+      }
+      b = e;
+    }
+  }
+  const double widest = *std::max_element(g.gaps_mm.begin(), g.gaps_mm.end());
+  if (widest > options.max_gap_factor * g.regular_gap_mm)
+    throw Error("a gap of " + fmt("%.2f", widest) + " mm between slices is " +
+                fmt("%.0f", widest / g.regular_gap_mm) + "× the regular gap of " +
+                fmt("%.2f", g.regular_gap_mm) +
+                " mm: the series holds separate stacks, not one volume");
   for (double gap : g.gaps_mm)
     if (std::abs(gap - g.median_gap_mm) > tol) g.uneven = true;
   std::vector<int> run_length(g.gaps_mm.size(), 1);
@@ -135,9 +155,9 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
     k = e;
   }
   // Missing slices: an isolated gap (a run of at most two) that is close to a whole multiple
-  // (≥ 2) of the median gap. A long run of wider gaps is a protocol change, not a loss.
+  // (≥ 2) of the regular gap. A long run of wider gaps is a protocol change, not a loss.
   for (std::size_t k = 0; k < g.gaps_mm.size(); ++k) {
-    const double ratio = g.gaps_mm[k] / g.median_gap_mm;
+    const double ratio = g.gaps_mm[k] / g.regular_gap_mm;
     const long multiple = std::lround(ratio);
     if (multiple >= 2 &&
         std::abs(ratio - static_cast<double>(multiple)) <= options.missing_gap_multiple_tolerance &&

@@ -37,7 +37,7 @@ struct ImportOptions {
   bool strict = false;
   /// Progress bars on stderr when it is a terminal.
   bool show_progress = true;
-  /// Output spacing along the stack when resampling (mm); 0 = the smallest regular gap.
+  /// Output spacing along the stack when resampling (mm); 0 = the most frequent slice gap.
   double resampled_slice_spacing_mm = 0;
   /// Accept modalities other than CT (values stay in the modality's units, not HU).
   bool allow_non_ct = false;

@@ -13,7 +13,7 @@
 // What the analysis finds, and what the importer does with it:
 //   duplicate positions   two slices at the same t          -> refused (not one volume)
 //   uneven spacing        gaps differ by more than a tolerance -> resampled (or refused, strict)
-//   missing slices        an isolated gap ≈ k× the median (k ≥ 2) -> reported, resampled across
+//   missing slices        an isolated gap ≈ k× the regular gap (k ≥ 2) -> reported, resampled
 //   gantry tilt           slice positions drift in-plane,   -> resampled onto an orthogonal grid
 //                         i.e. the stack is sheared            whose z axis is the table axis
 #pragma once
@@ -67,16 +67,19 @@ struct DuplicatePosition {
 
 struct SliceStackOptions {
   /// Output spacing along the stack (mm) when the stack is resampled; 0 = choose automatically
-  /// (the smallest regular gap: no acquired detail is lost where slices are regular).
+  /// (the most frequent gap, the smaller on a tie: no detail is lost where slices are regular).
   double resampled_slice_spacing_mm = 0;
   /// Gaps are "even" when they all lie within max(abs, rel·median) of the median gap.
   double even_gap_tolerance_mm = 0.01;
   double even_gap_tolerance_rel = 0.01;
   /// In-plane drift of slice positions below this fraction of a pixel is not a tilt.
   double tilt_drift_tolerance_px = 0.05;
-  /// An isolated gap within this distance of a whole multiple (≥ 2) of the median gap is
+  /// An isolated gap within this distance of a whole multiple (≥ 2) of the regular gap is
   /// reported as missing slices (e.g. 10.1 mm in a 5 mm series: 1 missing).
   double missing_gap_multiple_tolerance = 0.15;
+  /// A gap wider than this multiple of the regular gap splits the series into separate stacks:
+  /// refused rather than interpolated across.
+  double max_gap_factor = 10;
 };
 
 struct SliceStackGeometry {
