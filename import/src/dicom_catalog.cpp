@@ -176,6 +176,17 @@ void analyze_series(DicomSeries& s, const fs::path& root, const SliceStackOption
                            }));
   }
 
+  // Native pixel data shorter than the header declares: refused here, before anything is
+  // allocated for the volume (a false header must not make the importer reserve gigabytes).
+  for (const auto& f : s.files)
+    if (!f.pixel_data_encapsulated && f.pixel_data_bytes < f.decoded_bytes())
+      s.problems.push_back("the pixel data of " + display_path(f.path, root) + " hold " +
+                           std::to_string(f.pixel_data_bytes) + " bytes, its header declares " +
+                           std::to_string(f.columns) + "×" + std::to_string(f.rows) + "×" +
+                           std::to_string(f.number_of_frames) + " pixels of " +
+                           std::to_string(f.bits_allocated) + " bits (" +
+                           std::to_string(f.decoded_bytes()) + " bytes)");
+
   std::map<std::string, std::vector<std::string>> frames_of_reference, sop_instances;
   for (const auto& f : s.files) {
     if (!f.frame_of_reference_uid.empty())
@@ -244,7 +255,7 @@ DicomCatalog catalog_dicom(const fs::path& path, const CatalogOptions& options) 
       DicomDirContents contents = read_dicomdir(path);
       candidates = std::move(contents.files);
       for (const auto& id : contents.missing)
-        catalog.skipped.push_back({fs::path(id), "referenced by the DICOMDIR but not found"});
+        catalog.skipped.push_back({fs::path(id), "referenced by the DICOMDIR but not found", {}});
     } else {
       catalog.discovered_by = "file";
       candidates.push_back(path);
@@ -263,19 +274,21 @@ DicomCatalog catalog_dicom(const fs::path& path, const CatalogOptions& options) 
       try {
         info = read_dicom_file_info(file);
       } catch (const Error& e) {
-        catalog.skipped.push_back({file, e.what()});
+        catalog.skipped.push_back({file, e.what(), {}});
         continue;
       }
       if (info.kind == DicomObjectKind::image) {
         by_series[info.series_instance_uid].push_back(std::move(info));
         continue;
       }
+      std::string damaged_series;
+      if (info.kind == DicomObjectKind::unreadable) damaged_series = info.series_instance_uid;
       std::string reason = info.skip_reason;
       if (info.kind == DicomObjectKind::not_dicom && is_volume_file_path(file))
         reason = "volume file, not DICOM: import it by its own path";
       else if (info.kind == DicomObjectKind::directory && catalog.discovered_by == "folder")
         reason += ": pass it as PATH to import through it";
-      catalog.skipped.push_back({file, reason});
+      catalog.skipped.push_back({file, reason, damaged_series});
     }
   }
 
@@ -289,6 +302,12 @@ DicomCatalog catalog_dicom(const fs::path& path, const CatalogOptions& options) 
     for (int f = 0; f < static_cast<int>(s.files.size()); ++f)
       for (int fr = 0; fr < s.files[f].number_of_frames; ++fr) s.slices.push_back({f, fr});
     analyze_series(s, catalog.root, options.geometry);
+    for (const auto& k : catalog.skipped)
+      if (!uid.empty() && k.series_instance_uid == uid) {
+        s.problems.push_back("a file of this series is damaged: " +
+                             display_path(k.path, catalog.root) + " (" + k.reason + ")");
+        s.geometry.reset();
+      }
     catalog.series.push_back(std::move(s));
   }
   std::sort(catalog.series.begin(), catalog.series.end(),

@@ -3,6 +3,9 @@
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
 #include <dcmtk/dcmdata/dcmetinf.h>
+#include <dcmtk/dcmdata/dcpixel.h>
+#include <dcmtk/dcmdata/dcpixseq.h>
+#include <dcmtk/dcmdata/dcpxitem.h>
 #include <dcmtk/dcmdata/dcsequen.h>
 #include <dcmtk/dcmdata/dcuid.h>
 #include <dcmtk/dcmdata/dcxfer.h>
@@ -231,6 +234,27 @@ void read_frames(DcmDataset& ds, DicomFileInfo& info) {
   }
 }
 
+/// Whether the last bytes of the pixel data can be read: DCMTK leaves large values on disk, so a
+/// file cut short parses fine and fails only here (one small read at the end of the value).
+bool pixel_data_is_complete(DcmElement& pixel_data, const DcmXfer& xfer) {
+  DcmElement* last = &pixel_data;
+  if (xfer.isEncapsulated()) {
+    auto* pixel = dynamic_cast<DcmPixelData*>(&pixel_data);
+    DcmPixelSequence* sequence = nullptr;
+    if (!pixel || pixel->getEncapsulatedRepresentation(xfer.getXfer(), nullptr, sequence).bad() ||
+        !sequence || sequence->card() == 0)
+      return false;
+    DcmPixelItem* item = nullptr;
+    if (sequence->getItem(item, sequence->card() - 1).bad() || !item) return false;
+    last = item;
+  }
+  const Uint32 length = last->getLength();
+  if (length == 0 || length == DCM_UndefinedLength) return true;
+  unsigned char tail[2];
+  const Uint32 n = length >= 2 ? 2 : 1;
+  return last->getPartialValue(tail, length - n, n).good();
+}
+
 }  // namespace
 
 const char* to_string(DicomObjectKind kind) {
@@ -295,7 +319,9 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
       file.loadFile(path.c_str(), EXS_Unknown, EGL_noChange, kMaxHeaderValueLength, ERM_autoDetect);
   if (status.bad()) {
     info.kind = DicomObjectKind::unreadable;
-    info.skip_reason = std::string("DICOM header cannot be parsed (") + status.text() + ")";
+    info.skip_reason = std::string("damaged or truncated DICOM (") + status.text() + ")";
+    // What was parsed before the damage tells which series lost a file.
+    info.series_instance_uid = get_string(*file.getDataset(), DCM_SeriesInstanceUID);
     return info;
   }
   DcmDataset& ds = *file.getDataset();
@@ -352,6 +378,11 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
   }
   info.pixel_data_encapsulated = xfer.isEncapsulated();
   if (!info.pixel_data_encapsulated) info.pixel_data_bytes = pixel_data->getLength();
+  if (!pixel_data_is_complete(*pixel_data, xfer)) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "truncated: the pixel data end beyond the end of the file";
+    return info;
+  }
 
   classify_image(ds, info);
   if (info.kind != DicomObjectKind::image && info.kind != DicomObjectKind::localizer) return info;

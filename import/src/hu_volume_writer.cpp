@@ -18,12 +18,13 @@ namespace fs = std::filesystem;
 namespace {
 
 template <typename Image>
-void write_image(const fs::path& path, const Image* image, bool compress) {
+void write_image(const fs::path& path, const Image* image, bool compress, int level) {
   write_file_atomically(path, [&](const fs::path& temp) {
     auto writer = itk::ImageFileWriter<Image>::New();
     writer->SetFileName(temp.string());
     writer->SetInput(image);
     writer->SetUseCompression(compress);
+    if (compress && level > 0) writer->SetCompressionLevel(level);
     try {
       writer->Update();
     } catch (const itk::ExceptionObject& e) {
@@ -56,7 +57,7 @@ std::string write_hu_volume(const fs::path& path, const HuImage& image,
     auto copy = HuImage::New();
     copy->Graft(&image);
     copy->SetMetaDataDictionary(itk::MetaDataDictionary());
-    write_image(path, copy.GetPointer(), options.compress);
+    write_image(path, copy.GetPointer(), options.compress, options.compression_level);
     return "float32";
   }
   using ShortImage = itk::Image<std::int16_t, 3>;
@@ -70,7 +71,7 @@ std::string write_hu_volume(const fs::path& path, const HuImage& image,
   const auto count = static_cast<std::int64_t>(n);
 #pragma omp parallel for
   for (std::int64_t i = 0; i < count; ++i) out[i] = static_cast<std::int16_t>(values[i]);
-  write_image(path, stored.GetPointer(), options.compress);
+  write_image(path, stored.GetPointer(), options.compress, options.compression_level);
   return "int16";
 }
 

@@ -72,6 +72,16 @@ void check_voxel_budget(const Int3& dims, std::int64_t max_voxels, const std::st
                 ": refused before allocating");
 }
 
+/// "\n  skipped: 3 × not DICOM; ..." (empty when nothing was skipped).
+std::string skipped_summary(const DicomCatalog& catalog) {
+  std::map<std::string, int> reasons;
+  for (const auto& k : catalog.skipped) ++reasons[k.reason];
+  std::string out;
+  for (const auto& [reason, count] : reasons)
+    out += "\n  skipped " + std::to_string(count) + " × " + reason;
+  return out;
+}
+
 const DicomSeries& select_series(const DicomCatalog& catalog, const ImportOptions& options) {
   const std::string where = "'" + catalog.root.string() + "'";
   auto list_all = [&] {
@@ -106,16 +116,13 @@ const DicomSeries& select_series(const DicomCatalog& catalog, const ImportOption
              " (" + std::to_string(s.image_count()) + " images):";
       for (const auto& p : s.problems) out += "\n    - " + p;
     }
-    throw Error("no usable image series under " + where + ":" + out);
+    throw Error("no usable image series under " + where + " (" +
+                std::to_string(catalog.files_examined) + " files examined):" + out +
+                skipped_summary(catalog));
   }
-  std::map<std::string, int> reasons;
-  for (const auto& k : catalog.skipped) ++reasons[k.reason];
-  std::string out;
-  for (const auto& [reason, count] : reasons)
-    out += "\n  " + std::to_string(count) + " × " + reason;
   throw Error("no DICOM image series under " + where + " (" +
               std::to_string(catalog.files_examined) + " files examined)" +
-              (out.empty() ? std::string() : ":" + out));
+              skipped_summary(catalog));
 }
 
 void fill_acquisition(const DicomSeries& s, const SliceStackGeometry& g, ImportReport& r) {

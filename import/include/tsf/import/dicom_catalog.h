@@ -19,6 +19,9 @@ namespace tsf::import {
 struct SkippedFile {
   std::filesystem::path path;
   std::string reason;
+  /// For a damaged file, the series it belongs to when that much could be read: the series is
+  /// then refused (a volume silently missing a slice would be wrong).
+  std::string series_instance_uid;
 };
 
 /// One slice of a series: frame `frame` of file `file` (index into DicomSeries::files).

@@ -17,6 +17,9 @@ namespace tsf::import {
 
 struct HuVolumeWriteOptions {
   bool compress = true;  ///< gzip (NRRD) / zlib (MetaImage) voxel data
+  /// zlib level 1..9; 0 = ITK's default (fast). On the samples level 9 writes files 4 % smaller
+  /// in 7-10× the time, so the default is kept.
+  int compression_level = 0;
 };
 
 /// True for .nrrd and .mha (single-file formats; detached headers are not written).
