@@ -65,15 +65,15 @@ std::map<std::string, std::vector<std::string>> group_skipped(const DicomCatalog
   return by_reason;
 }
 
-nlohmann::json series_json(const DicomSeries& s) {
-  nlohmann::json j = {{"series_instance_uid", s.series_instance_uid},
-                      {"modality", s.modality},
-                      {"series_number", s.series_number},
-                      {"description", s.description},
-                      {"images", s.image_count()},
-                      {"slices", s.slice_count()},
-                      {"usable", s.usable()},
-                      {"problems", s.problems}};
+nlohmann::ordered_json series_json(const DicomSeries& s) {
+  nlohmann::ordered_json j = {{"series_instance_uid", s.series_instance_uid},
+                              {"modality", s.modality},
+                              {"series_number", s.series_number},
+                              {"description", s.description},
+                              {"images", s.image_count()},
+                              {"slices", s.slice_count()},
+                              {"usable", s.usable()},
+                              {"problems", s.problems}};
   if (!s.files.empty()) {
     const auto& f = s.files.front();
     j["dims"] = {f.columns, f.rows, s.slice_count()};
@@ -84,7 +84,7 @@ nlohmann::json series_json(const DicomSeries& s) {
   }
   if (s.geometry) {
     const auto& g = *s.geometry;
-    nlohmann::json gaps = nlohmann::json::array();
+    nlohmann::ordered_json gaps = nlohmann::ordered_json::array();
     for (const auto& r : g.gap_runs) gaps.push_back({{"gap_mm", r.gap_mm}, {"count", r.count}});
     j["slice_gaps"] = gaps;
     j["uneven_spacing"] = g.uneven;
@@ -144,15 +144,15 @@ void print_series(const DicomSeries& s, int index, int count) {
 void list_volume_file(const ImportCommandOptions& o) {
   const VolumeFileHeader h = inspect_volume_file(o.path, o.import.max_voxels);
   if (o.json) {
-    nlohmann::json j = {{"path", o.path},
-                        {"format", h.format},
-                        {"component_type", h.component_type},
-                        {"dims", {h.dims.x, h.dims.y, h.dims.z}},
-                        {"spacing_mm", {h.spacing.x, h.spacing.y, h.spacing.z}},
-                        {"origin_mm", {h.origin.x, h.origin.y, h.origin.z}},
-                        {"direction", h.direction},
-                        {"compressed", h.compressed},
-                        {"patient_orientation_recorded", h.has_patient_orientation}};
+    nlohmann::ordered_json j = {{"path", o.path},
+                                {"format", h.format},
+                                {"component_type", h.component_type},
+                                {"dims", {h.dims.x, h.dims.y, h.dims.z}},
+                                {"spacing_mm", {h.spacing.x, h.spacing.y, h.spacing.z}},
+                                {"origin_mm", {h.origin.x, h.origin.y, h.origin.z}},
+                                {"direction", h.direction},
+                                {"compressed", h.compressed},
+                                {"patient_orientation_recorded", h.has_patient_orientation}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
@@ -177,16 +177,16 @@ void list_dicom(const ImportCommandOptions& o) {
   const DicomCatalog catalog = catalog_dicom(o.path, copt);
   const auto skipped = group_skipped(catalog);
   if (o.json) {
-    nlohmann::json series = nlohmann::json::array();
+    nlohmann::ordered_json series = nlohmann::ordered_json::array();
     for (const auto& s : catalog.series) series.push_back(series_json(s));
-    nlohmann::json skip = nlohmann::json::array();
+    nlohmann::ordered_json skip = nlohmann::ordered_json::array();
     for (const auto& k : catalog.skipped)
       skip.push_back({{"path", display_path(k.path, catalog.root)}, {"reason", k.reason}});
-    nlohmann::json j = {{"path", o.path},
-                        {"discovered_by", catalog.discovered_by},
-                        {"files_examined", catalog.files_examined},
-                        {"series", series},
-                        {"skipped", skip}};
+    nlohmann::ordered_json j = {{"path", o.path},
+                                {"discovered_by", catalog.discovered_by},
+                                {"files_examined", catalog.files_examined},
+                                {"series", series},
+                                {"skipped", skip}};
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
@@ -295,8 +295,9 @@ What is skipped, refused or repaired
             --list shows each with its reason.
   refused   a series that is not one volume: images of different sizes, orientations or
             pixel spacings, repeated SOP Instance UIDs, two slices at one position, several
-            frames of reference; a header claiming more voxels than --max-gvoxels or more
-            bytes than the file holds (refused before allocating); non-CT without
+            frames of reference, a gap over 10× the regular one (separate stacks), a
+            damaged file of the series; a header claiming more voxels than --max-gvoxels or
+            more bytes than the file holds (refused before allocating); non-CT without
             --any-modality.
   repaired  (refused instead with --strict) uneven slice spacing and missing slices: the
             stack is resampled to uniform spacing along the slice normal; gantry tilt: the

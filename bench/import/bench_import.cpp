@@ -8,6 +8,8 @@
 //   cranium.nrrd (256×256×108 gzip NRRD)
 //     tsf:  import_volume(file)    = header checks + ITK read + value statistics
 //     ITK:  ImageFileReader<float>
+//   Philips phantom series (28 slices, even spacing, no tilt; only when ../shared/data exists):
+//     the like-for-like DICOM case, where tsf does no resampling
 //
 // Each case runs warm-up + N alternating repetitions (tsf, ITK, tsf, ITK, ...) so that load
 // from other processes hits both alike; medians and the ratio of medians are printed as a
@@ -77,7 +79,7 @@ void print_row(const char* name, const Pair& p) {
   std::printf("| %s | %.1f | %.1f | %.2f× |\n", name, t * 1e3, i * 1e3, t / i);
 }
 
-HuImage::Pointer itk_series(const fs::path& dir) {
+HuImage::Pointer itk_series(const fs::path& dir, unsigned expected_slices) {
   auto names = itk::GDCMSeriesFileNames::New();
   // Series details off: with them on, ITK splits this series by slice thickness (4 / 7 mm)
   // and would read only half of the files.
@@ -89,8 +91,9 @@ HuImage::Pointer itk_series(const fs::path& dir) {
   reader->SetImageIO(itk::GDCMImageIO::New());
   reader->SetFileNames(names->GetFileNames(uids.front()));
   reader->Update();
-  if (reader->GetOutput()->GetLargestPossibleRegion().GetSize()[2] != 28)
-    throw tsf::Error("ITK read a different number of slices than the 28 of the GE series");
+  if (reader->GetOutput()->GetLargestPossibleRegion().GetSize()[2] != expected_slices)
+    throw tsf::Error("ITK read a different number of slices than the " +
+                     std::to_string(expected_slices) + " of " + dir.string());
   return reader->GetOutput();
 }
 
@@ -210,12 +213,27 @@ int main(int argc, char** argv) {
     std::printf("| case | tsf import (ms) | plain ITK (ms) | ratio |\n|---|---|---|---|\n");
     tsf::import::ImportResult last;
     const Pair g = alternate(
-        repeats, [&] { last = tsf::import::import_volume(ge, options); }, [&] { itk_series(ge); });
+        repeats, [&] { last = tsf::import::import_volume(ge, options); },
+        [&] { itk_series(ge, 28); });
     print_row("GE head series, 28 DICOM slices → 512×486×56 resampled", g);
     const auto& s = last.report.seconds;
     const Pair c = alternate(
         repeats, [&] { tsf::import::import_volume(cranium, options); }, [&] { itk_file(cranium); });
     print_row("cranium.nrrd 256×256×108 gzip", c);
+    // Like for like: a series that needs no resampling (wider corpus, when present).
+    const char* env = std::getenv("TSF_SHARED_DATA");
+    const fs::path shared =
+        env && *env ? fs::path(env) : fs::path(TSF_SOURCE_DIR) / ".." / "shared" / "data";
+    const fs::path philips =
+        shared / "dicom" / "ct-head-phantom-philips-ingenuity" / "S21570" / "S2010";
+    if (fs::is_directory(philips)) {
+      const Pair p = alternate(
+          repeats, [&] { tsf::import::import_volume(philips, options); },
+          [&] { itk_series(philips, 28); });
+      print_row("Philips phantom, 28 DICOM slices 512², even, no tilt (no resampling)", p);
+    } else {
+      std::printf("| Philips phantom (needs ../shared/data) | not run | not run | – |\n");
+    }
     std::printf(
         "\nGE import stages (last run): scan %.1f ms, read %.1f ms, resample %.1f ms, "
         "total %.1f ms\n",

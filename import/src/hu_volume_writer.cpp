@@ -75,7 +75,7 @@ std::string write_hu_volume(const fs::path& path, const HuImage& image,
   return "int16";
 }
 
-void write_json_atomically(const fs::path& path, const nlohmann::json& sidecar) {
+void write_json_atomically(const fs::path& path, const nlohmann::ordered_json& sidecar) {
   write_text_atomically(path, sidecar.dump(2) + "\n");
 }
 

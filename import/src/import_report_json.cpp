@@ -14,7 +14,7 @@ json ivec(const Int3& v) {
 
 }  // namespace
 
-json import_report_to_json(const ImportReport& r) {
+SidecarJson import_report_to_json(const ImportReport& r) {
   json j;
   j["format"] = kImportSidecarFormat;
 

@@ -142,7 +142,7 @@ TEST(ImportGeSeries, ExtentEqualsWhatTheImagePositionsSpan) {
 
 TEST(ImportGeSeries, TiltAndUnevenSpacingAreReportedAsTheSidecarSays) {
   const ImportResult r = import_ge();
-  const nlohmann::json j = import_report_to_json(r.report);
+  const auto j = import_report_to_json(r.report);
   const auto& acq = j.at("acquisition");
   EXPECT_NEAR(acq.at("gantry_tilt_deg").get<double>(), 18.5, 0.05);
   EXPECT_NEAR(acq.at("gantry_tilt_tag_deg").get<double>(), 18.5, 1e-9);

@@ -31,6 +31,7 @@ std::string write_hu_volume(const std::filesystem::path& path, const HuImage& im
                             const HuVolumeWriteOptions& options = {});
 
 /// Writes `sidecar` as indented JSON.
-void write_json_atomically(const std::filesystem::path& path, const nlohmann::json& sidecar);
+void write_json_atomically(const std::filesystem::path& path,
+                           const nlohmann::ordered_json& sidecar);
 
 }  // namespace tsf::import

@@ -14,6 +14,9 @@ namespace tsf::import {
 /// Identifies the sidecar layout; bumped when keys change meaning.
 inline constexpr const char* kImportSidecarFormat = "tsf-import-sidecar/1";
 
-nlohmann::json import_report_to_json(const ImportReport& report);
+/// Keys keep the order above (nlohmann::ordered_json) so the file reads top-down.
+using SidecarJson = nlohmann::ordered_json;
+
+SidecarJson import_report_to_json(const ImportReport& report);
 
 }  // namespace tsf::import
