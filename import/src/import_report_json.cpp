@@ -3,10 +3,11 @@
 namespace tsf::import {
 namespace {
 
-using nlohmann::json;
+using json = SidecarJson;
 
+/// Adding 0.0 turns -0.0 (from cross products of axis vectors) into 0.0 for readers.
 json vec(const Vec3d& v) {
-  return json::array({v.x, v.y, v.z});
+  return json::array({v.x + 0.0, v.y + 0.0, v.z + 0.0});
 }
 json ivec(const Int3& v) {
   return json::array({v.x, v.y, v.z});
