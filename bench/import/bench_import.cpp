@@ -243,8 +243,10 @@ int main(int argc, char** argv) {
     std::vector<double> write_gz, write_raw;
     for (int r = 0; r < std::max(3, repeats / 3); ++r) {
       write_gz.push_back(seconds_of([&] { tsf::import::write_hu_volume(out, *last.image); }));
-      write_raw.push_back(seconds_of(
-          [&] { tsf::import::write_hu_volume(out, *last.image, {/*compress=*/false}); }));
+      write_raw.push_back(seconds_of([&] {
+        tsf::import::write_hu_volume(out, *last.image,
+                                     {/*compress=*/false, /*compression_level=*/0});
+      }));
     }
     std::error_code ec;
     fs::remove(out, ec);

@@ -267,16 +267,29 @@ DicomCatalog catalog_dicom(const fs::path& path, const CatalogOptions& options) 
     Progress progress(
         "scanning DICOM headers", candidates.size(),
         options.show_progress && candidates.size() > 50 && Progress::stderr_is_terminal());
-    for (const auto& file : candidates) {
-      ++catalog.files_examined;
-      progress.advance();
-      DicomFileInfo info;
+    // Headers are read in parallel (DCMTK objects are independent; its dictionary is locked),
+    // then grouped in path order so the result does not depend on thread timing.
+    const auto n = static_cast<std::int64_t>(candidates.size());
+    std::vector<DicomFileInfo> infos(candidates.size());
+    std::vector<std::string> errors(candidates.size());
+#pragma omp parallel for schedule(dynamic, 4)
+    for (std::int64_t i = 0; i < n; ++i) {
       try {
-        info = read_dicom_file_info(file);
-      } catch (const Error& e) {
-        catalog.skipped.push_back({file, e.what(), {}});
+        infos[static_cast<std::size_t>(i)] =
+            read_dicom_file_info(candidates[static_cast<std::size_t>(i)]);
+      } catch (const std::exception& e) {
+        errors[static_cast<std::size_t>(i)] = e.what();
+      }
+      progress.advance();
+    }
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      ++catalog.files_examined;
+      const fs::path& file = candidates[i];
+      if (!errors[i].empty()) {
+        catalog.skipped.push_back({file, errors[i], {}});
         continue;
       }
+      DicomFileInfo& info = infos[i];
       if (info.kind == DicomObjectKind::image) {
         by_series[info.series_instance_uid].push_back(std::move(info));
         continue;

@@ -341,6 +341,7 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
   r.seconds.read = clock.seconds();
 
   auto& rs = r.resampling;
+  ResampleStatistics resampled;
   if (g.needs_resampling) {
     clock.restart();
     image = make_hu_image(g.grid);
@@ -376,18 +377,19 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
     ro.fill_value = rs.fill_value;
     ro.round_to_integer = rs.rounded_to_integer =
         acquired.integral && acquired.min >= -4194304.0f && acquired.max <= 4194304.0f;
-    const ResampleStatistics st =
-        resample_slice_stack(in, g.grid, ro, image->GetBufferPointer(), &progress);
+    resampled = resample_slice_stack(in, g.grid, ro, image->GetBufferPointer(), &progress);
     progress.finish();
     const std::size_t n = static_cast<std::size_t>(g.grid.dims.volume());
-    rs.filled_fraction = static_cast<double>(st.filled_voxels) / static_cast<double>(n);
+    rs.filled_fraction = static_cast<double>(resampled.filled_voxels) / static_cast<double>(n);
     r.seconds.resample = clock.seconds();
   }
 
-  const VolumeStatistics out_stats =
-      g.needs_resampling ? volume_statistics(image->GetBufferPointer(),
-                                             static_cast<std::size_t>(g.grid.dims.volume()))
-                         : acquired;
+  VolumeStatistics out_stats = acquired;
+  if (g.needs_resampling) {
+    out_stats.min = resampled.min;
+    out_stats.max = resampled.max;
+    out_stats.integral = resampled.integral;
+  }
   auto& o = r.output;
   o.dims = g.grid.dims;
   o.spacing = g.grid.spacing;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "tsf/common/error.h"
@@ -240,8 +241,10 @@ ResampleStatistics resample(const SliceStackSamples& in, const OrthogonalGrid& g
   const bool aligned = std::abs(dt) * nx < 1e-9 && std::abs(dqc) * nx < 1e-9 &&
                        std::abs(dqr / in.spacing_x - 1) * nx < 1e-6;
 
-  std::int64_t filled = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : filled)
+  std::int64_t filled = 0, fractional = 0;
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : filled, fractional) \
+    reduction(min : lo) reduction(max : hi)
   for (int k = 0; k < nz; ++k) {
     int m = 0;
     for (int j = 0; j < ny; ++j) {
@@ -252,10 +255,23 @@ ResampleStatistics resample(const SliceStackSamples& in, const OrthogonalGrid& g
                                                dot(q0, in.column), fill_value, row_out, nx, m);
       else
         filled += resample_general_row<kRound>(s, n, q0, dt, dqr, dqc, fill_value, row_out, nx, m);
+      // Statistics of the row just written (still in cache): saves a pass over the volume.
+      float row_lo = lo, row_hi = hi;
+      int row_fractional = 0;
+#pragma omp simd reduction(min : row_lo) reduction(max : row_hi) reduction(+ : row_fractional)
+      for (int i = 0; i < nx; ++i) {
+        const float v = row_out[i];
+        row_lo = v < row_lo ? v : row_lo;
+        row_hi = v > row_hi ? v : row_hi;
+        if constexpr (!kRound) row_fractional += round_to_whole(v) != v;
+      }
+      lo = std::min(lo, row_lo);
+      hi = std::max(hi, row_hi);
+      fractional += row_fractional;
     }
     if (progress) progress->advance();
   }
-  return {filled};
+  return {filled, lo, hi, fractional == 0};
 }
 
 }  // namespace

@@ -38,6 +38,10 @@ struct ResampleOptions {
 
 struct ResampleStatistics {
   std::int64_t filled_voxels = 0;  ///< voxels outside the acquired planes (got fill_value)
+  float min = 0, max = 0;          ///< of the output values (fill included)
+  /// Every output value is a whole number (always so with round_to_integer; otherwise only
+  /// exact for inputs within ±2^22).
+  bool integral = false;
 };
 
 /// Writes grid.dims.x×y×z values (x fastest) to `out`. Parallel over output slices (OpenMP);
