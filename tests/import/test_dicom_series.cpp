@@ -1,5 +1,6 @@
 // DICOM discovery and series checks: what is skipped and why, what is refused as "not one
 // volume" and why, DICOMDIR, enhanced multi-frame CT, rescale, series selection.
+#include <dcmtk/dcmdata/dcddirif.h>
 #include <dcmtk/dcmdata/dcsequen.h>
 #include <gtest/gtest.h>
 
@@ -121,6 +122,46 @@ TEST(DicomSeries, ADicomdirImportsTheFilesItReferences) {
   ASSERT_EQ(via_dir.image->GetLargestPossibleRegion().GetNumberOfPixels(), n);
   EXPECT_TRUE(std::equal(via_dir.image->GetBufferPointer(), via_dir.image->GetBufferPointer() + n,
                          via_folder.image->GetBufferPointer()));
+}
+
+TEST(DicomSeries, AStandardDicomdirWrittenByDcmtkIsFollowed) {
+  // A General Purpose CD-R file-set: IDs of up to 8 upper-case characters, in a subfolder.
+  const fs::path ge = test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing";
+  const fs::path root = test::scratch_dir("fileset");
+  fs::create_directories(root / "DICOM");
+  for (int k = 1; k <= 6; ++k) {
+    char src[16], dst[16];
+    std::snprintf(src, sizeof src, "%02d.dcm", k);
+    std::snprintf(dst, sizeof dst, "IM%06d", k);
+    fs::copy_file(ge / src, root / "DICOM" / dst);
+  }
+  {
+    // DicomDirInterface takes file IDs relative to the working folder; restored on any exit.
+    struct WorkingFolder {
+      fs::path saved = fs::current_path();
+      ~WorkingFolder() { fs::current_path(saved); }
+    } restore;
+    fs::current_path(root);
+    DicomDirInterface dicomdir;
+    dicomdir.enableInventMode(OFTrue);  // the anonymised sample lacks some record keys
+    ASSERT_TRUE(
+        dicomdir.createNewDicomDir(DicomDirInterface::AP_GeneralPurpose, "DICOMDIR").good());
+    for (int k = 1; k <= 6; ++k) {
+      char id[32];
+      std::snprintf(id, sizeof id, "DICOM/IM%06d", k);
+      EXPECT_TRUE(dicomdir.addDicomFile(id).good()) << id;
+    }
+    ASSERT_TRUE(dicomdir.writeDicomDir().good());
+  }
+  fs::create_directories(root / "elsewhere");
+  fs::copy_file(ge / "07.dcm", root / "elsewhere" / "07.dcm");  // not referenced: not read
+
+  const DicomCatalog c = catalog_dicom(root / "DICOMDIR", {SliceStackOptions{}, false});
+  EXPECT_EQ(c.discovered_by, "DICOMDIR");
+  EXPECT_EQ(c.files_examined, 6);
+  ASSERT_EQ(c.series.size(), 1u);
+  EXPECT_EQ(c.series[0].slice_count(), 6);
+  EXPECT_TRUE(c.series[0].usable());
 }
 
 TEST(DicomSeries, SixteenCtImageFilesAreRefusedAsOneVolumeWithTheReason) {
