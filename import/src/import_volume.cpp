@@ -305,14 +305,17 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
       reasons += "\n  - gap of " + fmt("%.2f", m.gap_mm) + " mm after slice " +
                  std::to_string(m.after_slice + 1) + ": about " +
                  std::to_string(m.estimated_missing) + " missing slice(s)";
-    throw Error("series " + s.series_instance_uid +
-                " would need resampling, refused (strict):" + reasons);
+    throw Error("series " + s.series_instance_uid + " under '" + path.string() +
+                "' would need resampling, refused (strict):" + reasons);
   }
   add_geometry_warnings(s, g, r);
 
+  const std::string series_name =
+      "series " + s.series_instance_uid + " under '" + path.string() + "'";
   const Int3 stack_dims{g.columns, g.rows, g.slice_count()};
-  check_voxel_budget(stack_dims, options.max_voxels, "the series");
-  if (g.needs_resampling) check_voxel_budget(g.grid.dims, options.max_voxels, "the resampled grid");
+  check_voxel_budget(stack_dims, options.max_voxels, series_name);
+  if (g.needs_resampling)
+    check_voxel_budget(g.grid.dims, options.max_voxels, "the resampled grid of " + series_name);
 
   const std::size_t plane = static_cast<std::size_t>(g.columns) * g.rows;
   HuImage::Pointer image;
@@ -323,7 +326,8 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
       stack.reset(new float[plane * static_cast<std::size_t>(g.slice_count())]);
       advise_huge_pages(stack.get(), plane * static_cast<std::size_t>(g.slice_count()) * 4);
     } catch (const std::bad_alloc&) {
-      throw Error("not enough memory for the " + dims_text(stack_dims) + " slices");
+      throw Error("not enough memory for the " + dims_text(stack_dims) + " slices of " +
+                  series_name);
     }
     stack_data = stack.get();
   } else {
@@ -336,7 +340,7 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
   const VolumeStatistics acquired =
       volume_statistics(stack_data, plane * static_cast<std::size_t>(g.slice_count()));
   if (acquired.non_finite > 0)
-    throw Error("series " + s.series_instance_uid + ": " + std::to_string(acquired.non_finite) +
+    throw Error(series_name + ": " + std::to_string(acquired.non_finite) +
                 " decoded values are not finite");
   r.seconds.read = clock.seconds();
 
@@ -412,10 +416,14 @@ ImportResult import_volume(const fs::path& path, const ImportOptions& options) {
   if (!fs::exists(path, ec)) throw Error("'" + path.string() + "' does not exist");
   if (!(options.max_voxels > 0)) throw Error("ImportOptions::max_voxels must be positive");
   ImportResult result;
-  if (fs::is_regular_file(path, ec) && is_volume_file_path(path))
+  if (fs::is_regular_file(path, ec) && is_volume_file_path(path)) {
+    if (!options.series_uid.empty())
+      throw Error("a series UID (" + options.series_uid + ") was given but '" + path.string() +
+                  "' is a volume file, not DICOM");
     result.image = read_volume_file(path, options, result.report);
-  else
+  } else {
     result.image = import_dicom(path, options, result.report);
+  }
 
   const auto& o = result.report.output;
   if (o.units == "HU" && o.min_value > kAirCeilingHu)

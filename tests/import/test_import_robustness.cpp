@@ -210,6 +210,17 @@ TEST(ImportRobustness, HugeHeaderClaimsAreRefusedBeforeAllocating) {
       ds.putAndInsertUint16(DCM_Columns, 40000);
     });
   expect_refused(dir / "dicom-huge", "hold 524288 bytes, its header declares 40000×40000");
+  // A real series over a (lowered) voxel limit: refused before its slices are allocated.
+  ImportOptions small = walk_options();
+  small.max_voxels = 1000000;
+  try {
+    import_volume(ge, small);
+    ADD_FAILURE() << "a 7.3 M voxel series passed a 1 M voxel limit";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("more than the limit of 1000000"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("ct-head-ge-hispeed-tilt-varspacing"), std::string::npos);
+  }
   // One slice claiming 60000 frames.
   copy_with_changes(ge / "01.dcm", dir / "frames.dcm",
                     [](DcmDataset& ds) { ds.putAndInsertString(DCM_NumberOfFrames, "60000"); });
