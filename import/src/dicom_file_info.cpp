@@ -1,0 +1,442 @@
+#include "tsf/import/dicom_file_info.h"
+
+#include <dcmtk/dcmdata/dcdeftag.h>
+#include <dcmtk/dcmdata/dcfilefo.h>
+#include <dcmtk/dcmdata/dcmetinf.h>
+#include <dcmtk/dcmdata/dcpixel.h>
+#include <dcmtk/dcmdata/dcpixseq.h>
+#include <dcmtk/dcmdata/dcpxitem.h>
+#include <dcmtk/dcmdata/dcsequen.h>
+#include <dcmtk/dcmdata/dcuid.h>
+#include <dcmtk/dcmdata/dcxfer.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+
+#include "tsf/common/error.h"
+#include "tsf/import/imaging_library_setup.h"
+
+namespace tsf::import {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Values longer than this stay on disk while the header is parsed (pixel data, LUTs, ...).
+constexpr Uint32 kMaxHeaderValueLength = 4096;
+/// More frames than this in one object is not a CT: refuse before sizing per-frame tables.
+constexpr long kMaxFrames = 65536;
+constexpr const char* kMediaStorageDirectoryUid = "1.2.840.10008.1.3.10";
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r\n");
+  return s.substr(b, e - b + 1);
+}
+
+std::string get_string(DcmItem& item, const DcmTagKey& tag) {
+  OFString value;
+  if (item.findAndGetOFStringArray(tag, value).good()) return trim(value.c_str());
+  return {};
+}
+
+bool get_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long pos = 0) {
+  Float64 f = 0;
+  if (item.findAndGetFloat64(tag, f, pos).good() && std::isfinite(f)) {
+    out = f;
+    return true;
+  }
+  OFString s;
+  if (item.findAndGetOFString(tag, s, pos).good()) {
+    const std::string t = trim(s.c_str());
+    char* end = nullptr;
+    const double v = std::strtod(t.c_str(), &end);
+    if (!t.empty() && end && *end == '\0' && std::isfinite(v)) {
+      out = v;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool get_long(DcmItem& item, const DcmTagKey& tag, long& out) {
+  long v = 0;
+  if (item.findAndGetLongInt(tag, v).good()) {
+    out = v;
+    return true;
+  }
+  double d = 0;
+  if (get_double(item, tag, d) && std::abs(d) < 2e9 && d == std::floor(d)) {
+    out = static_cast<long>(d);
+    return true;
+  }
+  return false;
+}
+
+bool get_vec3(DcmItem& item, const DcmTagKey& tag, Vec3d& out, unsigned long first = 0) {
+  for (int a = 0; a < 3; ++a)
+    if (!get_double(item, tag, out[a], first + static_cast<unsigned long>(a))) return false;
+  return true;
+}
+
+DcmItem* sequence_item(DcmItem* item, const DcmTagKey& sequence) {
+  if (!item) return nullptr;
+  DcmItem* found = nullptr;
+  if (item->findAndGetSequenceItem(sequence, found, 0).good()) return found;
+  return nullptr;
+}
+
+/// The item of functional group `sequence` for one frame: per-frame first, then shared.
+DcmItem* functional_group(DcmItem* per_frame, DcmItem* shared, const DcmTagKey& sequence) {
+  if (DcmItem* it = sequence_item(per_frame, sequence)) return it;
+  return sequence_item(shared, sequence);
+}
+
+void read_plane_attributes(DcmItem& position_item, DcmItem& orientation_item, DcmItem& spacing_item,
+                           DcmItem& rescale_item, DicomFrameInfo& f) {
+  f.has_position = get_vec3(position_item, DCM_ImagePositionPatient, f.position);
+  f.has_orientation = get_vec3(orientation_item, DCM_ImageOrientationPatient, f.row, 0) &&
+                      get_vec3(orientation_item, DCM_ImageOrientationPatient, f.column, 3);
+  f.has_pixel_spacing = get_double(spacing_item, DCM_PixelSpacing, f.spacing_between_rows, 0) &&
+                        get_double(spacing_item, DCM_PixelSpacing, f.spacing_between_columns, 1);
+  double slope = 1, intercept = 0;
+  const bool has_slope = get_double(rescale_item, DCM_RescaleSlope, slope);
+  const bool has_intercept = get_double(rescale_item, DCM_RescaleIntercept, intercept);
+  f.has_rescale = has_slope || has_intercept;
+  f.rescale_slope = has_slope ? slope : 1.0;
+  f.rescale_intercept = has_intercept ? intercept : 0.0;
+}
+
+bool image_type_is_localizer(const std::string& image_type) {
+  std::string upper = image_type;
+  std::transform(upper.begin(), upper.end(), upper.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  for (const char* word : {"LOCALIZER", "SCOUT", "TOPOGRAM", "SCANOGRAM", "SURVIEW"})
+    if (upper.find(word) != std::string::npos) return true;
+  return false;
+}
+
+void classify_image(DcmDataset& ds, DicomFileInfo& info) {
+  long v = 0;
+  info.rows = get_long(ds, DCM_Rows, v) ? static_cast<int>(v) : 0;
+  info.columns = get_long(ds, DCM_Columns, v) ? static_cast<int>(v) : 0;
+  info.samples_per_pixel = get_long(ds, DCM_SamplesPerPixel, v) ? static_cast<int>(v) : 1;
+  info.bits_allocated = get_long(ds, DCM_BitsAllocated, v) ? static_cast<int>(v) : 0;
+  info.bits_stored = get_long(ds, DCM_BitsStored, v) ? static_cast<int>(v) : info.bits_allocated;
+  info.high_bit = get_long(ds, DCM_HighBit, v) ? static_cast<int>(v) : info.bits_stored - 1;
+  info.pixel_representation = get_long(ds, DCM_PixelRepresentation, v) ? static_cast<int>(v) : 0;
+  long frames = 1;
+  if (get_long(ds, DCM_NumberOfFrames, frames) && frames == 0) frames = 1;
+  info.photometric_interpretation = get_string(ds, DCM_PhotometricInterpretation);
+
+  if (info.rows <= 0 || info.columns <= 0) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "image of " + std::to_string(info.columns) + "×" +
+                       std::to_string(info.rows) + " pixels (Rows/Columns missing or zero)";
+    return;
+  }
+  if (frames < 1 || frames > kMaxFrames) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "NumberOfFrames " + std::to_string(frames) + " is out of range (1.." +
+                       std::to_string(kMaxFrames) + ")";
+    return;
+  }
+  info.number_of_frames = static_cast<int>(frames);
+  if (info.samples_per_pixel != 1) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "colour image (" + std::to_string(info.samples_per_pixel) +
+                       " samples per pixel, " + info.photometric_interpretation +
+                       "): not a CT volume";
+    return;
+  }
+  if (info.photometric_interpretation.rfind("PALETTE", 0) == 0) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "palette-colour image: not a CT volume";
+    return;
+  }
+  if (info.bits_allocated != 8 && info.bits_allocated != 16 && info.bits_allocated != 32) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "BitsAllocated " + std::to_string(info.bits_allocated) +
+                       " (expected 8, 16 or 32 bits per sample)";
+    return;
+  }
+  if (info.bits_stored < 1 || info.bits_stored > info.bits_allocated) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "BitsStored " + std::to_string(info.bits_stored) + " with BitsAllocated " +
+                       std::to_string(info.bits_allocated);
+    return;
+  }
+  if (image_type_is_localizer(info.image_type)) {
+    info.kind = DicomObjectKind::localizer;
+    info.skip_reason = "localizer (ImageType " + info.image_type + ")";
+    return;
+  }
+  info.kind = DicomObjectKind::image;
+}
+
+void read_frames(DcmDataset& ds, DicomFileInfo& info) {
+  DcmItem* shared = sequence_item(&ds, DCM_SharedFunctionalGroupsSequence);
+  DcmSequenceOfItems* per_frame_seq = nullptr;
+  ds.findAndGetSequence(DCM_PerFrameFunctionalGroupsSequence, per_frame_seq);
+  info.enhanced = shared != nullptr || per_frame_seq != nullptr;
+  info.frames.assign(static_cast<std::size_t>(info.number_of_frames), DicomFrameInfo{});
+
+  if (!info.enhanced) {
+    DicomFrameInfo top;
+    read_plane_attributes(ds, ds, ds, ds, top);
+    // A classic multi-frame image (e.g. NM, old US) has one position for all frames: only the
+    // first frame is placed; the series analysis refuses it as a volume.
+    info.frames[0] = top;
+    for (std::size_t f = 1; f < info.frames.size(); ++f) {
+      info.frames[f] = top;
+      info.frames[f].has_position = false;
+    }
+    return;
+  }
+  if (per_frame_seq && per_frame_seq->card() != static_cast<unsigned long>(info.number_of_frames)) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "PerFrameFunctionalGroupsSequence has " +
+                       std::to_string(per_frame_seq->card()) + " items for " +
+                       std::to_string(info.number_of_frames) + " frames";
+    return;
+  }
+  DicomFrameInfo top;
+  read_plane_attributes(ds, ds, ds, ds, top);
+  for (int f = 0; f < info.number_of_frames; ++f) {
+    DcmItem* pf = per_frame_seq ? per_frame_seq->getItem(static_cast<unsigned long>(f)) : nullptr;
+    DcmItem* pos = functional_group(pf, shared, DCM_PlanePositionSequence);
+    DcmItem* ori = functional_group(pf, shared, DCM_PlaneOrientationSequence);
+    DcmItem* mea = functional_group(pf, shared, DCM_PixelMeasuresSequence);
+    DcmItem* val = functional_group(pf, shared, DCM_PixelValueTransformationSequence);
+    DicomFrameInfo fi = top;  // top-level values are the fallback for absent groups
+    DicomFrameInfo g;
+    read_plane_attributes(pos ? *pos : ds, ori ? *ori : ds, mea ? *mea : ds, val ? *val : ds, g);
+    if (pos) fi.has_position = g.has_position, fi.position = g.position;
+    if (ori) fi.has_orientation = g.has_orientation, fi.row = g.row, fi.column = g.column;
+    if (mea && g.has_pixel_spacing)
+      fi.has_pixel_spacing = true, fi.spacing_between_rows = g.spacing_between_rows,
+      fi.spacing_between_columns = g.spacing_between_columns;
+    if (val && g.has_rescale)
+      fi.has_rescale = true, fi.rescale_slope = g.rescale_slope,
+      fi.rescale_intercept = g.rescale_intercept;
+    info.frames[static_cast<std::size_t>(f)] = fi;
+
+    // A frame flagged as a localizer makes the whole object unusable as a volume.
+    DcmItem* frame_type = functional_group(pf, shared, DCM_CTImageFrameTypeSequence);
+    if (frame_type && image_type_is_localizer(get_string(*frame_type, DCM_FrameType))) {
+      info.kind = DicomObjectKind::localizer;
+      info.skip_reason =
+          "localizer frames (FrameType " + get_string(*frame_type, DCM_FrameType) + ")";
+    }
+  }
+}
+
+/// Whether the last bytes of the pixel data can be read: DCMTK leaves large values on disk, so a
+/// file cut short parses fine and fails only here (one small read at the end of the value).
+bool pixel_data_is_complete(DcmElement& pixel_data, const DcmXfer& xfer) {
+  DcmElement* last = &pixel_data;
+  if (xfer.isEncapsulated()) {
+    auto* pixel = dynamic_cast<DcmPixelData*>(&pixel_data);
+    DcmPixelSequence* sequence = nullptr;
+    if (!pixel || pixel->getEncapsulatedRepresentation(xfer.getXfer(), nullptr, sequence).bad() ||
+        !sequence || sequence->card() == 0)
+      return false;
+    DcmPixelItem* item = nullptr;
+    if (sequence->getItem(item, sequence->card() - 1).bad() || !item) return false;
+    last = item;
+  }
+  const Uint32 length = last->getLength();
+  if (length == 0 || length == DCM_UndefinedLength) return true;
+  unsigned char tail[2];
+  const Uint32 n = length >= 2 ? 2 : 1;
+  return last->getPartialValue(tail, length - n, n).good();
+}
+
+}  // namespace
+
+const char* to_string(DicomObjectKind kind) {
+  switch (kind) {
+    case DicomObjectKind::image:
+      return "image";
+    case DicomObjectKind::localizer:
+      return "localizer";
+    case DicomObjectKind::unsupported:
+      return "unsupported image";
+    case DicomObjectKind::non_image:
+      return "non-image object";
+    case DicomObjectKind::directory:
+      return "DICOMDIR";
+    case DicomObjectKind::not_dicom:
+      return "not DICOM";
+    case DicomObjectKind::unreadable:
+      return "unreadable DICOM";
+  }
+  return "?";
+}
+
+std::uint64_t DicomFileInfo::decoded_bytes() const {
+  return static_cast<std::uint64_t>(rows) * static_cast<std::uint64_t>(columns) *
+         static_cast<std::uint64_t>(number_of_frames) *
+         static_cast<std::uint64_t>(samples_per_pixel) *
+         static_cast<std::uint64_t>((bits_allocated + 7) / 8);
+}
+
+std::string dicom_uid_name(const std::string& uid) {
+  const char* name = dcmFindNameOfUID(uid.c_str(), nullptr);
+  return name ? std::string(name) : uid;
+}
+
+bool looks_like_dicom(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::array<unsigned char, 132> head{};
+  in.read(reinterpret_cast<char*>(head.data()), head.size());
+  const std::streamsize n = in.gcount();
+  if (n >= 132 && head[128] == 'D' && head[129] == 'I' && head[130] == 'C' && head[131] == 'M')
+    return true;
+  if (n < 8) return false;
+  // A data set without preamble starts with its lowest group: 0002 (meta) or 0008, little or
+  // big endian.
+  const unsigned group_le = head[0] | (head[1] << 8);
+  const unsigned group_be = (head[0] << 8) | head[1];
+  return group_le == 0x0002 || group_le == 0x0008 || group_be == 0x0008;
+}
+
+DicomFileInfo read_dicom_file_info(const fs::path& path) {
+  setup_imaging_libraries();
+  DicomFileInfo info;
+  info.path = path;
+  if (!fs::is_regular_file(path)) throw Error("'" + path.string() + "' is not a regular file");
+  if (!looks_like_dicom(path)) {
+    info.kind = DicomObjectKind::not_dicom;
+    info.skip_reason = "not DICOM";
+    return info;
+  }
+  DcmFileFormat file;
+  const OFCondition status =
+      file.loadFile(path.c_str(), EXS_Unknown, EGL_noChange, kMaxHeaderValueLength, ERM_autoDetect);
+  if (status.bad()) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = std::string("damaged or truncated DICOM (") + status.text() + ")";
+    // What was parsed before the damage tells which series lost a file.
+    info.series_instance_uid = get_string(*file.getDataset(), DCM_SeriesInstanceUID);
+    return info;
+  }
+  DcmDataset& ds = *file.getDataset();
+  DcmMetaInfo& meta = *file.getMetaInfo();
+
+  info.sop_class_uid = get_string(ds, DCM_SOPClassUID);
+  if (info.sop_class_uid.empty())
+    info.sop_class_uid = get_string(meta, DCM_MediaStorageSOPClassUID);
+  info.sop_instance_uid = get_string(ds, DCM_SOPInstanceUID);
+  info.series_instance_uid = get_string(ds, DCM_SeriesInstanceUID);
+  info.frame_of_reference_uid = get_string(ds, DCM_FrameOfReferenceUID);
+  info.transfer_syntax_uid = get_string(meta, DCM_TransferSyntaxUID);
+  const DcmXfer xfer(ds.getOriginalXfer());
+  if (info.transfer_syntax_uid.empty()) info.transfer_syntax_uid = xfer.getXferID();
+  info.modality = get_string(ds, DCM_Modality);
+  info.series_description = get_string(ds, DCM_SeriesDescription);
+  info.series_number = get_string(ds, DCM_SeriesNumber);
+  info.manufacturer = get_string(ds, DCM_Manufacturer);
+  info.model_name = get_string(ds, DCM_ManufacturerModelName);
+  info.image_type = get_string(ds, DCM_ImageType);
+  info.has_instance_number = get_long(ds, DCM_InstanceNumber, info.instance_number);
+  info.has_gantry_tilt = get_double(ds, DCM_GantryDetectorTilt, info.gantry_tilt_deg);
+  info.has_slice_thickness = get_double(ds, DCM_SliceThickness, info.slice_thickness_mm);
+  if (DcmItem* mea = sequence_item(sequence_item(&ds, DCM_SharedFunctionalGroupsSequence),
+                                   DCM_PixelMeasuresSequence))
+    info.has_slice_thickness =
+        get_double(*mea, DCM_SliceThickness, info.slice_thickness_mm) || info.has_slice_thickness;
+  info.rescale_type = get_string(ds, DCM_RescaleType);
+  info.has_pixel_padding_value = get_double(ds, DCM_PixelPaddingValue, info.pixel_padding_value);
+  DcmSequenceOfItems* mlut = nullptr;
+  info.has_modality_lut =
+      ds.findAndGetSequence(DCM_ModalityLUTSequence, mlut).good() && mlut && mlut->card() > 0;
+
+  if (info.sop_class_uid == kMediaStorageDirectoryUid ||
+      ds.tagExists(DCM_DirectoryRecordSequence)) {
+    info.kind = DicomObjectKind::directory;
+    info.skip_reason = "DICOMDIR (directory of a file-set, no pixels)";
+    return info;
+  }
+
+  DcmElement* pixel_data = nullptr;
+  info.has_pixel_data = ds.findAndGetElement(DCM_PixelData, pixel_data).good() && pixel_data;
+  if (!info.has_pixel_data) {
+    const std::string sop_name =
+        info.sop_class_uid.empty() ? "no SOP class" : dicom_uid_name(info.sop_class_uid);
+    if (ds.tagExists(DCM_FloatPixelData) || ds.tagExists(DCM_DoubleFloatPixelData)) {
+      info.kind = DicomObjectKind::unsupported;
+      info.skip_reason = "floating-point pixel data (" + sop_name + "): not a CT image";
+    } else {
+      info.kind = DicomObjectKind::non_image;
+      info.skip_reason = "no pixel data (" + sop_name + ")";
+    }
+    return info;
+  }
+  info.pixel_data_encapsulated = xfer.isEncapsulated();
+  if (!info.pixel_data_encapsulated) info.pixel_data_bytes = pixel_data->getLength();
+  if (!pixel_data_is_complete(*pixel_data, xfer)) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "truncated: the pixel data end beyond the end of the file";
+    return info;
+  }
+
+  classify_image(ds, info);
+  if (info.kind != DicomObjectKind::image && info.kind != DicomObjectKind::localizer) return info;
+  const DicomObjectKind kind_before_frames = info.kind;
+  read_frames(ds, info);
+  if (kind_before_frames == DicomObjectKind::localizer && info.kind == DicomObjectKind::image)
+    info.kind = DicomObjectKind::localizer;
+  return info;
+}
+
+DicomDirContents read_dicomdir(const fs::path& dicomdir) {
+  setup_imaging_libraries();
+  DcmFileFormat file;
+  const OFCondition status = file.loadFile(dicomdir.c_str(), EXS_Unknown, EGL_noChange,
+                                           kMaxHeaderValueLength, ERM_autoDetect);
+  if (status.bad())
+    throw Error("cannot read DICOMDIR '" + dicomdir.string() + "': " + status.text());
+  DcmSequenceOfItems* records = nullptr;
+  if (file.getDataset()->findAndGetSequence(DCM_DirectoryRecordSequence, records).bad() || !records)
+    throw Error("DICOMDIR '" + dicomdir.string() +
+                "' has no Directory Record Sequence (0004,1220)");
+  DicomDirContents contents;
+  const fs::path base = fs::absolute(dicomdir).parent_path();
+  for (unsigned long r = 0; r < records->card(); ++r) {
+    DcmItem* record = records->getItem(r);
+    if (!record) continue;
+    OFString id;
+    if (record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty()) continue;
+    fs::path relative;
+    std::string component;
+    for (const char c : std::string(id.c_str()) + "\\") {
+      if (c == '\\') {
+        component = trim(component);
+        if (!component.empty() && component != "." && component != "..") relative /= component;
+        component.clear();
+      } else {
+        component += c;
+      }
+    }
+    if (relative.empty()) continue;
+    fs::path found;
+    fs::path dir = base;
+    for (int level = 0; level < 4 && found.empty(); ++level) {
+      std::error_code ec;
+      if (fs::is_regular_file(dir / relative, ec)) found = dir / relative;
+      if (!dir.has_parent_path() || dir.parent_path() == dir) break;
+      dir = dir.parent_path();
+    }
+    if (found.empty())
+      contents.missing.push_back(id.c_str());
+    else if (std::find(contents.files.begin(), contents.files.end(), found) == contents.files.end())
+      contents.files.push_back(found);
+  }
+  return contents;
+}
+
+}  // namespace tsf::import

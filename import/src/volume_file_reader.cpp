@@ -1,0 +1,325 @@
+#include "tsf/import/volume_file_reader.h"
+
+#include <itkImageFileReader.h>
+#include <itkImageIOBase.h>
+#include <itkImageIOFactory.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <new>
+
+#include "text_format.h"
+#include "tsf/common/error.h"
+#include "tsf/common/stopwatch.h"
+#include "tsf/import/imaging_library_setup.h"
+#include "tsf/import/volume_statistics.h"
+
+namespace tsf::import {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// zlib/gzip cannot compress better than about 1032:1; with margin, a compressed file smaller
+/// than 1/1100 of the voxel bytes its header declares cannot hold them.
+constexpr double kMaxDeflateRatio = 1100;
+/// Header text is read up to this size when looking for data-file fields.
+constexpr std::size_t kMaxHeaderText = 1 << 20;
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+std::uint64_t file_size_or_zero(const fs::path& p) {
+  std::error_code ec;
+  const auto n = fs::file_size(p, ec);
+  return ec ? 0 : static_cast<std::uint64_t>(n);
+}
+
+/// Where the voxel bytes of a volume file live, from its header text.
+struct DataLocation {
+  bool known = false;  ///< false: a layout these checks do not model (lists, text encodings)
+  std::uint64_t available_bytes = 0;
+  bool compressed = false;
+  bool deflate = false;  ///< gzip/zlib: the compression-ratio bound applies
+  bool has_space = false;
+};
+
+DataLocation locate_nrrd_data(const fs::path& path) {
+  DataLocation loc;
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::size_t header_bytes = 0;
+  std::string encoding = "raw", data_file;
+  bool ended = false;
+  while (header_bytes < kMaxHeaderText && std::getline(in, line)) {
+    header_bytes += line.size() + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) {
+      ended = true;
+      break;
+    }
+    if (line[0] == '#') continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = lower(trim(line.substr(0, colon)));
+    std::string value = trim(line.substr(colon + 1));
+    if (!value.empty() && value[0] == '=') continue;  // key:=value metadata
+    if (key == "encoding") encoding = lower(value);
+    if (key == "data file" || key == "datafile") data_file = value;
+    if (key == "space" || key == "space directions" || key == "space origin") loc.has_space = true;
+  }
+  loc.compressed =
+      encoding == "gzip" || encoding == "gz" || encoding == "bzip2" || encoding == "bz2";
+  loc.deflate = encoding == "gzip" || encoding == "gz";
+  const bool binary = encoding == "raw" || loc.compressed;
+  if (!binary) return loc;
+  if (data_file.empty()) {
+    if (!ended) return loc;
+    const std::uint64_t total = file_size_or_zero(path);
+    loc.available_bytes = total > header_bytes ? total - header_bytes : 0;
+    loc.known = true;
+  } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
+             lower(data_file) != "list") {
+    loc.available_bytes = file_size_or_zero(path.parent_path() / data_file);
+    loc.known = true;
+  }
+  return loc;
+}
+
+DataLocation locate_meta_data(const fs::path& path) {
+  DataLocation loc;
+  std::size_t header_bytes = 0;
+  std::size_t consumed = 0;
+  std::ifstream in(path, std::ios::binary);
+  std::string line, data_file;
+  while (consumed < kMaxHeaderText && std::getline(in, line)) {
+    consumed += line.size() + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = lower(trim(line.substr(0, eq)));
+    const std::string value = trim(line.substr(eq + 1));
+    if (key == "compresseddata") loc.compressed = loc.deflate = lower(value) == "true";
+    if (key == "elementdatafile") {
+      data_file = value;
+      header_bytes = consumed;
+      break;
+    }
+  }
+  if (data_file.empty()) return loc;
+  if (lower(data_file) == "local") {
+    const std::uint64_t total = file_size_or_zero(path);
+    loc.available_bytes = total > header_bytes ? total - header_bytes : 0;
+    loc.known = true;
+  } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
+             lower(data_file) != "list") {
+    loc.available_bytes = file_size_or_zero(path.parent_path() / data_file);
+    loc.known = true;
+  }
+  return loc;
+}
+
+DataLocation locate_nifti_data(const fs::path& path) {
+  DataLocation loc;
+  loc.known = true;
+  loc.available_bytes = file_size_or_zero(path);
+  loc.compressed = loc.deflate = ends_with(lower(path.filename().string()), ".gz");
+  return loc;
+}
+
+itk::ImageIOBase::Pointer create_io(const fs::path& path) {
+  setup_imaging_libraries();
+  auto io = itk::ImageIOFactory::CreateImageIO(path.string().c_str(),
+                                               itk::CommonEnums::IOFileMode::ReadMode);
+  if (!io)
+    throw Error("'" + path.string() +
+                "' is not a readable NRRD, MetaImage or NIfTI file (no ITK reader accepts it)");
+  return io;
+}
+
+}  // namespace
+
+bool is_volume_file_path(const fs::path& path) {
+  const std::string name = lower(path.filename().string());
+  for (const char* ext : {".nrrd", ".nhdr", ".mha", ".mhd", ".nii", ".nii.gz"})
+    if (ends_with(name, ext)) return true;
+  return false;
+}
+
+VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxels) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw Error("'" + path.string() + "' is not a file");
+  VolumeFileHeader h;
+  const std::string name = lower(path.filename().string());
+  DataLocation loc;
+  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) {
+    h.format = "nrrd";
+    loc = locate_nrrd_data(path);
+    h.has_patient_orientation = loc.has_space;
+  } else if (ends_with(name, ".mha") || ends_with(name, ".mhd")) {
+    h.format = "metaimage";
+    loc = locate_meta_data(path);
+  } else {
+    h.format = "nifti";
+    loc = locate_nifti_data(path);
+  }
+
+  auto io = create_io(path);
+  io->SetFileName(path.string());
+  try {
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw Error("cannot read the header of '" + path.string() + "': " + e.GetDescription());
+  }
+  const unsigned nd = io->GetNumberOfDimensions();
+  const std::string where = "'" + path.string() + "': ";
+  if (nd < 2 || nd > 4 || (nd == 4 && io->GetDimensions(3) != 1))
+    throw Error(where + std::to_string(nd) + "-D image, expected a 3-D volume");
+  if (io->GetNumberOfComponents() != 1)
+    throw Error(where + std::to_string(io->GetNumberOfComponents()) +
+                " components per voxel, expected a scalar (grey-scale) volume");
+  h.dimensions = static_cast<int>(std::min(nd, 3u));
+  double voxels = 1;
+  for (unsigned a = 0; a < 3; ++a) {
+    const double size = a < nd ? static_cast<double>(io->GetDimensions(a)) : 1.0;
+    if (size < 1)
+      throw Error(where + "size " + fmt("%.0f", size) + " along axis " + std::to_string(a) +
+                  " (expected at least 1)");
+    voxels *= size;
+    if (size > 2147483647.0)
+      throw Error(where + "size " + fmt("%.0f", size) + " along axis " + std::to_string(a) +
+                  " is out of range");
+    h.dims[static_cast<int>(a)] = static_cast<int>(size);
+    h.spacing[static_cast<int>(a)] = a < nd ? io->GetSpacing(a) : 1.0;
+    h.origin[static_cast<int>(a)] = a < nd ? io->GetOrigin(a) : 0.0;
+    for (unsigned r = 0; r < 3; ++r) {
+      const double d = (a < nd && r < nd) ? io->GetDirection(a)[r] : (a == r ? 1.0 : 0.0);
+      h.direction[r * 3 + a] = d;
+    }
+  }
+  if (voxels > static_cast<double>(max_voxels))
+    throw Error(where + "the header claims " + fmt("%.0f", voxels) + " voxels (" +
+                std::to_string(h.dims.x) + "×" + std::to_string(h.dims.y) + "×" +
+                std::to_string(h.dims.z) + "), more than the limit of " +
+                std::to_string(max_voxels) + ": refused before allocating");
+  h.component_type = itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType());
+  h.voxel_bytes = static_cast<std::uint64_t>(voxels) * io->GetComponentSize();
+  h.available_bytes = loc.available_bytes;
+  h.compressed = loc.compressed;
+  if (loc.known && !loc.compressed && loc.available_bytes < h.voxel_bytes)
+    throw Error(where + "the header declares " + std::to_string(h.voxel_bytes) +
+                " bytes of voxel data but the file holds only " +
+                std::to_string(loc.available_bytes) + ": truncated or a false header");
+  if (loc.known && loc.deflate &&
+      static_cast<double>(loc.available_bytes) * kMaxDeflateRatio <
+          static_cast<double>(h.voxel_bytes))
+    throw Error(where + "the header declares " + std::to_string(h.voxel_bytes) +
+                " bytes of voxel data but only " + std::to_string(loc.available_bytes) +
+                " compressed bytes follow (gzip cannot compress more than ~1000:1): a false "
+                "header");
+  if (h.dims.z < 2)
+    throw Error(where + "a single slice (" + std::to_string(h.dims.x) + "×" +
+                std::to_string(h.dims.y) + "), expected a volume of at least 2 slices");
+
+  for (int a = 0; a < 3; ++a) {
+    if (!(h.spacing[a] > 0) || !std::isfinite(h.spacing[a]))
+      throw Error(where + "spacing " + fmt("%g", h.spacing[a]) + " along axis " +
+                  std::to_string(a) + " (expected a positive number of mm)");
+    if (!std::isfinite(h.origin[a])) throw Error(where + "the origin is not finite");
+  }
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b) {
+      double d = 0;
+      for (int r = 0; r < 3; ++r) d += h.direction[r * 3 + a] * h.direction[r * 3 + b];
+      const double expected = a == b ? 1.0 : 0.0;
+      if (!(std::abs(d - expected) < 1e-3))
+        throw Error(where + "the direction matrix is not orthonormal (axes " + std::to_string(a) +
+                    "·" + std::to_string(b) + " = " + fmt("%.4f", d) +
+                    "): sheared volumes are not supported, resample it onto an orthogonal grid");
+    }
+  return h;
+}
+
+HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& options,
+                                  ImportReport& report) {
+  Stopwatch clock;
+  const VolumeFileHeader h = inspect_volume_file(path, options.max_voxels);
+  auto io = create_io(path);
+  auto reader = itk::ImageFileReader<HuImage>::New();
+  reader->SetImageIO(io);
+  reader->SetFileName(path.string());
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw Error("cannot read '" + path.string() + "': " + e.GetDescription());
+  } catch (const std::bad_alloc&) {
+    throw Error("not enough memory to read '" + path.string() + "' (" +
+                std::to_string(h.dims.volume()) + " voxels)");
+  }
+  HuImage::Pointer image = reader->GetOutput();
+  image->DisconnectPipeline();
+  image->SetMetaDataDictionary(itk::MetaDataDictionary());  // nothing from the source header
+
+  const VolumeStatistics stats =
+      volume_statistics(image->GetBufferPointer(), static_cast<std::size_t>(h.dims.volume()));
+  if (stats.non_finite > 0)
+    throw Error("'" + path.string() + "': " + std::to_string(stats.non_finite) +
+                " voxels are NaN or infinite (first at index " +
+                std::to_string(stats.first_non_finite) + ")");
+
+  auto& src = report.source;
+  src.path = path.string();
+  src.kind = h.format;
+  src.files_examined = 1;
+  src.files_used = 1;
+  auto& acq = report.acquisition;
+  acq.dims = h.dims;
+  acq.pixel_spacing_x = h.spacing.x;
+  acq.pixel_spacing_y = h.spacing.y;
+  acq.row = {h.direction[0], h.direction[3], h.direction[6]};
+  acq.column = {h.direction[1], h.direction[4], h.direction[7]};
+  acq.normal = {h.direction[2], h.direction[5], h.direction[8]};
+  acq.first_position = h.origin;
+  acq.last_position = h.origin + acq.normal * ((h.dims.z - 1) * h.spacing.z);
+  acq.span_along_normal_mm = (h.dims.z - 1) * h.spacing.z;
+  acq.gaps = {{h.spacing.z, h.dims.z - 1}};
+  acq.median_gap_mm = acq.regular_gap_mm = h.spacing.z;
+
+  auto& out = report.output;
+  out.dims = h.dims;
+  out.spacing = h.spacing;
+  out.origin = h.origin;
+  out.direction = h.direction;
+  out.min_value = stats.min;
+  out.max_value = stats.max;
+  out.integral_values = stats.integral;
+
+  auto& rescale = report.rescale;
+  rescale.pixel_representation = h.component_type;
+  rescale.source = h.format == "nifti"
+                       ? "NIfTI scl_slope/scl_inter (applied by the reader when set)"
+                       : "none: values as stored (the file is taken to hold HU)";
+  if (!h.has_patient_orientation)
+    report.warnings.push_back(
+        "the NRRD header has no 'space' or 'space directions': patient orientation is not "
+        "recorded, axes are taken as L, P, S and the origin as 0");
+  report.seconds.read = clock.seconds();
+  return image;
+}
+
+}  // namespace tsf::import

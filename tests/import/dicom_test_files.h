@@ -1,0 +1,43 @@
+// Crafting DICOM test files: copies of real files with attributes changed through DCMTK.
+#pragma once
+
+#include <dcmtk/dcmdata/dcdeftag.h>
+#include <dcmtk/dcmdata/dcfilefo.h>
+#include <dcmtk/dcmdata/dcuid.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace tsf::import::test_files {
+
+/// Loads `source`, lets `change` edit its data set, and saves it to `target` in the source's
+/// transfer syntax.
+inline void copy_with_changes(const std::filesystem::path& source,
+                              const std::filesystem::path& target,
+                              const std::function<void(DcmDataset&)>& change) {
+  DcmFileFormat file;
+  ASSERT_TRUE(file.loadFile(source.c_str()).good()) << source;
+  change(*file.getDataset());
+  std::filesystem::create_directories(target.parent_path());
+  const E_TransferSyntax xfer = file.getDataset()->getOriginalXfer();
+  ASSERT_TRUE(file.saveFile(target.c_str(), xfer).good()) << target;
+}
+
+/// A fresh SOP Instance UID, so an edited copy is a different image.
+inline void new_instance_uid(DcmDataset& ds) {
+  char uid[100];
+  ds.putAndInsertString(DCM_SOPInstanceUID, dcmGenerateUniqueIdentifier(uid));
+}
+
+/// The raw bytes of a file.
+inline std::string file_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+}  // namespace tsf::import::test_files
