@@ -2,6 +2,7 @@
 
 #include <itkIdentityTransform.h>
 #include <itkLinearInterpolateImageFunction.h>
+#include <itkRegionOfInterestImageFilter.h>
 #include <itkResampleImageFilter.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "tsf/common/error.h"
+#include "tsf/segment/gaussian_smoothing.h"
 #include "tsf/segment/itk_progress_bridge.h"
 
 namespace tsf::segment {
@@ -64,17 +66,54 @@ HuImage::Pointer make_isotropic_grid(const HuImage* input, double voxel_mm, cons
   return grid;
 }
 
+std::array<double, 3> antialias_sigma_mm(const HuImage* input, double voxel_mm) {
+  std::array<double, 3> sigma{};
+  for (int a = 0; a < 3; ++a) {
+    const double s = input->GetSpacing()[a];
+    sigma[a] = voxel_mm > s ? std::sqrt((voxel_mm * voxel_mm - s * s) / 12.0) : 0.0;
+  }
+  return sigma;
+}
+
 HuImage::Pointer resample_isotropic(const HuImage* input, double voxel_mm, const IndexBox& box,
-                                    Progress* progress) {
+                                    bool antialias, Progress* progress) {
   const HuImage::Pointer grid = make_isotropic_grid(input, voxel_mm, box);
+
+  // Prefilter the box's neighbourhood (4σ + 1 voxels around it) when coarsening.
+  HuImage::ConstPointer source = input;
+  const std::array<double, 3> sigma =
+      antialias ? antialias_sigma_mm(input, voxel_mm) : std::array<double, 3>{};
+  if (sigma[0] > 0.0 || sigma[1] > 0.0 || sigma[2] > 0.0) {
+    const IndexBox full = full_index_box(input);
+    HuImage::IndexType start;
+    HuImage::SizeType size;
+    for (int a = 0; a < 3; ++a) {
+      const double pad = std::ceil(4.0 * sigma[a] / input->GetSpacing()[a]) + 1.0;
+      const double lo = std::max(full.first[a], std::floor(box.first[a]) - pad);
+      const double hi = std::min(full.last[a], std::ceil(box.last[a]) + pad);
+      start[a] = static_cast<itk::IndexValueType>(lo);
+      size[a] = static_cast<itk::SizeValueType>(hi - lo + 1.0);
+    }
+    auto crop = itk::RegionOfInterestImageFilter<HuImage, HuImage>::New();
+    crop->SetInput(input);
+    crop->SetRegionOfInterest(HuImage::RegionType(start, size));
+    try {
+      crop->Update();
+    } catch (const itk::ExceptionObject& e) {
+      throw Error(std::string("resampling: cropping the region of interest failed: ") +
+                  e.GetDescription());
+    }
+    source = gaussian_smooth(crop->GetOutput(), sigma, progress, 0.0, 0.5);
+  }
+
   auto resample = itk::ResampleImageFilter<HuImage, HuImage, double>::New();
-  resample->SetInput(input);
+  resample->SetInput(source);
   resample->SetTransform(itk::IdentityTransform<double, 3>::New());
   resample->SetInterpolator(itk::LinearInterpolateImageFunction<HuImage, double>::New());
   resample->SetOutputParametersFromImage(grid);
   // Every output sample lies inside the input's sample hull; air is the safe value regardless.
   resample->SetDefaultPixelValue(-1000.0f);
-  forward_itk_progress(resample, progress);
+  forward_itk_progress(resample, progress, source == input ? 0.0 : 0.5, 1.0);
   try {
     resample->Update();
   } catch (const itk::ExceptionObject& e) {

@@ -266,6 +266,7 @@ SegmentPreset parse_segment_preset(const std::string& yaml_text, const std::stri
   {
     StrictMap m = top.child("resample");
     p.resample.voxel_mm = m.number("voxel_mm", p.resample.voxel_mm, 0.0, 10.0, "mm");
+    p.resample.antialias = m.boolean("antialias", p.resample.antialias);
     if (p.resample.voxel_mm > 0.0 && p.resample.voxel_mm < 0.05)
       m.fail(m.take("voxel_mm"), m.key_path("voxel_mm"),
              "value is out of range, expected 0 (finest input spacing) or 0.05 .. 10 mm");
@@ -441,7 +442,7 @@ nlohmann::json SegmentPreset::to_json() const {
   j["name"] = name;
   j["description"] = description;
   j["source"] = source.string();
-  j["resample"] = {{"voxel_mm", resample.voxel_mm}};
+  j["resample"] = {{"voxel_mm", resample.voxel_mm}, {"antialias", resample.antialias}};
   j["roi"] = {{"mode", roi.mode == RoiMode::kBody ? "body" : "box"}, {"margin_mm", roi.margin_mm}};
   if (roi.mode == RoiMode::kBox) {
     j["roi"]["box_min_mm"] = vec(roi.box_min_mm);

@@ -105,7 +105,8 @@ SegmentationResult segment_hu_image(const HuImage* input, const SegmentPreset& p
   }
   {
     Stage stage(result, "resample", show);
-    images.hu = resample_isotropic(input, result.voxel_mm, result.roi, stage.progress());
+    images.hu = resample_isotropic(input, result.voxel_mm, result.roi, preset.resample.antialias,
+                                   stage.progress());
   }
   const HuImage* hu = images.hu;
   const std::size_t n = hu->GetLargestPossibleRegion().GetNumberOfPixels();
@@ -118,7 +119,9 @@ SegmentationResult segment_hu_image(const HuImage* input, const SegmentPreset& p
     body->SetOpeningRadiusMm(preset.body.opening_radius_mm);
     body->SetClosingRadiusMm(preset.body.closing_radius_mm);
     body->SetFillHoles(preset.body.fill_holes);
-    body->SetMarginMm(preset.body.margin_mm);
+    // The margin must reach the voxels next to the skin, diagonals included, or the mask cuts
+    // into the density ramp and drags the surface inward on coarse grids.
+    body->SetMarginMm(std::max(preset.body.margin_mm, std::sqrt(3.0) * result.voxel_mm));
     body->SetSliceAxis(axial_axis);
     forward_itk_progress(body, stage.progress());
     run_filter(body.GetPointer(), "body-mask");

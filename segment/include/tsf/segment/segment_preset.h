@@ -23,6 +23,7 @@ namespace tsf::segment {
 
 struct ResampleSettings {
   double voxel_mm = 0.0;  ///< isotropic output spacing; 0 = the finest input spacing
+  bool antialias = true;  ///< Gaussian prefilter on axes being coarsened (isotropic_resample.h)
 };
 
 enum class RoiMode { kBody, kBox };
@@ -42,7 +43,9 @@ struct BodyMaskSettings {
   double opening_radius_mm = 3.0;
   double closing_radius_mm = 2.0;
   bool fill_holes = true;
-  double margin_mm = 1.0;  ///< dilation so the skin's partial-volume ramp stays inside the mask
+  /// Dilation so the skin's partial-volume ramp stays inside the mask; at least one voxel
+  /// diagonal (√3 · voxel) is always used.
+  double margin_mm = 1.0;
 };
 
 struct SmoothingSettings {

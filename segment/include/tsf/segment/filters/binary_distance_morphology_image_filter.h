@@ -1,11 +1,12 @@
 // Binary morphology with a Euclidean ball of radius given in mm, through distance maps.
 //
 // Dilation by r keeps every voxel whose distance to the foreground is <= r; erosion by r is the
-// complement of the dilation of the background. Distances come from the Maurer et al. (2003)
-// exact Euclidean distance transform (itk::SignedMaurerDistanceMapImageFilter), which uses the
-// image spacing, so the ball is round in mm on anisotropic grids and the cost does not grow with
-// the radius (a structuring-element filter costs O(r³) per voxel). Opening = erode then dilate;
-// closing = dilate then erode. By default voxels beyond the image border count as neither
+// complement of the dilation of the background. Distances come from an exact Euclidean distance
+// transform (euclidean_distance_transform.h, Felzenszwalb & Huttenlocher) that uses the image
+// spacing, so the ball is round in mm on anisotropic grids and the cost does not grow with the
+// radius (a structuring-element filter costs O(r³) per voxel); bench_segment --peers times it
+// against itk::SignedMaurerDistanceMapImageFilter. Opening = erode then dilate; closing = dilate
+// then erode. By default voxels beyond the image border count as neither
 // foreground nor background, so erosion does not eat in from the border (a neck cut by the scan
 // stays); with BorderIsBackground they count as background (what lies beyond the scan is unknown,
 // so nothing near the border is "deep inside").

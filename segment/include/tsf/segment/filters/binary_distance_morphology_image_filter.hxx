@@ -1,12 +1,9 @@
 #pragma once
 
-#include <itkImageRegionConstIterator.h>
-#include <itkImageRegionIterator.h>
-#include <itkImageRegionIteratorWithIndex.h>
-#include <itkSignedMaurerDistanceMapImageFilter.h>
-
 #include <algorithm>
+#include <vector>
 
+#include "tsf/segment/euclidean_distance_transform.h"
 #include "tsf/segment/filters/binary_distance_morphology_image_filter.h"
 
 namespace tsf::segment {
@@ -31,79 +28,53 @@ typename TImage::Pointer BinaryDistanceMorphologyImageFilter<TImage>::Dilate(con
                                                                              bool invert,
                                                                              float progress_from,
                                                                              float progress_to) {
-  using DistanceImage = itk::Image<float, TImage::ImageDimension>;
+  static_assert(TImage::ImageDimension == 3, "the distance transform is 3-D");
   const auto region = mask->GetLargestPossibleRegion();
-
-  // The distance map is computed to the foreground of `source` (the mask, or its complement).
-  typename TImage::Pointer source = TImage::New();
-  source->CopyInformation(mask);
-  source->SetRegions(region);
-  source->Allocate();
-  {
-    itk::ImageRegionConstIterator<TImage> in(mask, region);
-    itk::ImageRegionIterator<TImage> out(source, region);
-    for (; !in.IsAtEnd(); ++in, ++out) out.Set((in.Get() != 0) != invert ? 1 : 0);
-  }
+  if (mask->GetBufferedRegion() != region)
+    itkExceptionMacro("the mask must be buffered whole, got " << mask->GetBufferedRegion());
+  const std::size_t n = region.GetNumberOfPixels();
+  const auto* in = mask->GetBufferPointer();
 
   typename TImage::Pointer result = TImage::New();
   result->CopyInformation(mask);
   result->SetRegions(region);
   result->Allocate();
+  auto* out = result->GetBufferPointer();
 
-  bool any_foreground = false;
-  {
-    itk::ImageRegionConstIterator<TImage> it(source, region);
-    for (; !it.IsAtEnd() && !any_foreground; ++it) any_foreground = it.Get() != 0;
-  }
-  if (!any_foreground || m_RadiusMm <= 0.0) {
-    // Radius 0: the dilation of `source` is itself. No foreground: the dilation is empty.
-    itk::ImageRegionConstIterator<TImage> in(source, region);
-    itk::ImageRegionIterator<TImage> out(result, region);
-    for (; !in.IsAtEnd(); ++in, ++out)
-      out.Set(((in.Get() != 0) && any_foreground) != invert ? 1 : 0);
+  if (m_RadiusMm <= 0.0) {
+    for (std::size_t v = 0; v < n; ++v) out[v] = in[v] != 0 ? 1 : 0;  // binarised copy
   } else {
-    auto distance = itk::SignedMaurerDistanceMapImageFilter<TImage, DistanceImage>::New();
-    distance->SetInput(source);
-    distance->SetUseImageSpacing(true);
-    distance->SetSquaredDistance(true);
-    distance->SetInsideIsPositive(false);
-    distance->SetBackgroundValue(0);
-    auto* distance_filter = distance.GetPointer();  // raw: the observer must not own its subject
-    distance->AddObserver(itk::ProgressEvent(), [this, distance_filter, progress_from,
-                                                 progress_to](const itk::EventObject&) {
-      this->UpdateProgress(progress_from +
-                           (progress_to - progress_from) * distance_filter->GetProgress());
-    });
-    distance->Update();
-
-    // Foreground is inside (negative) or within the radius (squared distance <= r²).
+    // Distances to the foreground of `source`: the mask, or its complement for an erosion. An
+    // empty source gives +inf everywhere (nothing dilates), a full one 0 (everything does).
+    std::vector<unsigned char> source(n);
+    for (std::size_t v = 0; v < n; ++v) source[v] = (in[v] != 0) != invert ? 1 : 0;
+    const auto size = region.GetSize();
+    const auto& sp = mask->GetSpacing();
+    std::vector<float> squared(n);
+    squared_distance_to_foreground(
+        source.data(), {size[0], size[1], size[2]}, {sp[0], sp[1], sp[2]}, squared.data(),
+        [this, progress_from, progress_to](double fraction) {
+          this->UpdateProgress(progress_from +
+                               (progress_to - progress_from) * static_cast<float>(fraction));
+        });
     const float r2 = static_cast<float>(m_RadiusMm * m_RadiusMm);
-    itk::ImageRegionConstIterator<DistanceImage> d(distance->GetOutput(), region);
-    itk::ImageRegionIterator<TImage> out(result, region);
-    for (; !d.IsAtEnd(); ++d, ++out) {
-      const bool dilated = d.Get() <= r2;
-      out.Set(dilated != invert ? 1 : 0);
-    }
+    for (std::size_t v = 0; v < n; ++v) out[v] = (squared[v] <= r2) != invert ? 1 : 0;
   }
+
   if (invert && m_BorderIsBackground) {
     // Erosion with background beyond the border: the nearest outside voxel lies straight across
     // the nearest face, at (index + 1)·spacing or (size − index)·spacing.
-    const auto& spacing = mask->GetSpacing();
     const auto size = region.GetSize();
-    const auto start = region.GetIndex();
-    itk::ImageRegionIteratorWithIndex<TImage> it(result, region);
-    for (; !it.IsAtEnd(); ++it) {
-      if (it.Get() == 0) continue;
-      const auto idx = it.GetIndex();
-      for (unsigned int a = 0; a < TImage::ImageDimension; ++a) {
-        const double i = static_cast<double>(idx[a] - start[a]);
-        const double to_border = std::min(i + 1.0, static_cast<double>(size[a]) - i) * spacing[a];
-        if (to_border <= m_RadiusMm) {
-          it.Set(0);
-          break;
-        }
-      }
-    }
+    const auto& sp = mask->GetSpacing();
+    auto to_border = [&](unsigned int a, std::size_t i) {
+      return std::min(static_cast<double>(i) + 1.0, static_cast<double>(size[a] - i)) * sp[a];
+    };
+    std::size_t v = 0;
+    for (std::size_t k = 0; k < size[2]; ++k)
+      for (std::size_t j = 0; j < size[1]; ++j)
+        for (std::size_t i = 0; i < size[0]; ++i, ++v)
+          if (out[v] && std::min({to_border(0, i), to_border(1, j), to_border(2, k)}) <= m_RadiusMm)
+            out[v] = 0;
   }
   this->UpdateProgress(progress_to);
   return result;
