@@ -1,6 +1,7 @@
 // Segmentation benchmark: where the time goes, and what accuracy costs in time.
 //
 //   bench_segment [--stages] [--accuracy] [--peers] [--repeat N] [--ge-voxel-mm MM]
+//                 [--preview-dir DIR]   (--stages also writes DIR/{cranium,ge}-sinus-preview.png)
 //
 // --stages    time per stage (median of N runs) of the `sinus` preset on the bundled cranium
 //             (default voxel = finest input spacing) and on the bundled GE DICOM series (read with
@@ -41,6 +42,7 @@
 #include "tsf/segment/segment_preset.h"
 #include "tsf/segment/segmentation_pipeline.h"
 #include "tsf/segment/segmentation_report.h"
+#include "tsf/segment/slice_preview.h"
 #include "tsf/segment/sphere_phantom.h"
 #include "tsf/volume/tissue_labels.h"
 
@@ -81,7 +83,8 @@ double threshold_baseline(const HuImage* image, int repeat) {
   return median(times);
 }
 
-void stage_table(const char* name, const HuImage* input, SegmentPreset preset, int repeat) {
+void stage_table(const char* name, const HuImage* input, SegmentPreset preset, int repeat,
+                 const fs::path& preview) {
   std::map<std::string, std::vector<double>> times;
   std::vector<std::string> order;
   std::vector<double> totals;
@@ -110,6 +113,10 @@ void stage_table(const char* name, const HuImage* input, SegmentPreset preset, i
   std::printf("\nClasses: ");
   for (const auto& c : stats.classes) std::printf("%s %.1f ml; ", c.name.c_str(), c.region.ml);
   std::printf("air spaces %.1f ml; body %.1f ml.\n", stats.air_spaces.ml, stats.body.ml);
+  if (!preview.empty()) {
+    write_slice_preview(preview, last.images, stats);
+    std::printf("Preview: %s\n", preview.string().c_str());
+  }
 }
 
 /// Our building blocks against the ITK filters they replace, on the resampled cranium: the
@@ -289,6 +296,7 @@ int main(int argc, char** argv) {
   bool stages = false, accuracy = false, peers = false;
   int repeat = 3;
   double ge_voxel_mm = 0.0;
+  fs::path preview_dir;
   for (int a = 1; a < argc; ++a) {
     if (!std::strcmp(argv[a], "--stages")) {
       stages = true;
@@ -298,11 +306,14 @@ int main(int argc, char** argv) {
       peers = true;
     } else if (!std::strcmp(argv[a], "--repeat") && a + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++a]));
+    } else if (!std::strcmp(argv[a], "--preview-dir") && a + 1 < argc) {
+      preview_dir = argv[++a];
     } else if (!std::strcmp(argv[a], "--ge-voxel-mm") && a + 1 < argc) {
       ge_voxel_mm = std::atof(argv[++a]);
     } else {
       std::fprintf(stderr,
-                   "usage: %s [--stages] [--accuracy] [--peers] [--repeat N] [--ge-voxel-mm MM]\n"
+                   "usage: %s [--stages] [--accuracy] [--peers] [--repeat N] [--ge-voxel-mm MM] "
+                   "[--preview-dir DIR]\n"
                    "  --ge-voxel-mm  isotropic voxel for the GE series (default: its finest "
                    "spacing, 0.49 mm)\n",
                    argv[0]);
@@ -315,11 +326,16 @@ int main(int argc, char** argv) {
     if (stages) {
       std::printf("## Time per stage\n");
       const auto cranium = read_hu_volume(samples / "ct-head-cranium" / "cranium.nrrd");
-      stage_table("cranium.nrrd", cranium, load_segment_preset("sinus"), repeat);
+      auto preview = [&](const char* file) {
+        return preview_dir.empty() ? fs::path() : preview_dir / file;
+      };
+      stage_table("cranium.nrrd", cranium, load_segment_preset("sinus"), repeat,
+                  preview("cranium-sinus-preview.png"));
       const auto ge = read_ge_series(samples / "ct-head-ge-hispeed-tilt-varspacing");
       SegmentPreset preset = load_segment_preset("sinus");
       preset.resample.voxel_mm = ge_voxel_mm;
-      stage_table("GE HiSpeed DICOM series (ITK GDCM reader)", ge, preset, repeat);
+      stage_table("GE HiSpeed DICOM series (ITK GDCM reader)", ge, preset, repeat,
+                  preview("ge-sinus-preview.png"));
     }
     if (peers) peer_table(read_hu_volume(samples / "ct-head-cranium" / "cranium.nrrd"), repeat);
     if (accuracy) {
