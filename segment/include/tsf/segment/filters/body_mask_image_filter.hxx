@@ -1,14 +1,13 @@
 #pragma once
 
 #include <itkBinaryThresholdImageFilter.h>
-#include <itkConnectedComponentImageFilter.h>
 #include <itkImageRegionConstIterator.h>
 #include <itkImageRegionIterator.h>
 #include <itkProgressAccumulator.h>
-#include <itkRelabelComponentImageFilter.h>
 
 #include <limits>
 
+#include "tsf/segment/connected_components.h"
 #include "tsf/segment/filters/binary_distance_morphology_image_filter.h"
 #include "tsf/segment/filters/body_mask_image_filter.h"
 #include "tsf/segment/filters/slice_hole_fill_image_filter.h"
@@ -32,7 +31,6 @@ void BodyMaskImageFilter<TInputImage, TOutputImage>::EnlargeOutputRequestedRegio
 template <typename TInputImage, typename TOutputImage>
 void BodyMaskImageFilter<TInputImage, TOutputImage>::GenerateData() {
   using Mask = TOutputImage;
-  using ComponentImage = itk::Image<unsigned int, TInputImage::ImageDimension>;
   using Morphology = BinaryDistanceMorphologyImageFilter<Mask>;
   using InputPixel = typename TInputImage::PixelType;
 
@@ -58,29 +56,25 @@ void BodyMaskImageFilter<TInputImage, TOutputImage>::GenerateData() {
   progress->RegisterInternalFilter(opening, 0.25f);
   opening->Update();
 
-  // 3. largest connected component (relabel sorts components by size: label 1 is the largest)
-  auto components = itk::ConnectedComponentImageFilter<Mask, ComponentImage>::New();
-  components->SetInput(opening->GetOutput());
-  components->FullyConnectedOff();
-  progress->RegisterInternalFilter(components, 0.1f);
-  auto relabel = itk::RelabelComponentImageFilter<ComponentImage, ComponentImage>::New();
-  relabel->SetInput(components->GetOutput());
-  progress->RegisterInternalFilter(relabel, 0.05f);
-  relabel->Update();
-  if (relabel->GetNumberOfObjects() == 0)
+  // 3. largest 6-connected component
+  const auto region = thresholded->GetLargestPossibleRegion();
+  const auto size = region.GetSize();
+  const Mask* opened = opening->GetOutput();
+  const ComponentLabels components =
+      label_connected_components(opened->GetBufferPointer(), {size[0], size[1], size[2]}, false);
+  const std::uint32_t head = components.largest();
+  if (head == 0)
     itkExceptionMacro("no body found: no voxel is at or above "
                       << m_ThresholdHu << " HU (after an opening of " << m_OpeningRadiusMm
                       << " mm)");
-
-  const auto region = thresholded->GetLargestPossibleRegion();
   typename Mask::Pointer largest = Mask::New();
   largest->CopyInformation(thresholded);
   largest->SetRegions(region);
   largest->Allocate();
   {
-    itk::ImageRegionConstIterator<ComponentImage> c(relabel->GetOutput(), region);
-    itk::ImageRegionIterator<Mask> out(largest, region);
-    for (; !c.IsAtEnd(); ++c, ++out) out.Set(c.Get() == 1 ? 1 : 0);
+    auto* out = largest->GetBufferPointer();
+    for (std::size_t v = 0; v < components.labels.size(); ++v)
+      out[v] = components.labels[v] == head ? 1 : 0;
   }
 
   // 4. restore thresholded detail within the opening radius of the component

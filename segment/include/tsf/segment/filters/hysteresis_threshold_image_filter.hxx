@@ -1,13 +1,8 @@
 #pragma once
 
-#include <itkBinaryThresholdImageFilter.h>
-#include <itkConnectedComponentImageFilter.h>
-#include <itkImageRegionConstIterator.h>
-#include <itkImageRegionIterator.h>
-#include <itkProgressAccumulator.h>
-
-#include <limits>
 #include <vector>
+
+#include "tsf/segment/connected_components.h"
 
 #include "tsf/segment/filters/hysteresis_threshold_image_filter.h"
 
@@ -33,43 +28,30 @@ void HysteresisThresholdImageFilter<TInputImage, TOutputImage>::GenerateData() {
     itkExceptionMacro("weak threshold " << m_WeakThreshold
                                         << " must not exceed the strong threshold "
                                         << m_StrongThreshold);
-  using InputPixel = typename TInputImage::PixelType;
-  using ComponentImage = itk::Image<unsigned int, TInputImage::ImageDimension>;
   const TInputImage* input = this->GetInput();
   const auto region = input->GetLargestPossibleRegion();
+  const auto size = region.GetSize();
+  const std::size_t n = region.GetNumberOfPixels();
+  const auto* hu = input->GetBufferPointer();
 
-  auto progress = itk::ProgressAccumulator::New();
-  progress->SetMiniPipelineFilter(this);
-
-  auto weak = itk::BinaryThresholdImageFilter<TInputImage, TOutputImage>::New();
-  weak->SetInput(input);
-  weak->SetLowerThreshold(static_cast<InputPixel>(m_WeakThreshold));
-  weak->SetUpperThreshold(std::numeric_limits<InputPixel>::max());
-  weak->SetInsideValue(1);
-  weak->SetOutsideValue(0);
-  progress->RegisterInternalFilter(weak, 0.2f);
-
-  auto components = itk::ConnectedComponentImageFilter<TOutputImage, ComponentImage>::New();
-  components->SetInput(weak->GetOutput());
-  components->FullyConnectedOn();
-  progress->RegisterInternalFilter(components, 0.6f);
-  components->Update();
+  std::vector<unsigned char> weak(n);
+  for (std::size_t v = 0; v < n; ++v)
+    weak[v] = static_cast<double>(hu[v]) >= m_WeakThreshold ? 1 : 0;
+  this->UpdateProgress(0.1f);
+  const ComponentLabels components =
+      label_connected_components(weak.data(), {size[0], size[1], size[2]}, true);
+  this->UpdateProgress(0.8f);
 
   // Components holding a strong voxel are kept.
-  std::vector<unsigned char> keep(static_cast<std::size_t>(components->GetObjectCount()) + 1, 0);
-  const float strong = static_cast<float>(m_StrongThreshold);
-  {
-    itk::ImageRegionConstIterator<TInputImage> h(input, region);
-    itk::ImageRegionConstIterator<ComponentImage> c(components->GetOutput(), region);
-    for (; !h.IsAtEnd(); ++h, ++c)
-      if (c.Get() != 0 && static_cast<float>(h.Get()) >= strong) keep[c.Get()] = 1;
-  }
+  std::vector<unsigned char> keep(components.sizes.size(), 0);
+  for (std::size_t v = 0; v < n; ++v)
+    if (components.labels[v] != 0 && static_cast<double>(hu[v]) >= m_StrongThreshold)
+      keep[components.labels[v]] = 1;
   TOutputImage* output = this->GetOutput();
   output->SetBufferedRegion(region);
   output->Allocate();
-  itk::ImageRegionConstIterator<ComponentImage> c(components->GetOutput(), region);
-  itk::ImageRegionIterator<TOutputImage> out(output, region);
-  for (; !c.IsAtEnd(); ++c, ++out) out.Set(keep[c.Get()] ? 1 : 0);
+  auto* out = output->GetBufferPointer();
+  for (std::size_t v = 0; v < n; ++v) out[v] = keep[components.labels[v]] ? 1 : 0;
   this->UpdateProgress(1.0f);
 }
 
