@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <memory>
 #include <sstream>
 
@@ -35,7 +36,10 @@ class Stage {
       progress_ = std::make_unique<Progress>(std::string("segment: ") + name, 1000);
   }
   ~Stage() {
-    if (progress_) progress_->finish();
+    if (progress_) {
+      if (std::uncaught_exceptions() == 0) progress_->set_fraction(1.0);
+      progress_->finish();
+    }
     result_.stage_times.push_back({name_, clock_.seconds()});
   }
   Stage(const Stage&) = delete;
@@ -190,9 +194,10 @@ SegmentationResult segment_hu_image(const HuImage* input, const SegmentPreset& p
     MaskImage::Pointer fat = empty_mask_like(hu);
     unsigned char* f = fat->GetBufferPointer();
     for (std::size_t v = 0; v < n; ++v) f[v] = labels[v] == kLabelFat ? 1 : 0;
+    // A ball smaller than one voxel holds only its centre and would remove nothing.
+    const double radius = std::max(preset.fat.opening_radius_mm, result.voxel_mm);
     const MaskImage::Pointer opened =
-        morphology(fat, MorphologyOperation::kOpen, preset.fat.opening_radius_mm, stage.progress(),
-                   0.0, 1.0, "cleanup");
+        morphology(fat, MorphologyOperation::kOpen, radius, stage.progress(), 0.0, 1.0, "cleanup");
     const unsigned char* o = opened->GetBufferPointer();
     for (std::size_t v = 0; v < n; ++v)
       if (labels[v] == kLabelFat && !o[v]) labels[v] = kLabelSoftTissue;

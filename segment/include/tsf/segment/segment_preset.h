@@ -78,7 +78,7 @@ struct FatSettings {
   double min_hu = -190.0;
   double max_hu = -30.0;
   /// Opening radius: removes the one-voxel shells of fat-range HU that partial volume leaves
-  /// at every air/soft-tissue boundary.
+  /// at every air/soft-tissue boundary. At least one voxel is always used.
   double opening_radius_mm = 1.0;
 };
 

@@ -53,7 +53,7 @@ void BodyMaskImageFilter<TInputImage, TOutputImage>::GenerateData() {
   opening->SetInput(thresholded);
   opening->SetOperation(MorphologyOperation::kOpen);
   opening->SetRadiusMm(m_OpeningRadiusMm);
-  progress->RegisterInternalFilter(opening, 0.25f);
+  progress->RegisterInternalFilter(opening, 0.3f);
   opening->Update();
 
   // 3. largest 6-connected component
@@ -82,7 +82,7 @@ void BodyMaskImageFilter<TInputImage, TOutputImage>::GenerateData() {
   restored->SetInput(largest);
   restored->SetOperation(MorphologyOperation::kDilate);
   restored->SetRadiusMm(m_OpeningRadiusMm);
-  progress->RegisterInternalFilter(restored, 0.1f);
+  progress->RegisterInternalFilter(restored, 0.15f);
   restored->Update();
   {
     itk::ImageRegionConstIterator<Mask> t(thresholded, region);
@@ -95,7 +95,7 @@ void BodyMaskImageFilter<TInputImage, TOutputImage>::GenerateData() {
   closing->SetInput(restored->GetOutput());
   closing->SetOperation(MorphologyOperation::kClose);
   closing->SetRadiusMm(m_ClosingRadiusMm);
-  progress->RegisterInternalFilter(closing, 0.25f);
+  progress->RegisterInternalFilter(closing, 0.3f);
   closing->Update();
   typename Mask::Pointer body = closing->GetOutput();
 
