@@ -17,9 +17,6 @@
 // Without flags all run. Output: Markdown tables on stdout.
 #include <itkBinaryThresholdImageFilter.h>
 #include <itkDiscreteGaussianImageFilter.h>
-#include <itkGDCMImageIO.h>
-#include <itkGDCMSeriesFileNames.h>
-#include <itkImageSeriesReader.h>
 #include <itkSignedMaurerDistanceMapImageFilter.h>
 
 #include <algorithm>
@@ -57,16 +54,7 @@ double median(std::vector<double> v) {
 }
 
 HuImage::Pointer read_ge_series(const fs::path& dir) {
-  auto names = itk::GDCMSeriesFileNames::New();
-  names->SetUseSeriesDetails(false);
-  names->SetDirectory(dir.string());
-  auto reader = itk::ImageSeriesReader<HuImage>::New();
-  reader->SetImageIO(itk::GDCMImageIO::New());
-  reader->SetFileNames(names->GetFileNames(names->GetSeriesUIDs().front()));
-  reader->Update();
-  HuImage::Pointer image = reader->GetOutput();
-  image->DisconnectPipeline();
-  return image;
+  return read_hu_volume(dir, false);
 }
 
 /// Seconds for one BinaryThreshold pass over `image` (median of `repeat`).

@@ -21,7 +21,7 @@ SegmentJobResult run_segment_job(const SegmentJob& job) {
                 "out/cranium-density.nrrd, ...)");
 
   Stopwatch clock;
-  const HuImage::Pointer input = read_hu_volume(job.input);
+  const HuImage::Pointer input = read_hu_volume(job.input, job.show_progress);
   const double read_seconds = clock.seconds();
 
   SegmentationOptions options;

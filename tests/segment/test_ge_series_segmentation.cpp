@@ -1,19 +1,12 @@
 // End to end on a real DICOM series: the bundled GE HiSpeed head CT (28 slices, gantry tilt
-// 18.5°, uneven slice spacing 4 mm / 7 mm) read with ITK's GDCM series reader and segmented with
-// the `sinus` preset at 1 mm voxels.
-//
-// The reader here stands in for `tsf import` (tsf::import::import_volume), which corrects the
-// tilt and the spacing; ITK alone stacks the tilted slices on the first slice's normal with one
-// spacing. So this test checks what survives either way: the pipeline runs on real scanner
-// pixels and finds a body, soft tissue, bone and the air of the sinuses (slices 1-11), with
+// 18.5°, uneven slice spacing 4 mm / 7 mm) imported by `tsf import` (tilt and spacing resolved by
+// resampling onto an orthogonal grid) and segmented with the `sinus` preset at 1 mm voxels. The
+// pipeline must find a body, soft tissue, bone and the air of the sinuses (slices 1-11), with
 // volumes of the right order for the ~140 mm of head covered (GE_SERIES_RANGES below).
 #include <gtest/gtest.h>
 
-#include <itkGDCMImageIO.h>
-#include <itkGDCMSeriesFileNames.h>
-#include <itkImageSeriesReader.h>
-
 #include "support/test_data.h"
+#include "tsf/segment/hu_volume_source.h"
 #include "tsf/segment/segmentation_pipeline.h"
 #include "tsf/segment/segmentation_report.h"
 #include "tsf/volume/tissue_labels.h"
@@ -21,25 +14,12 @@
 namespace tsf::segment {
 namespace {
 
-HuImage::Pointer read_series_with_gdcm(const std::filesystem::path& dir) {
-  auto names = itk::GDCMSeriesFileNames::New();
-  names->SetUseSeriesDetails(false);  // details split this series by slice thickness
-  names->SetDirectory(dir.string());
-  const auto& uids = names->GetSeriesUIDs();
-  if (uids.empty()) throw std::runtime_error("no DICOM series in " + dir.string());
-  auto reader = itk::ImageSeriesReader<HuImage>::New();
-  reader->SetImageIO(itk::GDCMImageIO::New());
-  reader->SetFileNames(names->GetFileNames(uids.front()));
-  reader->Update();
-  HuImage::Pointer image = reader->GetOutput();
-  image->DisconnectPipeline();
-  return image;
-}
-
 TEST(GeSeriesSegmentation, SinusPresetFindsBodySoftTissueBoneAndSinusAir) {
   const auto dir = tsf::test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing";
-  const HuImage::Pointer hu = read_series_with_gdcm(dir);
-  ASSERT_EQ(hu->GetLargestPossibleRegion().GetSize()[2], 28u);
+  const HuImage::Pointer hu = read_hu_volume(dir, /*show_progress=*/false);
+  // Resampled onto an orthogonal grid: more slices than the 28 acquired, identity direction.
+  EXPECT_GT(hu->GetLargestPossibleRegion().GetSize()[2], 28u);
+  EXPECT_NEAR(hu->GetDirection()[2][2], 1.0, 1e-9);
 
   SegmentPreset preset = load_segment_preset("sinus");
   preset.resample.voxel_mm = 1.0;  // 0.49 mm pixels would be 8× the voxels for the same check

@@ -41,7 +41,7 @@ TEST(HuVolumeSource, ReadsTheBundledCraniumInHounsfieldUnits) {
 TEST(HuVolumeSource, ErrorsNameThePathAndWhatIsExpected) {
   const auto dir = tsf::test::scratch_dir("source");
   EXPECT_NE(read_error(dir / "missing.nrrd").find("missing.nrrd"), std::string::npos);
-  EXPECT_NE(read_error(dir).find("tsf import"), std::string::npos);
+  EXPECT_NE(read_error(dir).find(dir.filename().string()), std::string::npos);
   std::ofstream(dir / "notes.txt") << "not an image";
   EXPECT_NE(read_error(dir / "notes.txt").find("notes.txt"), std::string::npos);
 
@@ -59,7 +59,8 @@ TEST(HuVolumeSource, ErrorsNameThePathAndWhatIsExpected) {
   writer->SetInput(slice);
   writer->Update();
   const std::string message = read_error(dir / "slice.nrrd");
-  EXPECT_NE(message.find("2 dimensions, expected 3"), std::string::npos) << message;
+  EXPECT_NE(message.find("slice.nrrd"), std::string::npos) << message;
+  EXPECT_NE(message.find("expected a volume"), std::string::npos) << message;
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 // Where `tsf segment` gets its Hounsfield-unit volume from: the single place that reads input.
 //
-// Today it reads one image file (NRRD, MetaImage, NIfTI: the output of `tsf import`, or a HU
-// volume such as data-samples/ct-head-cranium/cranium.nrrd) with ITK. Swapping this body for
-// tsf::import::import_volume() makes `tsf segment` accept DICOM series folders too.
+// It goes through tsf::import::import_volume(), so `tsf segment` reads whatever `tsf import`
+// reads: a HU volume file (NRRD, MetaImage, NIfTI; e.g. data-samples/ct-head-cranium/cranium.nrrd
+// or the output of `tsf import`) or a DICOM series (folder, file or DICOMDIR).
 #pragma once
 
 #include <filesystem>
@@ -11,9 +11,9 @@
 
 namespace tsf::segment {
 
-/// Reads `path` as a 3-D HU volume (any scalar pixel type, converted to float). Throws tsf::Error
-/// naming the path when it is missing, a folder (a DICOM series: run `tsf import` first), not a
-/// readable image, not 3-D, or holds non-finite values.
-HuImage::Pointer read_hu_volume(const std::filesystem::path& path);
+/// Reads `path` as a 3-D HU volume (any scalar pixel type, converted to float) or imports the
+/// DICOM series at `path`. Throws tsf::Error naming the path when it is missing, not a readable
+/// image or series, not 3-D, or holds non-finite values.
+HuImage::Pointer read_hu_volume(const std::filesystem::path& path, bool show_progress = true);
 
 }  // namespace tsf::segment
