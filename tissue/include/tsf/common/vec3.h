@@ -93,7 +93,12 @@ TSF_HD_INLINE Vec3<T> normalized_or_zero(const Vec3<T>& a, T eps = T(1e-20)) {
 }
 template <typename T>
 TSF_HD_INLINE bool all_finite(const Vec3<T>& a) {
+#if defined(__CUDA_ARCH__)
   return isfinite(a.x) && isfinite(a.y) && isfinite(a.z);
+#else
+  // <cmath> removes C's isfinite macro and declares only std::isfinite on the host.
+  return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
+#endif
 }
 
 using Vec3f = Vec3<float>;

@@ -1,0 +1,40 @@
+// Full IMT surfacing of a voxel volume (DESIGN.md R2): 12 tetrahedra per cube on the BCC lattice,
+// vertices by linear interpolation on tetrahedron edges, welded exactly by lattice edge key.
+//
+// Multithreaded in the vtkFlyingEdges3D style, over blocks of 8³ cubes:
+//   1. skip blocks whose density range (per-brick min/max, VoxelVolume::brick_ranges) cannot
+//      contain the iso-level;
+//   2. each active block meshes itself into thread-local arrays and counts its vertices and
+//      triangles;
+//   3. prefix sums give every block its output range;
+//   4. blocks copy their vertices and resolve their triangles' vertex keys into indices in
+//      parallel, then area-weighted normals are summed in fixed point (27 block colours, no locks,
+//      the same sums in any thread count).
+// The output is the same for any number of threads.
+#pragma once
+
+#include <cstddef>
+
+#include "tsf/imt/surface_mesh.h"
+#include "tsf/imt/surface_options.h"
+#include "tsf/volume/voxel_volume.h"
+
+namespace tsf::imt {
+
+struct SurfaceBuildStats {
+  double ranges_s = 0;    ///< brick density ranges (0 when the volume's were current)
+  double mesh_s = 0;      ///< pass 2: meshing the active blocks
+  double assemble_s = 0;  ///< passes 3-4: offsets, copies, index resolution
+  double normals_s = 0;   ///< area-weighted normals
+  double total_s = 0;
+  std::size_t blocks = 0;         ///< blocks of 8³ cubes
+  std::size_t active_blocks = 0;  ///< blocks whose range straddles the iso-level
+  int threads = 1;
+};
+
+/// Surfaces `volume` at options.iso. Vertex positions are in tissue space (mm,
+/// VolumeGeometry::index_to_tissue). With compute_normals false, mesh.normals stays empty.
+SurfaceMesh extract_surface(const VoxelVolume& volume, const SurfaceOptions& options = {},
+                            SurfaceBuildStats* stats = nullptr, bool compute_normals = true);
+
+}  // namespace tsf::imt
