@@ -194,6 +194,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
   if (extras) {
     extras->vertex_keys.resize(n_vertices);
     extras->triangle_owner.resize(n_triangles);
+    extras->triangle_owner_signature.resize(n_triangles);
   }
   std::atomic<bool> broken_reference{false};
 #pragma omp parallel
@@ -223,6 +224,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
       for (const auto& cube : window.relevant_cubes()) {
         const Int3& c = cube.c;
         const std::uint64_t owner = grid.linear(c);
+        const std::uint32_t signature = extras ? window.signature(cube.local) : 0u;
         window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
           if (t >= t_end) {  // pass 3 must make what pass 2 counted
             broken_reference = true;
@@ -255,7 +257,10 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
             }
             tri[static_cast<std::size_t>(k)] = id;
           }
-          if (extras) extras->triangle_owner[t] = owner;
+          if (extras) {
+            extras->triangle_owner[t] = owner;
+            extras->triangle_owner_signature[t] = signature;
+          }
           ++t;
         });
       }

@@ -27,9 +27,12 @@ constexpr int kChunk = 32;  // cubes per window edge when re-meshing a large reg
 // Change-tracking bits (per slot, since the last take_changes()).
 constexpr std::uint8_t kTouched = 1, kWasLive = 2, kModified = 4, kNormal = 8;
 
+constexpr std::uint32_t kNoSignature = 0xFFFFFFFFu;  // signatures use 24 bits
+
 struct CubeRecord {
   std::uint32_t vertex[kSlotsPerCube];  // vertex slot per lattice slot, 0 = none
   std::uint32_t first_triangle;         // head of the cube's triangle list, kNone = empty
+  std::uint32_t signature;              // LatticeWindow::signature its triangles were made from
 };
 
 }  // namespace
@@ -88,6 +91,7 @@ struct ImtSurface::State {
     stamp.resize(capacity, 0);
     vchange.resize(capacity, 0);
     normal_dirty_flag.resize(capacity, 0);
+    pending.resize(capacity, 0);
   }
   void resize_triangles(std::size_t capacity) {
     triangles.resize(capacity, {0, 0, 0});
@@ -150,6 +154,7 @@ struct ImtSurface::State {
       CubeRecord& r = records[rid];
       std::fill(std::begin(r.vertex), std::end(r.vertex), 0u);
       r.first_triangle = kNone;
+      r.signature = kNoSignature;
     }
     return rid;
   }
@@ -235,56 +240,78 @@ struct ImtSurface::State {
     records[rid].first_triangle = kNone;
   }
 
-  /// The vertex for lattice slot `slot` of cube `o`, made or refreshed from the current window.
-  std::uint32_t acquire_vertex(const Int3& o, int slot) {
+  /// The vertex for lattice slot `slot` of cube `o`: made from the current window when new;
+  /// refreshed once per update otherwise, a changed position or label going to `moved` (applied
+  /// after the old normal contributions are taken off).
+  std::uint32_t vertex_for(const Int3& o, int slot) {
     const std::uint32_t rid = record_of(o, true);
     std::uint32_t v = records[rid].vertex[slot];
-    if (v == 0 || stamp[v] != generation) {
-      Vec3d ip;
-      std::uint8_t label;
-      window.vertex(o, window.local_index(o), slot, ip, label);
-      const Vec3f p = detail::tissue_position(geometry, ip);
-      if (v == 0) {
-        v = allocate_vertex();
-        touch_vertex(v, kModified);
-        records[rid].vertex[slot] = v;
-        key[v] = grid.key(o, slot);
-        positions[v] = p;
-        labels[v] = label;
-        refcount[v] = 0;
-        normal_sum[v] = {};
-        ++stats.vertices_made;
-      } else if (!(positions[v] == p) || labels[v] != label) {
-        touch_vertex(v, kModified);
-        positions[v] = p;
-        labels[v] = label;
-        ++stats.vertices_moved;
-      }
-      stamp[v] = generation;
+    if (v != 0 && stamp[v] == generation) return v;
+    Vec3d ip;
+    std::uint8_t label;
+    window.vertex(o, window.local_index(o), slot, ip, label);
+    const Vec3f p = detail::tissue_position(geometry, ip);
+    if (v == 0) {
+      v = allocate_vertex();
+      touch_vertex(v, kModified);
+      records[rid].vertex[slot] = v;
+      key[v] = grid.key(o, slot);
+      positions[v] = p;
+      labels[v] = label;
+      refcount[v] = 0;
+      normal_sum[v] = {};
+      created.push_back(v);
+      ++stats.vertices_made;
+    } else if (!(positions[v] == p) || labels[v] != label) {
+      moved.push_back({v, p, label});
+      ++stats.vertices_moved;
     }
-    ++refcount[v];
+    stamp[v] = generation;
     return v;
   }
 
-  void add_triangle(const Int3& c, const LatticeRef* keys) {
-    std::array<std::uint32_t, 3> ids{};
-    for (int k = 0; k < 3; ++k)
-      ids[static_cast<std::size_t>(k)] = acquire_vertex(
-          {c.x + keys[k].offset[0], c.y + keys[k].offset[1], c.z + keys[k].offset[2]},
-          keys[k].slot);
+  /// Takes triangle t's normal contribution off (or puts it on) its vertices.
+  void add_normal(std::uint32_t t, bool add) {
+    const NormalSum n = face_sum(triangles[t]);
+    for (std::uint32_t v : triangles[t]) {
+      if (add)
+        normal_sum[v] += n;
+      else
+        normal_sum[v] -= n;
+      mark_normal_dirty(v);
+    }
+  }
+
+  /// A new triangle of record rid (appended to its list's head).
+  void make_triangle(std::uint32_t rid, const std::array<std::uint32_t, 3>& ids) {
     const std::uint32_t t = allocate_triangle();
     touch_triangle(t);
     triangles[t] = ids;
-    const std::uint32_t rid = record_of(c, true);
     next_triangle[t] = records[rid].first_triangle;
     records[rid].first_triangle = t;
-    const NormalSum n = face_sum(ids);
-    for (std::uint32_t v : ids) {
-      normal_sum[v] += n;
-      mark_normal_dirty(v);
-    }
+    for (std::uint32_t v : ids) ++refcount[v];
+    add_normal(t, true);
     ++stats.triangles_made;
   }
+
+  // Per-update scratch.
+  struct Moved {
+    std::uint32_t vertex;
+    Vec3f position;
+    std::uint8_t label;
+  };
+  struct ChangedCube {
+    Int3 c;
+    std::uint32_t first, count;  // new triangles in new_triangles
+    std::uint32_t signature;
+  };
+  std::vector<std::uint32_t> created;
+  std::vector<Moved> moved;
+  std::vector<ChangedCube> changed_cubes;
+  std::vector<std::array<std::uint32_t, 3>> new_triangles;
+  std::vector<std::uint32_t> kept_records, readd;
+  std::vector<std::uint32_t> record_stamp;  // per record: generation when last visited
+  std::vector<std::uint8_t> pending;        // per vertex slot: moved in this update
 };
 
 ImtSurface::ImtSurface(const SurfaceOptions& options, double headroom)
@@ -353,6 +380,7 @@ void ImtSurface::build(const VoxelVolume& volume) {
     const std::uint32_t rid = fresh.record_of(fresh.grid.cube(extras.triangle_owner[t]), true);
     fresh.next_triangle[t] = fresh.records[rid].first_triangle;
     fresh.records[rid].first_triangle = static_cast<std::uint32_t>(t);
+    fresh.records[rid].signature = extras.triangle_owner_signature[t];
   }
   fresh.triangle_slots = static_cast<std::uint32_t>(nt);
   fresh.reallocated = true;
@@ -374,47 +402,33 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
   ++s.generation;
   if (s.generation == 0) {  // wrapped: stale stamps could alias
     std::fill(s.stamp.begin(), s.stamp.end(), 0u);
+    std::fill(s.record_stamp.begin(), s.record_stamp.end(), 0u);
     s.generation = 1;
   }
 
-  // Owner cubes whose tetrahedra see a changed value (or, with merging, a changed decision).
-  const bool snapping = s.options.snap_epsilon > 0.0f;
-  const int below = snapping ? 3 : 1, above = snapping ? 3 : 1;
+  // Owner cubes whose tetrahedra can see a changed value or a changed merging decision: the
+  // changed samples touch cubes [lo − 1, hi − 1] and their centres; a tetrahedron of cube c spans
+  // cubes c − 1 .. c; merging decisions look two lattice steps (one cube) further each way.
+  const bool merging = s.options.snap_epsilon > 0.0f;
+  const int below = merging ? 3 : 1, above = merging ? 3 : 1;
   const VoxelBox region =
       changed.dilated(below, above)
           .intersected({{-1, -1, -1}, {s.grid.size.x - 1, s.grid.size.y - 1, s.grid.size.z - 1}});
   s.stats.cubes_remeshed = static_cast<std::size_t>(region.voxel_count());
-
-  // 1. Release the region's triangles.
+  // Cubes whose triangles can use a vertex that moved: vertices move only on edges with a changed
+  // end value, and the tetrahedra holding those edges belong to these cubes.
+  const VoxelBox core = changed.dilated(1, 1);
+  s.created.clear();
+  s.moved.clear();
+  s.changed_cubes.clear();
+  s.new_triangles.clear();
+  s.kept_records.clear();
+  s.readd.clear();
   s.released_vertices.clear();
-  for (int pz = (region.lo.z + 1) / kPageEdge; pz <= region.hi.z / kPageEdge; ++pz)
-    for (int py = (region.lo.y + 1) / kPageEdge; py <= region.hi.y / kPageEdge; ++py)
-      for (int px = (region.lo.x + 1) / kPageEdge; px <= region.hi.x / kPageEdge; ++px) {
-        if (px >= s.pages.x || py >= s.pages.y || pz >= s.pages.z) continue;
-        const std::uint32_t page =
-            s.page_of[static_cast<std::size_t>(px) +
-                      static_cast<std::size_t>(s.pages.x) *
-                          (static_cast<std::size_t>(py) +
-                           static_cast<std::size_t>(s.pages.y) * static_cast<std::size_t>(pz))];
-        if (page == 0) continue;
-        const VoxelBox cubes = VoxelBox{
-            {px * kPageEdge - 1, py * kPageEdge - 1, pz * kPageEdge - 1},
-            {px * kPageEdge + kPageEdge - 1, py * kPageEdge + kPageEdge - 1,
-             pz * kPageEdge + kPageEdge -
-                 1}}.intersected(region);
-        for (int z = cubes.lo.z; z < cubes.hi.z; ++z)
-          for (int y = cubes.lo.y; y < cubes.hi.y; ++y)
-            for (int x = cubes.lo.x; x < cubes.hi.x; ++x) {
-              const std::uint32_t rid = s.page_records[page - 1][static_cast<std::size_t>(
-                  State::page_local({x + 1, y + 1, z + 1}))];
-              if (rid != 0 && s.records[rid].first_triangle != kNone) {
-                s.release_triangles(rid);
-                s.released_cubes.push_back({x, y, z});
-              }
-            }
-      }
+  if (s.record_stamp.size() < s.records.size()) s.record_stamp.resize(s.records.size() * 2, 0);
+  if (s.pending.size() < s.positions.size()) s.pending.resize(s.positions.size(), 0);
 
-  // 2. Re-mesh the region, a window per chunk.
+  // 1. Per chunk: mesh every cube that can hold surface now; compare with what it held.
   const bool ranges = volume.brick_ranges_current();
   for (int z0 = region.lo.z; z0 < region.hi.z; z0 += kChunk)
     for (int y0 = region.lo.y; y0 < region.hi.y; y0 += kChunk)
@@ -422,24 +436,131 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
         const Int3 c0{x0, y0, z0};
         const Int3 c1{std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
                       std::min(z0 + kChunk, region.hi.z)};
-        if (ranges && !detail::range_straddles(
-                          volume, volume.brick_ranges(), {c0.x - below, c0.y - below, c0.z - below},
-                          {c1.x + above - 1, c1.y + above - 1, c1.z + above - 1}, s.options.iso))
-          continue;
-        s.window.compute(volume, s.options, c0, c1);
-        for (const auto& cube : s.window.relevant_cubes())
-          s.window.mesh_cube(cube.local,
-                             [&](const LatticeRef* keys) { s.add_triangle(cube.c, keys); });
+        const bool may_hold_surface =
+            !ranges ||
+            detail::range_straddles(
+                volume, volume.brick_ranges(), {c0.x - below, c0.y - below, c0.z - below},
+                {c1.x + above - 1, c1.y + above - 1, c1.z + above - 1}, s.options.iso);
+        if (may_hold_surface) {
+          s.window.compute(volume, s.options, c0, c1);
+          for (const auto& cube : s.window.relevant_cubes()) {
+            const std::uint32_t signature = s.window.signature(cube.local);
+            const std::uint32_t rid = s.record_of(cube.c, false);
+            if (rid != 0) {
+              if (rid >= s.record_stamp.size()) s.record_stamp.resize(2 * rid + 2, 0);
+              s.record_stamp[rid] = s.generation;
+            }
+            const bool in_core = core.contains(cube.c.x, cube.c.y, cube.c.z);
+            if (rid != 0 && s.records[rid].signature == signature) {
+              // Same triangles (as lattice keys, so as vertex ids). Only near the change can
+              // their vertices have moved: refresh those.
+              if (in_core && s.records[rid].first_triangle != kNone) {
+                s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+                  for (int k = 0; k < 3; ++k)
+                    s.vertex_for({cube.c.x + keys[k].offset[0], cube.c.y + keys[k].offset[1],
+                                  cube.c.z + keys[k].offset[2]},
+                                 keys[k].slot);
+                });
+                s.kept_records.push_back(rid);
+              }
+              continue;
+            }
+            const std::uint32_t first = static_cast<std::uint32_t>(s.new_triangles.size());
+            s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+              std::array<std::uint32_t, 3> ids{};
+              for (int k = 0; k < 3; ++k)
+                ids[static_cast<std::size_t>(k)] =
+                    s.vertex_for({cube.c.x + keys[k].offset[0], cube.c.y + keys[k].offset[1],
+                                  cube.c.z + keys[k].offset[2]},
+                                 keys[k].slot);
+              s.new_triangles.push_back(ids);
+            });
+            const std::uint32_t count = static_cast<std::uint32_t>(s.new_triangles.size()) - first;
+            s.changed_cubes.push_back({cube.c, first, count, signature});
+          }
+        }
+        // Cubes that held triangles and are not relevant any more lose them all.
+        for (int pz = (c0.z + 1) / kPageEdge; pz <= c1.z / kPageEdge; ++pz)
+          for (int py = (c0.y + 1) / kPageEdge; py <= c1.y / kPageEdge; ++py)
+            for (int px = (c0.x + 1) / kPageEdge; px <= c1.x / kPageEdge; ++px) {
+              if (px >= s.pages.x || py >= s.pages.y || pz >= s.pages.z) continue;
+              const std::uint32_t page = s.page_of[static_cast<std::size_t>(px) +
+                                                   static_cast<std::size_t>(s.pages.x) *
+                                                       (static_cast<std::size_t>(py) +
+                                                        static_cast<std::size_t>(s.pages.y) *
+                                                            static_cast<std::size_t>(pz))];
+              if (page == 0) continue;
+              const VoxelBox cubes = VoxelBox{
+                  {px * kPageEdge - 1, py * kPageEdge - 1, pz * kPageEdge - 1},
+                  {px * kPageEdge + kPageEdge - 1, py * kPageEdge + kPageEdge - 1,
+                   pz * kPageEdge + kPageEdge -
+                       1}}.intersected({c0, c1});
+              for (int z = cubes.lo.z; z < cubes.hi.z; ++z)
+                for (int y = cubes.lo.y; y < cubes.hi.y; ++y)
+                  for (int x = cubes.lo.x; x < cubes.hi.x; ++x) {
+                    const std::uint32_t rid = s.page_records[page - 1][static_cast<std::size_t>(
+                        State::page_local({x + 1, y + 1, z + 1}))];
+                    if (rid == 0 || s.records[rid].first_triangle == kNone) continue;
+                    if (rid < s.record_stamp.size() && s.record_stamp[rid] == s.generation)
+                      continue;  // visited as a relevant cube
+                    s.changed_cubes.push_back({{x, y, z},
+                                               static_cast<std::uint32_t>(s.new_triangles.size()),
+                                               0,
+                                               kNoSignature});
+                  }
+            }
       }
 
-  // 3. Free vertices no triangle uses any more; tidy the region's records.
+  // 2. Take off the normal contributions that change, with the old positions: every triangle of
+  // a changed cube (released), and kept triangles that use a moved vertex.
+  for (const State::Moved& m : s.moved) s.pending[m.vertex] = 1;
+  for (const auto& cc : s.changed_cubes) {
+    const std::uint32_t rid = s.record_of(cc.c, false);
+    if (rid != 0 && s.records[rid].first_triangle != kNone) {
+      s.release_triangles(rid);
+      s.released_cubes.push_back(cc.c);
+    }
+  }
+  if (!s.moved.empty())
+    for (std::uint32_t rid : s.kept_records)
+      for (std::uint32_t t = s.records[rid].first_triangle; t != kNone; t = s.next_triangle[t]) {
+        const auto& tri = s.triangles[t];
+        if (s.pending[tri[0]] | s.pending[tri[1]] | s.pending[tri[2]]) {
+          s.add_normal(t, false);
+          s.readd.push_back(t);
+        }
+      }
+
+  // 3. Move the vertices, then put the contributions back and make the new triangles.
+  for (const State::Moved& m : s.moved) {
+    s.touch_vertex(m.vertex, kModified);
+    s.positions[m.vertex] = m.position;
+    s.labels[m.vertex] = m.label;
+    s.pending[m.vertex] = 0;
+  }
+  for (std::uint32_t t : s.readd) s.add_normal(t, true);  // same indices: not a triangle change
+  for (const auto& cc : s.changed_cubes) {
+    if (cc.count == 0) {
+      const std::uint32_t rid = s.record_of(cc.c, false);
+      if (rid != 0) s.records[rid].signature = kNoSignature;
+      continue;
+    }
+    const std::uint32_t rid = s.record_of(cc.c, true);
+    s.records[rid].signature = cc.signature;
+    for (std::uint32_t i = cc.first + cc.count; i-- > cc.first;)  // reversed: list keeps order
+      s.make_triangle(rid, s.new_triangles[i]);
+  }
+
+  // 4. Free vertices no triangle uses any more; tidy records.
   for (std::uint32_t v : s.released_vertices)
+    if (s.vertex_live(v) && s.refcount[v] == 0) s.free_vertex(v);
+  for (std::uint32_t v : s.created)
     if (s.vertex_live(v) && s.refcount[v] == 0) s.free_vertex(v);
   s.released_vertices.clear();
   for (const Int3& c : s.released_cubes) s.release_record_if_empty(c);
   s.released_cubes.clear();
 
-  // 4. Normals of the vertices whose fans changed.
+  // 5. Normals of the vertices whose fans changed.
   for (std::uint32_t v : s.normal_dirty) {
     s.normal_dirty_flag[v] = 0;
     if (!s.vertex_live(v)) continue;
@@ -536,9 +657,6 @@ SurfaceChanges ImtSurface::take_changes() {
       out.triangles_freed.push_back(t);
   }
   s.touched_triangles.clear();
-  for (auto* list : {&out.vertices_added, &out.vertices_modified, &out.vertices_normal_changed,
-                     &out.vertices_freed, &out.triangles_added, &out.triangles_freed})
-    std::sort(list->begin(), list->end());
   return out;
 }
 

@@ -83,6 +83,12 @@ class LatticeWindow {
   /// LatticeRefs relative to the cube.
   template <typename Emit>
   void mesh_cube(std::int64_t local, Emit&& emit) const;
+  /// What mesh_cube's output depends on: the inside and merged bits of the cube's 12 points
+  /// (24 bits). Two cubes with the same signature emit the same triangles (as lattice keys).
+  std::uint32_t signature(std::int64_t local) const {
+    const CubeSides cs = sides(local);
+    return cs.inside | (cs.merged << kCubePoints);
+  }
   /// Number of triangles mesh_cube would emit.
   int count_triangles(std::int64_t local) const;
 

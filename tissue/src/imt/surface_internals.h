@@ -83,9 +83,10 @@ inline Vec3f tissue_position(const VolumeGeometry& g, const Vec3d& index_positio
 
 /// Outputs of the full surfacing that the incremental surface adopts.
 struct ExtractionExtras {
-  std::vector<std::uint64_t> vertex_keys;     ///< #V, CubeGrid::key
-  std::vector<std::uint64_t> triangle_owner;  ///< #T, CubeGrid::linear of the owning cube
-  std::vector<NormalSum> normal_sums;         ///< #V
+  std::vector<std::uint64_t> vertex_keys;               ///< #V, CubeGrid::key
+  std::vector<std::uint64_t> triangle_owner;            ///< #T, CubeGrid::linear of the owning cube
+  std::vector<std::uint32_t> triangle_owner_signature;  ///< #T, LatticeWindow::signature of it
+  std::vector<NormalSum> normal_sums;                   ///< #V
 };
 
 SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOptions& options,
