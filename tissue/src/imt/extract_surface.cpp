@@ -22,6 +22,10 @@ void SurfaceOptions::validate() const {
 
 namespace detail {
 
+namespace {
+constexpr std::int64_t kParallelBricks = 512;  // bricks before range passes go parallel
+}  // namespace
+
 std::vector<VoxelVolume::BrickRange> current_brick_ranges(const VoxelVolume& volume,
                                                           double* seconds) {
   Stopwatch clock;
@@ -33,7 +37,7 @@ std::vector<VoxelVolume::BrickRange> current_brick_ranges(const VoxelVolume& vol
   std::vector<VoxelVolume::BrickRange> ranges(volume.brick_count());
   const float* d = volume.density_data().data();
   const std::int64_t n = bd.volume();
-#pragma omp parallel for schedule(dynamic, 8)
+#pragma omp parallel for schedule(dynamic, 8) if (n >= kParallelBricks)
   for (std::int64_t b = 0; b < n; ++b) {
     const int bi = static_cast<int>(b % bd.x), bj = static_cast<int>((b / bd.x) % bd.y);
     const int bk = static_cast<int>(b / (static_cast<std::int64_t>(bd.x) * bd.y));
@@ -75,7 +79,8 @@ bool range_straddles(const VoxelVolume& volume, const std::vector<VoxelVolume::B
 
 namespace {
 
-constexpr int kBlock = 8;  // cubes per block edge
+constexpr int kBlock = 8;                     // cubes per block edge
+constexpr std::int64_t kParallelBlocks = 64;  // active blocks before the passes go parallel
 
 /// Bits set in a 16-bit mask (portable: no popcnt instruction assumed).
 inline std::uint32_t popcount16(std::uint16_t v) {
@@ -121,7 +126,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
   };
   {
     std::vector<std::uint8_t> active(static_cast<std::size_t>(block_count), 0);
-#pragma omp parallel for schedule(dynamic, 64)
+#pragma omp parallel for schedule(dynamic, 64) if (block_count >= kParallelBricks)
     for (std::int64_t b = 0; b < block_count; ++b) {
       Int3 c0, c1;
       block_cubes(b, c0, c1);
@@ -140,6 +145,9 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
     if (active_of_block[static_cast<std::size_t>(b)] >= 0)
       active_blocks[static_cast<std::size_t>(active_of_block[static_cast<std::size_t>(b)])] = b;
   const std::size_t n_active = active_blocks.size();
+  // Small volumes run on the calling thread: a parallel region costs more than it saves there,
+  // and far more when the machine is oversubscribed.
+  const bool parallel_blocks = n_active >= kParallelBlocks;
 
   // ---- pass 2: count each active block's vertices (slot masks) and triangles ------------------
   Stopwatch clock;
@@ -148,11 +156,11 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
   std::vector<std::uint16_t> slot_prefix(n_active * kCubesPerBlock, 0);
   std::vector<BlockRecord> records(n_active);
   std::vector<std::vector<LatticeWindow::MergedPoint>> merged(n_active);
-  stats.threads = std::max(1, omp_get_max_threads());
+  stats.threads = parallel_blocks ? std::max(1, omp_get_max_threads()) : 1;
   auto block_local = [](const Int3& c, const Int3& c0) {
     return (c.x - c0.x) + kBlock * ((c.y - c0.y) + kBlock * (c.z - c0.z));
   };
-#pragma omp parallel
+#pragma omp parallel if (parallel_blocks)
   {
     LatticeWindow window;
 #pragma omp for schedule(dynamic, 4)
@@ -197,7 +205,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
     extras->triangle_owner_signature.resize(n_triangles);
   }
   std::atomic<bool> broken_reference{false};
-#pragma omp parallel
+#pragma omp parallel if (parallel_blocks)
   {
     LatticeWindow window;
 #pragma omp for schedule(dynamic, 4)
@@ -284,7 +292,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
                          9 * static_cast<int>((b / (static_cast<std::int64_t>(nb.x) * nb.y)) % 3);
       by_colour[static_cast<std::size_t>(colour)].push_back(a);
     }
-#pragma omp parallel
+#pragma omp parallel if (parallel_blocks)
     for (const auto& blocks : by_colour) {
 #pragma omp for schedule(dynamic, 4)
       for (std::int64_t i = 0; i < static_cast<std::int64_t>(blocks.size()); ++i) {
@@ -300,7 +308,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
     }
     if (compute_normals) {
       mesh.normals.resize(n_vertices);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel_blocks)
       for (std::int64_t v = 0; v < static_cast<std::int64_t>(n_vertices); ++v)
         mesh.normals[static_cast<std::size_t>(v)] = unit_normal(sums[static_cast<std::size_t>(v)]);
     }

@@ -27,7 +27,7 @@ VoxelVolume make_sdf_volume(const VolumeGeometry& geometry,
   float* d = volume.density_for_tracked_write();
   std::uint8_t* l = volume.labels_for_tracked_write();
   const Int3 n = geometry.dims;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) if (geometry.voxel_count() >= (1u << 18))
   for (int k = 0; k < n.z; ++k)
     for (int j = 0; j < n.y; ++j)
       for (int i = 0; i < n.x; ++i) {
@@ -77,7 +77,7 @@ VoxelVolume make_blob_volume(const VolumeGeometry& geometry, unsigned seed, int 
   float* d = volume.density_for_tracked_write();
   std::uint8_t* l = volume.labels_for_tracked_write();
   const Int3 n = geometry.dims;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) if (geometry.voxel_count() >= (1u << 18))
   for (int z = 0; z < n.z; ++z)
     for (int y = 0; y < n.y; ++y)
       for (int x = 0; x < n.x; ++x) {

@@ -89,7 +89,7 @@ void VoxelVolume::mark_all_modified() {
   ++modification_count_;
   const std::int64_t n = brick_dims_.volume();
   const int bx = brick_dims_.x, by = brick_dims_.y;
-#pragma omp parallel for schedule(dynamic, 16)
+#pragma omp parallel for schedule(dynamic, 16) if (n >= 512)
   for (std::int64_t b = 0; b < n; ++b) {
     const int bi = static_cast<int>(b % bx);
     const int bj = static_cast<int>((b / bx) % by);
