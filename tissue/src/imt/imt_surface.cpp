@@ -54,6 +54,7 @@ struct ImtSurface::State {
   std::vector<NormalSum> normal_sum;
   std::vector<std::uint32_t> stamp;
   std::vector<std::uint8_t> vchange;
+  std::vector<std::uint8_t> live;  // 1 while the slot holds a vertex (compact: hot in cache)
   std::uint32_t vertex_slots = 1;  // slot 0: sentinel
   std::vector<std::uint32_t> free_vertices;
 
@@ -90,6 +91,7 @@ struct ImtSurface::State {
     normal_sum.resize(capacity);
     stamp.resize(capacity, 0);
     vchange.resize(capacity, 0);
+    live.resize(capacity, 0);
     normal_dirty_flag.resize(capacity, 0);
     pending.resize(capacity, 0);
   }
@@ -101,7 +103,7 @@ struct ImtSurface::State {
   static std::size_t grown(std::size_t needed) { return needed + needed / 2 + 1024; }
 
   // ---- change tracking --------------------------------------------------------------------------
-  bool vertex_live(std::uint32_t v) const { return v != 0 && key[v] != kNoKey; }
+  bool vertex_live(std::uint32_t v) const { return live[v] != 0; }
   void touch_vertex(std::uint32_t v, std::uint8_t bits) {
     if (!(vchange[v] & kTouched)) {
       vchange[v] = static_cast<std::uint8_t>(kTouched | (vertex_live(v) ? kWasLive : 0));
@@ -209,6 +211,7 @@ struct ImtSurface::State {
     if (rid != 0) records[rid].vertex[k % kSlotsPerCube] = 0;
     release_record_if_empty(c);
     key[v] = kNoKey;
+    live[v] = 0;
     normal_sum[v] = {};
     normals[v] = {};
     free_vertices.push_back(v);
@@ -256,6 +259,7 @@ struct ImtSurface::State {
       touch_vertex(v, kModified);
       records[rid].vertex[slot] = v;
       key[v] = grid.key(o, slot);
+      live[v] = 1;
       positions[v] = p;
       labels[v] = label;
       refcount[v] = 0;
@@ -264,6 +268,7 @@ struct ImtSurface::State {
       ++stats.vertices_made;
     } else if (!(positions[v] == p) || labels[v] != label) {
       moved.push_back({v, p, label});
+      pending[v] = 1;
       ++stats.vertices_moved;
     }
     stamp[v] = generation;
@@ -364,6 +369,7 @@ void ImtSurface::build(const VoxelVolume& volume) {
     fresh.normals[slot] = mesh.normals[v];
     fresh.labels[slot] = mesh.labels[v];
     fresh.key[slot] = extras.vertex_keys[v];
+    fresh.live[slot] = 1;
     fresh.normal_sum[slot] = extras.normal_sums[v];
     const std::uint64_t k = extras.vertex_keys[v];
     const std::uint32_t rid = fresh.record_of(fresh.grid.cube(k / kSlotsPerCube), true);
@@ -455,13 +461,19 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
               // Same triangles (as lattice keys, so as vertex ids). Only near the change can
               // their vertices have moved: refresh those.
               if (in_core && s.records[rid].first_triangle != kNone) {
+                bool moved = false;
                 s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-                  for (int k = 0; k < 3; ++k)
-                    s.vertex_for({cube.c.x + keys[k].offset[0], cube.c.y + keys[k].offset[1],
-                                  cube.c.z + keys[k].offset[2]},
-                                 keys[k].slot);
+                  for (int k = 0; k < 3; ++k) {
+                    const std::size_t before = s.moved.size();
+                    const std::uint32_t v =
+                        s.vertex_for({cube.c.x + keys[k].offset[0], cube.c.y + keys[k].offset[1],
+                                      cube.c.z + keys[k].offset[2]},
+                                     keys[k].slot);
+                    // Moved now, or earlier in this update by another cube.
+                    moved = moved || s.moved.size() != before || s.pending[v];
+                  }
                 });
-                s.kept_records.push_back(rid);
+                if (moved) s.kept_records.push_back(rid);
               }
               continue;
             }
@@ -513,7 +525,6 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
 
   // 2. Take off the normal contributions that change, with the old positions: every triangle of
   // a changed cube (released), and kept triangles that use a moved vertex.
-  for (const State::Moved& m : s.moved) s.pending[m.vertex] = 1;
   for (const auto& cc : s.changed_cubes) {
     const std::uint32_t rid = s.record_of(cc.c, false);
     if (rid != 0 && s.records[rid].first_triangle != kNone) {
@@ -521,15 +532,11 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
       s.released_cubes.push_back(cc.c);
     }
   }
-  if (!s.moved.empty())
-    for (std::uint32_t rid : s.kept_records)
-      for (std::uint32_t t = s.records[rid].first_triangle; t != kNone; t = s.next_triangle[t]) {
-        const auto& tri = s.triangles[t];
-        if (s.pending[tri[0]] | s.pending[tri[1]] | s.pending[tri[2]]) {
-          s.add_normal(t, false);
-          s.readd.push_back(t);
-        }
-      }
+  for (std::uint32_t rid : s.kept_records)  // kept cubes with a moved vertex: redo their fans
+    for (std::uint32_t t = s.records[rid].first_triangle; t != kNone; t = s.next_triangle[t]) {
+      s.add_normal(t, false);
+      s.readd.push_back(t);
+    }
 
   // 3. Move the vertices, then put the contributions back and make the new triangles.
   for (const State::Moved& m : s.moved) {
