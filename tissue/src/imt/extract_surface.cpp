@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <string>
 
@@ -35,23 +36,12 @@ std::vector<VoxelVolume::BrickRange> current_brick_ranges(const VoxelVolume& vol
   }
   const Int3 bd = volume.brick_dims();
   std::vector<VoxelVolume::BrickRange> ranges(volume.brick_count());
-  const float* d = volume.density_data().data();
   const std::int64_t n = bd.volume();
 #pragma omp parallel for schedule(dynamic, 8) if (n >= kParallelBricks)
   for (std::int64_t b = 0; b < n; ++b) {
     const int bi = static_cast<int>(b % bd.x), bj = static_cast<int>((b / bd.x) % bd.y);
     const int bk = static_cast<int>(b / (static_cast<std::int64_t>(bd.x) * bd.y));
-    const VoxelBox box = volume.brick_box(bi, bj, bk);
-    float lo = d[volume.index(box.lo.x, box.lo.y, box.lo.z)], hi = lo;
-    for (int k = box.lo.z; k < box.hi.z; ++k)
-      for (int j = box.lo.y; j < box.hi.y; ++j) {
-        const float* row = d + volume.index(0, j, k);
-        for (int i = box.lo.x; i < box.hi.x; ++i) {
-          lo = std::min(lo, row[i]);
-          hi = std::max(hi, row[i]);
-        }
-      }
-    ranges[static_cast<std::size_t>(b)] = {lo, hi};
+    ranges[static_cast<std::size_t>(b)] = volume.compute_brick_range(bi, bj, bk);
   }
   if (seconds) *seconds = clock.seconds();
   return ranges;
@@ -82,13 +72,17 @@ namespace {
 constexpr int kBlock = 8;                     // cubes per block edge
 constexpr std::int64_t kParallelBlocks = 64;  // active blocks before the passes go parallel
 
-/// Bits set in a 16-bit mask (portable: no popcnt instruction assumed).
+/// Bits set in each byte value (the build assumes no popcnt instruction).
+constexpr std::array<std::uint8_t, 256> kBitsSet = [] {
+  std::array<std::uint8_t, 256> t{};
+  for (int i = 0; i < 256; ++i)
+    for (int b = 0; b < 8; ++b)
+      t[static_cast<std::size_t>(i)] =
+          static_cast<std::uint8_t>(t[static_cast<std::size_t>(i)] + ((i >> b) & 1));
+  return t;
+}();
 inline std::uint32_t popcount16(std::uint16_t v) {
-  std::uint32_t x = v;
-  x = x - ((x >> 1) & 0x5555u);
-  x = (x & 0x3333u) + ((x >> 2) & 0x3333u);
-  x = (x + (x >> 4)) & 0x0F0Fu;
-  return (x + (x >> 8)) & 0x1Fu;
+  return kBitsSet[v & 0xFFu] + kBitsSet[v >> 8];
 }
 
 struct BlockRecord {

@@ -57,19 +57,40 @@ VoxelBox VoxelVolume::brick_box(int bi, int bj, int bk) const {
   return box.intersected(VoxelBox::of_dims(geometry_.dims));
 }
 
-void VoxelVolume::recompute_brick_range(int bi, int bj, int bk) {
+VoxelVolume::BrickRange VoxelVolume::compute_brick_range(int bi, int bj, int bk) const {
   const VoxelBox box = brick_box(bi, bj, bk);
-  float lo = density_[index(box.lo.x, box.lo.y, box.lo.z)];
-  float hi = lo;
+  const int width = box.hi.x - box.lo.x;
+  if (width == kBrickSize) {
+    // Full-width rows: eight running minima and maxima, one per column (vectorises).
+    float lo[kBrickSize], hi[kBrickSize];
+    const float* first = density_.data() + index(box.lo.x, box.lo.y, box.lo.z);
+    for (int i = 0; i < kBrickSize; ++i) lo[i] = hi[i] = first[i];
+    for (int k = box.lo.z; k < box.hi.z; ++k)
+      for (int j = box.lo.y; j < box.hi.y; ++j) {
+        const float* row = density_.data() + index(box.lo.x, j, k);
+        for (int i = 0; i < kBrickSize; ++i) {
+          lo[i] = row[i] < lo[i] ? row[i] : lo[i];
+          hi[i] = row[i] > hi[i] ? row[i] : hi[i];
+        }
+      }
+    BrickRange r{lo[0], hi[0]};
+    for (int i = 1; i < kBrickSize; ++i) {
+      r.min = std::min(r.min, lo[i]);
+      r.max = std::max(r.max, hi[i]);
+    }
+    return r;
+  }
+  BrickRange r{density_[index(box.lo.x, box.lo.y, box.lo.z)],
+               density_[index(box.lo.x, box.lo.y, box.lo.z)]};
   for (int k = box.lo.z; k < box.hi.z; ++k)
     for (int j = box.lo.y; j < box.hi.y; ++j) {
       const float* row = density_.data() + index(0, j, k);
       for (int i = box.lo.x; i < box.hi.x; ++i) {
-        lo = std::min(lo, row[i]);
-        hi = std::max(hi, row[i]);
+        r.min = std::min(r.min, row[i]);
+        r.max = std::max(r.max, row[i]);
       }
     }
-  brick_ranges_[brick_index(bi, bj, bk)] = {lo, hi};
+  return r;
 }
 
 void VoxelVolume::mark_modified(const VoxelBox& box) {

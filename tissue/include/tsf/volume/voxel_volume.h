@@ -110,6 +110,8 @@ class VoxelVolume {
   }
   /// The voxels of brick (bi,bj,bk), clipped to the volume.
   VoxelBox brick_box(int bi, int bj, int bk) const;
+  /// The density range of brick (bi,bj,bk) computed from the data now (what mark_modified stores).
+  BrickRange compute_brick_range(int bi, int bj, int bk) const;
   /// Density range of each brick (index brick_index()); meaningful when brick_ranges_current().
   const std::vector<BrickRange>& brick_ranges() const { return brick_ranges_; }
   /// False after density_data() handed out writable access, until mark_all_modified().
@@ -150,7 +152,9 @@ class VoxelVolume {
   std::uint64_t modification_count_ = 0;
   bool ranges_current_ = true;
 
-  void recompute_brick_range(int bi, int bj, int bk);
+  void recompute_brick_range(int bi, int bj, int bk) {
+    brick_ranges_[brick_index(bi, bj, bk)] = compute_brick_range(bi, bj, bk);
+  }
 };
 
 }  // namespace tsf
