@@ -125,14 +125,17 @@ struct ImtSurface::State {
   }
 
   // ---- records ----------------------------------------------------------------------------------
+  // u = c + 1 >= 0 always: unsigned shifts and masks (kPageEdge = 8).
   std::size_t page_cell(const Int3& u) const {
-    return static_cast<std::size_t>(u.x / kPageEdge) +
-           static_cast<std::size_t>(pages.x) *
-               (static_cast<std::size_t>(u.y / kPageEdge) +
-                static_cast<std::size_t>(pages.y) * static_cast<std::size_t>(u.z / kPageEdge));
+    const auto x = static_cast<unsigned>(u.x) >> 3, y = static_cast<unsigned>(u.y) >> 3,
+               z = static_cast<unsigned>(u.z) >> 3;
+    return x + static_cast<std::size_t>(pages.x) *
+                   (y + static_cast<std::size_t>(pages.y) * static_cast<std::size_t>(z));
   }
   static int page_local(const Int3& u) {
-    return (u.x % kPageEdge) + kPageEdge * ((u.y % kPageEdge) + kPageEdge * (u.z % kPageEdge));
+    const auto x = static_cast<unsigned>(u.x) & 7u, y = static_cast<unsigned>(u.y) & 7u,
+               z = static_cast<unsigned>(u.z) & 7u;
+    return static_cast<int>(x + 8u * (y + 8u * z));
   }
   /// Record id of cube c (0 when it has none and `create` is false).
   std::uint32_t record_of(const Int3& c, bool create) {
@@ -507,11 +510,13 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
                   {px * kPageEdge + kPageEdge - 1, py * kPageEdge + kPageEdge - 1,
                    pz * kPageEdge + kPageEdge -
                        1}}.intersected({c0, c1});
+              const std::uint32_t* cells = s.page_records[page - 1].data();
               for (int z = cubes.lo.z; z < cubes.hi.z; ++z)
-                for (int y = cubes.lo.y; y < cubes.hi.y; ++y)
+                for (int y = cubes.lo.y; y < cubes.hi.y; ++y) {
+                  const std::uint32_t* row =
+                      cells + kPageEdge * (((y + 1) & 7) + kPageEdge * ((z + 1) & 7));
                   for (int x = cubes.lo.x; x < cubes.hi.x; ++x) {
-                    const std::uint32_t rid = s.page_records[page - 1][static_cast<std::size_t>(
-                        State::page_local({x + 1, y + 1, z + 1}))];
+                    const std::uint32_t rid = row[(x + 1) & 7];
                     if (rid == 0 || s.records[rid].first_triangle == kNone) continue;
                     if (rid < s.record_stamp.size() && s.record_stamp[rid] == s.generation)
                       continue;  // visited as a relevant cube
@@ -520,6 +525,7 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
                                                0,
                                                kNoSignature});
                   }
+                }
             }
       }
 
