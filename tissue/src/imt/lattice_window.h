@@ -133,9 +133,8 @@ class LatticeWindow {
   Int3 dims_;  // corners per axis; cube (and centre) m exists for local m ∈ [0, dims − 1)
   std::int64_t sy_ = 0, sz_ = 0;
   float iso_ = 0.5f;
-  // Raw values: every corner; the centres of cubes that straddle the iso-level or touch one that
-  // does by a face (no other centre value is ever read: a centre of a cube whose corners share a
-  // side lies on that side, and it can only sit across an edge from a point of such a cube).
+  // Raw values of every corner and every centre. Merging changes flags only (a merged point is
+  // on the iso-level): no edge that makes a vertex has a merged end, so interpolation reads raw.
   std::vector<float> raw_[2];
   std::vector<std::uint8_t> flags_[2];
   std::vector<std::uint8_t> cube_mixed_;  // raw corners straddle; later effective, near the block

@@ -2,15 +2,16 @@
 // vertices by linear interpolation on tetrahedron edges, welded exactly by lattice edge key.
 //
 // Multithreaded in the vtkFlyingEdges3D style, over blocks of 8³ cubes:
-//   1. skip blocks whose density range (per-brick min/max, VoxelVolume::brick_ranges) cannot
-//      contain the iso-level;
-//   2. each active block meshes itself into thread-local arrays and counts its vertices and
-//      triangles;
-//   3. prefix sums give every block its output range;
-//   4. blocks copy their vertices and resolve their triangles' vertex keys into indices in
-//      parallel, then area-weighted normals are summed in fixed point (27 block colours, no locks,
-//      the same sums in any thread count).
-// The output is the same for any number of threads.
+//   1. skip blocks whose density range (per-brick min/max, VoxelVolume::brick_ranges, recomputed
+//      here when stale) cannot straddle the iso-level;
+//   2. count: each active block classifies its lattice window and counts the vertices it owns
+//      (a slot mask per cube) and the triangles it makes;
+//   3. prefix sums give every block its output range; the arrays are allocated once;
+//   4. write: each block writes its vertices and its triangles in place, resolving vertex keys
+//      to indices arithmetically from the slot masks (no hashing, no locks);
+//   5. area-weighted normals are summed in fixed point (blocks in 27 colour classes share no
+//      vertex), so the result is the same for any thread count.
+// Small volumes run on the calling thread.
 #pragma once
 
 #include <cstddef>

@@ -13,11 +13,12 @@
 // edge or point (its key), which gives exact welding; reference counts free a vertex when its last
 // triangle goes.
 //
-// update(volume, changed_voxels) releases the triangles of the cubes that can see the change
-// (the changed box dilated by one cube, by three with vertex merging, whose decisions look two
-// lattice steps around a point), re-meshes exactly those cubes and records what changed. The
-// result equals a full build of the edited volume, vertex positions, labels and normals included,
-// up to slot numbering.
+// update(volume, changed_voxels) re-meshes the cubes that can see the change (the changed box
+// dilated by one cube, by three with vertex merging, whose decisions look two lattice steps
+// around a point). A cube whose corner/centre sides are unchanged (its signature) keeps its
+// triangles and slots; only near the changed voxels can their vertices move, and those are
+// refreshed in place. The result equals a full build of the edited volume, vertex positions,
+// labels and normals (exact fixed-point sums) included, up to slot numbering.
 #pragma once
 
 #include <array>
