@@ -147,7 +147,7 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
   Stopwatch clock;
   constexpr int kCubesPerBlock = kBlock * kBlock * kBlock;
   std::vector<std::uint16_t> slot_mask(n_active * kCubesPerBlock, 0);
-  std::vector<std::uint16_t> slot_prefix(n_active * kCubesPerBlock, 0);
+  std::vector<std::uint32_t> slot_prefix(n_active * kCubesPerBlock, 0);
   std::vector<BlockRecord> records(n_active);
   std::vector<std::vector<LatticeWindow::MergedPoint>> merged(n_active);
   stats.threads = parallel_blocks ? std::max(1, omp_get_max_threads()) : 1;
@@ -163,12 +163,12 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
       block_cubes(active_blocks[static_cast<std::size_t>(a)], c0, c1);
       window.compute(volume, options, c0, c1);
       std::uint16_t* mask = &slot_mask[static_cast<std::size_t>(a) * kCubesPerBlock];
-      std::uint16_t* prefix = &slot_prefix[static_cast<std::size_t>(a) * kCubesPerBlock];
+      std::uint32_t* prefix = &slot_prefix[static_cast<std::size_t>(a) * kCubesPerBlock];
       std::uint32_t vertices = 0;
       std::size_t triangles = 0;
       for (const auto& cube : window.relevant_cubes()) {
         const int bl = block_local(cube.c, c0);
-        prefix[bl] = static_cast<std::uint16_t>(vertices);
+        prefix[bl] = vertices;
         mask[bl] = window.referenced_slots(cube.local);
         vertices += popcount16(mask[bl]);
         triangles += static_cast<std::size_t>(window.count_triangles(cube.local));
