@@ -1,6 +1,7 @@
 #include "tsf/imt/imt_surface.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -302,6 +303,29 @@ struct ImtSurface::State {
     ++stats.triangles_made;
   }
 
+  /// vertex_for through a cache local to one owner cube: its triangles share most vertices.
+  /// Keys are packed (offset + 1 per axis, 2 bits each; slot, 4 bits) into 10 bits.
+  std::uint32_t cube_cache_stamp = 0;
+  std::array<std::uint32_t, 1024> cube_cache_stamps{};
+  std::array<std::uint32_t, 1024> cube_cache_ids{};
+  void begin_cube() {
+    if (++cube_cache_stamp == 0) {
+      cube_cache_stamps.fill(0);
+      cube_cache_stamp = 1;
+    }
+  }
+  std::uint32_t cube_vertex(const Int3& c, const LatticeRef& k) {
+    const unsigned packed =
+        static_cast<unsigned>(k.offset[0] + 1) | (static_cast<unsigned>(k.offset[1] + 1) << 2) |
+        (static_cast<unsigned>(k.offset[2] + 1) << 4) | (static_cast<unsigned>(k.slot) << 6);
+    if (cube_cache_stamps[packed] == cube_cache_stamp) return cube_cache_ids[packed];
+    const std::uint32_t v =
+        vertex_for({c.x + k.offset[0], c.y + k.offset[1], c.z + k.offset[2]}, k.slot);
+    cube_cache_stamps[packed] = cube_cache_stamp;
+    cube_cache_ids[packed] = v;
+    return v;
+  }
+
   // Per-update scratch.
   struct Moved {
     std::uint32_t vertex;
@@ -465,13 +489,11 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
               // their vertices have moved: refresh those.
               if (in_core && s.records[rid].first_triangle != kNone) {
                 bool moved = false;
+                s.begin_cube();
                 s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
                   for (int k = 0; k < 3; ++k) {
                     const std::size_t before = s.moved.size();
-                    const std::uint32_t v =
-                        s.vertex_for({cube.c.x + keys[k].offset[0], cube.c.y + keys[k].offset[1],
-                                      cube.c.z + keys[k].offset[2]},
-                                     keys[k].slot);
+                    const std::uint32_t v = s.cube_vertex(cube.c, keys[k]);
                     // Moved now, or earlier in this update by another cube.
                     moved = moved || s.moved.size() != before || s.pending[v];
                   }
@@ -481,14 +503,11 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
               continue;
             }
             const std::uint32_t first = static_cast<std::uint32_t>(s.new_triangles.size());
+            s.begin_cube();
             s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-              std::array<std::uint32_t, 3> ids{};
-              for (int k = 0; k < 3; ++k)
-                ids[static_cast<std::size_t>(k)] =
-                    s.vertex_for({cube.c.x + keys[k].offset[0], cube.c.y + keys[k].offset[1],
-                                  cube.c.z + keys[k].offset[2]},
-                                 keys[k].slot);
-              s.new_triangles.push_back(ids);
+              s.new_triangles.push_back({s.cube_vertex(cube.c, keys[0]),
+                                         s.cube_vertex(cube.c, keys[1]),
+                                         s.cube_vertex(cube.c, keys[2])});
             });
             const std::uint32_t count = static_cast<std::uint32_t>(s.new_triangles.size()) - first;
             s.changed_cubes.push_back({cube.c, first, count, signature});

@@ -49,10 +49,16 @@ void check_options(const RemovalOptions& o, const char* edit) {
 /// small and a parallel region would cost more than it saves.
 constexpr std::int64_t kParallelEditVoxels = 1 << 16;
 
-/// new = max(0, old − strength · rate(label) · weight(i,j,k)) over `box`; returns changed voxels.
-template <typename WeightFn>
+/// The whole row of `box` (tools without a cheaper bound).
+struct FullRows {
+  void operator()(int, int, int&, int&) const {}
+};
+
+/// new = max(0, old − strength · rate(label) · weight(i,j,k)) over `box` (row (j,k) narrowed to
+/// [i0, i1) by `rows`); returns changed voxels.
+template <typename WeightFn, typename RowFn = FullRows>
 VoxelBox apply_removal(VoxelVolume& volume, const VoxelBox& box, const RemovalOptions& o,
-                       const WeightFn& weight) {
+                       const WeightFn& weight, const RowFn& rows = {}) {
   if (box.empty() || o.strength <= 0.0f) return {};
   float* density = volume.density_for_tracked_write();
   const std::uint8_t* labels = volume.label_data().data();
@@ -63,8 +69,10 @@ VoxelBox apply_removal(VoxelVolume& volume, const VoxelBox& box, const RemovalOp
     VoxelBox local{};
 #pragma omp for schedule(static)
     for (int k = box.lo.z; k < box.hi.z; ++k)
-      for (int j = box.lo.y; j < box.hi.y; ++j)
-        for (int i = box.lo.x; i < box.hi.x; ++i) {
+      for (int j = box.lo.y; j < box.hi.y; ++j) {
+        int i0 = box.lo.x, i1 = box.hi.x;
+        rows(j, k, i0, i1);
+        for (int i = i0; i < i1; ++i) {
           const std::size_t v = volume.index(i, j, k);
           const float old = density[v];
           if (old <= 0.0f) continue;
@@ -77,6 +85,7 @@ VoxelBox apply_removal(VoxelVolume& volume, const VoxelBox& box, const RemovalOp
             local.include(i, j, k);
           }
         }
+      }
 #pragma omp critical(tsf_edit_changed_box)
     changed = changed.united(local);
   }
@@ -109,10 +118,28 @@ VoxelBox ablate_sphere(VoxelVolume& volume, const SphereTool& sphere,
   const double h = falloff_half_width(g, options);
   const Vec3d r{sphere.radius, sphere.radius, sphere.radius};
   const VoxelBox box = voxels_near_box(g, sphere.centre - r, sphere.centre + r, h);
-  return apply_removal(volume, box, options, [&](int i, int j, int k) {
-    const Vec3d p = g.index_to_tissue({double(i), double(j), double(k)});
-    return falloff_weight(sphere_distance(sphere, p), h);
-  });
+  // Row (j,k) meets the sphere grown by h where |x − cx| <= sqrt(R² − dy² − dz²).
+  const double reach = sphere.radius + h;
+  auto rows = [&](int j, int k, int& i0, int& i1) {
+    const Vec3d p = g.index_to_tissue({0.0, double(j), double(k)});
+    const double dy = p.y - sphere.centre.y, dz = p.z - sphere.centre.z;
+    const double rest = reach * reach - dy * dy - dz * dz;
+    if (rest < 0.0) {
+      i1 = i0;
+      return;
+    }
+    const double half = std::sqrt(rest) / g.spacing.x;
+    const double cx = (sphere.centre.x - g.origin.x) / g.spacing.x;
+    i0 = std::max(i0, static_cast<int>(std::ceil(cx - half)));
+    i1 = std::min(i1, static_cast<int>(std::floor(cx + half)) + 1);
+  };
+  return apply_removal(
+      volume, box, options,
+      [&](int i, int j, int k) {
+        const Vec3d p = g.index_to_tissue({double(i), double(j), double(k)});
+        return falloff_weight(sphere_distance(sphere, p), h);
+      },
+      rows);
 }
 
 VoxelBox ablate_capsule(VoxelVolume& volume, const CapsuleTool& capsule,
