@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cmath>
 
 #include "imt_test_helpers.h"
+#include "tsf/common/error.h"
 #include "tsf/imt/extract_surface.h"
 #include "tsf/volume/analytic_volumes.h"
 
@@ -60,6 +64,53 @@ TEST(ExtractSurface, SphereAccuracyAtSeveralResolutions) {
       EXPECT_LE(e.max, 0.2) << n << "³ eps " << eps;
     }
   }
+}
+
+}  // namespace
+}  // namespace tsf::imt
+
+namespace tsf::imt {
+namespace {
+
+TEST(ExtractSurface, SameOutputForAnyThreadCount) {
+  const VoxelVolume v = make_blob_volume(cube_geometry({96, 96, 96}, 0.8), 21);
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  SurfaceBuildStats one_stats;
+  const SurfaceMesh one = extract_surface(v, {}, &one_stats);
+  omp_set_num_threads(std::max(2, threads));
+  SurfaceBuildStats many_stats;
+  const SurfaceMesh many = extract_surface(v, {}, &many_stats);
+  omp_set_num_threads(threads);
+  ASSERT_GE(many_stats.active_blocks, 64u) << "the volume must be large enough to go parallel";
+  EXPECT_EQ(one_stats.threads, 1);
+  EXPECT_GE(many_stats.threads, 2);
+  EXPECT_EQ(one.positions, many.positions);
+  EXPECT_EQ(one.normals, many.normals);
+  EXPECT_EQ(one.labels, many.labels);
+  EXPECT_EQ(one.triangles, many.triangles);
+}
+
+TEST(ExtractSurface, EmptyAndFullVolumes) {
+  VoxelVolume empty(cube_geometry({20, 20, 20}));
+  EXPECT_EQ(extract_surface(empty).triangle_count(), 0u);
+  // A volume full of tissue is closed by the zero padding outside it: one box-shaped component.
+  VoxelVolume full(cube_geometry({12, 10, 8}));
+  std::fill(full.density_data().begin(), full.density_data().end(), 1.0f);
+  const SurfaceMesh m = extract_surface(full);
+  const MeshTopology t = test::expect_closed_manifold(m, "full volume");
+  ASSERT_EQ(t.components, 1u);
+  EXPECT_EQ(t.component_euler[0], 2);
+}
+
+TEST(ExtractSurface, RejectsBadOptions) {
+  VoxelVolume v(cube_geometry({4, 4, 4}));
+  SurfaceOptions o;
+  o.iso = 0.0f;
+  EXPECT_THROW(extract_surface(v, o), Error);
+  o.iso = 0.5f;
+  o.snap_epsilon = 0.5f;
+  EXPECT_THROW(extract_surface(v, o), Error);
 }
 
 }  // namespace
