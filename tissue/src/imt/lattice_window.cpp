@@ -16,6 +16,13 @@ void LatticeWindow::set_layout(const Int3& c0, const Int3& c1, bool merging) {
   lo_ = {c0.x - m, c0.y - m, c0.z - m};
   const Int3 dims{c1.x - c0.x + 2 * m, c1.y - c0.y + 2 * m, c1.z - c0.z + 2 * m};
   if (dims == layout_dims_) return;
+  // candidate_t_ stays "no candidate" everywhere between windows: reset what the last window set,
+  // with its own layout, before the indices change meaning.
+  for (int k = 0; k < 2; ++k) {
+    for (std::int64_t i : candidates_[k])
+      candidate_t_[k][static_cast<std::size_t>(i)] = kNotCandidate;
+    candidates_[k].clear();
+  }
   layout_dims_ = dims_ = dims;
   sy_ = dims_.x;
   sz_ = static_cast<std::int64_t>(dims_.x) * dims_.y;
@@ -67,16 +74,16 @@ void LatticeWindow::set_layout(const Int3& c0, const Int3& c1, bool merging) {
       nbr_[kCentreKind][n] = {kCornerKind, from_centre};
     }
   }
+  // Every other array is fully rewritten by each compute(): only resize.
   const std::size_t n = static_cast<std::size_t>(dims_.volume());
   for (int k = 0; k < 2; ++k) {
-    raw_[k].assign(n, 0.0f);
-    flags_[k].assign(n, 0);
-    candidate_t_[k].assign(n, kNotCandidate);
-    candidates_[k].clear();
-    pass_[k].assign(n, 0);
+    raw_[k].resize(n);
+    flags_[k].resize(n);
+    pass_[k].resize(n);
+    candidate_t_[k].resize(n, kNotCandidate);
   }
-  cube_mixed_.assign(n, 0);
-  near_mixed_.assign(n, 0);
+  cube_mixed_.resize(n);
+  near_mixed_.resize(n);
 }
 
 void LatticeWindow::compute(const VoxelVolume& volume, const SurfaceOptions& options,
@@ -186,7 +193,7 @@ bool LatticeWindow::load_and_classify(const Int3& c0, const Int3& c1) {
   return true;
 }
 
-float LatticeWindow::candidate_fraction(int kind, std::int64_t index,
+float LatticeWindow::candidate_fraction(int kind, std::int64_t index, float eps,
                                         std::uint8_t& nbr_flags) const {
   const float v = raw_[kind][static_cast<std::size_t>(index)];
   const std::uint8_t side = flags_[kind][static_cast<std::size_t>(index)] & kRawInside;
@@ -206,6 +213,7 @@ float LatticeWindow::candidate_fraction(int kind, std::int64_t index,
       static_cast<std::uint8_t>((in_mask ? kHasInsideNbr : 0) | (out_mask ? kHasOutsideNbr : 0));
   if (widest == 0.0f) return kNotCandidate;
   const float t = std::fabs(iso_ - v) / widest;
+  if (!(t < eps)) return kNotCandidate;
   // The surface near the point must stay a disc: inside and outside neighbours each connected.
   if (!link_connected(static_cast<std::uint16_t>(in_mask)) || !link_connected(out_mask))
     return kNotCandidate;
@@ -280,7 +288,7 @@ void LatticeWindow::decide_merges(float eps) {
           const std::int64_t i = row + x;
           if (!pass[i]) continue;
           std::uint8_t nbr_flags = 0;
-          const float t = candidate_fraction(kind, i, nbr_flags);
+          const float t = candidate_fraction(kind, i, eps, nbr_flags);
           f[i] = static_cast<std::uint8_t>(f[i] | nbr_flags);
           if (t < eps) {
             candidate_t_[kind][static_cast<std::size_t>(i)] = t;

@@ -120,7 +120,8 @@ class LatticeWindow {
   bool load_and_classify(const Int3& c0, const Int3& c1);
   void decide_merges(float eps);
   void find_relevant(const Int3& c0, const Int3& c1);
-  float candidate_fraction(int kind, std::int64_t index, std::uint8_t& nbr_flags) const;
+  /// The point's smallest crossing fraction if below eps and merging keeps a disc, else +inf.
+  float candidate_fraction(int kind, std::int64_t index, float eps, std::uint8_t& nbr_flags) const;
   std::int64_t global_point_id(int kind, std::int64_t index) const;
   std::uint8_t corner_label(std::int64_t index) const;
   std::uint8_t label_at(const Int3& sample) const;

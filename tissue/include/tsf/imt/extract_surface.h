@@ -35,6 +35,7 @@ struct SurfaceBuildStats {
 
 /// Surfaces `volume` at options.iso. Vertex positions are in tissue space (mm,
 /// VolumeGeometry::index_to_tissue). With compute_normals false, mesh.normals stays empty.
+/// Densities must be finite and in [0,1] (VoxelVolume::validate; readers and edits ensure it).
 SurfaceMesh extract_surface(const VoxelVolume& volume, const SurfaceOptions& options = {},
                             SurfaceBuildStats* stats = nullptr, bool compute_normals = true);
 

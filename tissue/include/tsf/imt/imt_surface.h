@@ -19,6 +19,9 @@
 // triangles and slots; only near the changed voxels can their vertices move, and those are
 // refreshed in place. The result equals a full build of the edited volume, vertex positions,
 // labels and normals (exact fixed-point sums) included, up to slot numbering.
+//
+// One writer: build/update/take_changes must not run concurrently with each other or with
+// readers of the buffers (copy what you need, or read between updates).
 #pragma once
 
 #include <array>
