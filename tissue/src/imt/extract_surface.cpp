@@ -69,8 +69,8 @@ bool range_straddles(const VoxelVolume& volume, const std::vector<VoxelVolume::B
 
 namespace {
 
-constexpr int kBlock = 8;                     // cubes per block edge
-constexpr std::int64_t kParallelBlocks = 64;  // active blocks before the passes go parallel
+constexpr int kBlock = 16;                    // cubes per block edge
+constexpr std::int64_t kParallelBlocks = 16;  // active blocks before the passes go parallel
 
 /// Bits set in each byte value (the build assumes no popcnt instruction).
 constexpr std::array<std::uint8_t, 256> kBitsSet = [] {

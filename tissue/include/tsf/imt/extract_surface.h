@@ -1,7 +1,7 @@
 // Full IMT surfacing of a voxel volume (DESIGN.md R2): 12 tetrahedra per cube on the BCC lattice,
 // vertices by linear interpolation on tetrahedron edges, welded exactly by lattice edge key.
 //
-// Multithreaded in the vtkFlyingEdges3D style, over blocks of 8³ cubes:
+// Multithreaded in the vtkFlyingEdges3D style, over blocks of 16³ cubes:
 //   1. skip blocks whose density range (per-brick min/max, VoxelVolume::brick_ranges, recomputed
 //      here when stale) cannot straddle the iso-level;
 //   2. count: each active block classifies its lattice window and counts the vertices it owns
@@ -28,7 +28,7 @@ struct SurfaceBuildStats {
   double assemble_s = 0;  ///< passes 3-4: offsets, copies, index resolution
   double normals_s = 0;   ///< area-weighted normals
   double total_s = 0;
-  std::size_t blocks = 0;         ///< blocks of 8³ cubes
+  std::size_t blocks = 0;         ///< blocks of 16³ cubes
   std::size_t active_blocks = 0;  ///< blocks whose range straddles the iso-level
   int threads = 1;
 };
