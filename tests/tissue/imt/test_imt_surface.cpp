@@ -141,10 +141,11 @@ VoxelBox random_edit(VoxelVolume& v, std::mt19937& rng, int i) {
   }
 }
 
-void run_random_edits(float eps, int edits, int check_every, unsigned seed) {
+void run_random_edits(float eps, int edits, int check_every, unsigned seed, float iso = 0.5f) {
   VoxelVolume volume = test_volume(seed);
   SurfaceOptions options;
   options.snap_epsilon = eps;
+  options.iso = iso;
   ImtSurface surface(options);
   surface.build(volume);
   MirroredBuffers mirror;
@@ -175,6 +176,10 @@ TEST(ImtSurfaceRobustness, IncrementalEqualsFullAfter1000RandomEditsWithoutMergi
 
 TEST(ImtSurfaceRobustness, IncrementalEqualsFullAfter1000RandomEditsWithMerging) {
   run_random_edits(0.1f, 1000, 100, 2);
+}
+
+TEST(ImtSurfaceRobustness, IncrementalEqualsFullAtAnotherIsoLevel) {
+  run_random_edits(0.15f, 300, 100, 3, 0.35f);
 }
 
 TEST(ImtSurface, BuildMatchesExtractSurface) {

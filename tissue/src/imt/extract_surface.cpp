@@ -273,24 +273,26 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
           "IMT: a triangle refers to a lattice edge that made no vertex (internal error)");
   stats.assemble_s = clock.seconds();
 
-  // ---- normals: fixed-point sums; blocks of one colour (coordinates mod 3) share no vertex -----
+  // ---- normals: fixed-point sums ---------------------------------------------------------------
+  // A triangle of a block touches vertices of blocks one slab (z) away at most. Each thread takes
+  // a contiguous range of slabs: the inside of every range first (ranges' vertices are then
+  // disjoint), then the first slabs of all ranges, then the last ones — three barriers, whatever
+  // the volume size (barriers are what hurts when the machine is oversubscribed).
   clock.restart();
   if (compute_normals || extras) {
     std::vector<NormalSum> sums(n_vertices);
     const double scale = normal_scale(geometry);
-    std::vector<std::vector<std::size_t>> by_colour(27);
-    for (std::size_t a = 0; a < n_active; ++a) {
-      const std::int64_t b = active_blocks[a];
-      const int colour = static_cast<int>((b % nb.x) % 3) +
-                         3 * static_cast<int>(((b / nb.x) % nb.y) % 3) +
-                         9 * static_cast<int>((b / (static_cast<std::int64_t>(nb.x) * nb.y)) % 3);
-      by_colour[static_cast<std::size_t>(colour)].push_back(a);
-    }
-#pragma omp parallel if (parallel_blocks)
-    for (const auto& blocks : by_colour) {
-#pragma omp for schedule(dynamic, 4)
-      for (std::int64_t i = 0; i < static_cast<std::int64_t>(blocks.size()); ++i) {
-        const BlockRecord& rec = records[blocks[static_cast<std::size_t>(i)]];
+    std::vector<std::size_t> slab_first(static_cast<std::size_t>(nb.z) + 1, n_active);
+    for (std::size_t a = n_active; a-- > 0;)  // active blocks are in z-major order
+      slab_first[static_cast<std::size_t>(active_blocks[a] /
+                                          (static_cast<std::int64_t>(nb.x) * nb.y))] = a;
+    for (int z = nb.z - 1; z >= 0; --z)
+      slab_first[static_cast<std::size_t>(z)] = std::min(
+          slab_first[static_cast<std::size_t>(z)], slab_first[static_cast<std::size_t>(z) + 1]);
+    auto add_slab = [&](int z) {
+      for (std::size_t a = slab_first[static_cast<std::size_t>(z)];
+           a < slab_first[static_cast<std::size_t>(z) + 1]; ++a) {
+        const BlockRecord& rec = records[a];
         for (std::size_t t = rec.triangle_offset; t < rec.triangle_offset + rec.triangle_count;
              ++t) {
           const auto& tri = mesh.triangles[t];
@@ -298,6 +300,23 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
                                               mesh.positions[tri[2]], scale);
           for (int k = 0; k < 3; ++k) sums[tri[static_cast<std::size_t>(k)]] += n;
         }
+      }
+    };
+    const int slabs = nb.z;
+    const int teams = parallel_blocks ? std::max(1, std::min(omp_get_max_threads(), slabs / 3)) : 1;
+    if (teams == 1) {
+      for (int z = 0; z < slabs; ++z) add_slab(z);
+    } else {
+#pragma omp parallel num_threads(teams)
+      {
+        const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+        const int z0 = static_cast<int>(static_cast<std::int64_t>(slabs) * t / nt);
+        const int z1 = static_cast<int>(static_cast<std::int64_t>(slabs) * (t + 1) / nt);
+        for (int z = z0 + 1; z < z1 - 1; ++z) add_slab(z);
+#pragma omp barrier
+        add_slab(z0);
+#pragma omp barrier
+        if (z1 - 1 > z0) add_slab(z1 - 1);
       }
     }
     if (compute_normals) {
