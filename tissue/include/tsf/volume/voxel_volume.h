@@ -8,6 +8,15 @@
 // Geometry: spacing in mm, origin = physical position (LPS, mm) of voxel (0,0,0)'s centre,
 // direction = 3×3 row-major matrix whose columns are the i, j, k axes in LPS.
 //
+// Bricks: the volume is tiled into bricks of kBrickSize³ voxels (the last ones on each axis may be
+// smaller). Each brick keeps the min and max density of its voxels (empty-brick skipping for the
+// surface and other consumers) and a modification stamp: every mark_modified() call advances the
+// volume's modification counter and stamps the bricks it touched, so several consumers can each ask
+// "what changed since the stamp I last saw" (bricks_modified_since).
+// Writers keep the ranges current by reporting what they wrote: the edits in volume_edits.h do it
+// themselves; code that writes through density_data() marks the ranges stale (the full surface
+// recomputes them) unless it calls mark_all_modified() afterwards.
+//
 // Tissue space: every tissue representation (R1 voxels, R2 surface, R3 lattice, tools) works in
 // an axis-aligned frame in mm, p = origin + (i·sx, j·sy, k·sz). The direction matrix is applied
 // only where data leaves tissue/ (export, viewer slice planes): index_to_physical() does that.
@@ -19,6 +28,7 @@
 #include <vector>
 
 #include "tsf/common/vec3.h"
+#include "tsf/volume/voxel_box.h"
 
 namespace tsf {
 
@@ -70,13 +80,62 @@ class VoxelVolume {
   float density(int i, int j, int k) const { return density_[index(i, j, k)]; }
   std::uint8_t label(int i, int j, int k) const { return labels_[index(i, j, k)]; }
 
-  std::vector<float>& density_data() { return density_; }
+  /// Writable density. Calling it marks the brick ranges stale (brick_ranges_current() is false)
+  /// until mark_all_modified(); prefer density_for_tracked_write() for local edits.
+  std::vector<float>& density_data() {
+    ranges_current_ = false;
+    return density_;
+  }
   const std::vector<float>& density_data() const { return density_; }
   std::vector<std::uint8_t>& label_data() { return labels_; }
   const std::vector<std::uint8_t>& label_data() const { return labels_; }
   bool has_material_weights() const { return !weights_.empty(); }
   std::vector<std::array<std::uint8_t, 4>>& material_weight_data() { return weights_; }
   const std::vector<std::array<std::uint8_t, 4>>& material_weight_data() const { return weights_; }
+
+  // ---- bricks ---------------------------------------------------------------------------------
+  static constexpr int kBrickSize = 8;  ///< voxels per brick edge
+  struct BrickRange {
+    float min = 0.0f;  ///< smallest density in the brick
+    float max = 0.0f;  ///< largest density in the brick
+  };
+  /// Bricks along i, j, k: ceil(dims / kBrickSize).
+  const Int3& brick_dims() const { return brick_dims_; }
+  std::size_t brick_count() const { return brick_ranges_.size(); }
+  std::size_t brick_index(int bi, int bj, int bk) const {
+    return static_cast<std::size_t>(bi) +
+           static_cast<std::size_t>(brick_dims_.x) *
+               (static_cast<std::size_t>(bj) +
+                static_cast<std::size_t>(brick_dims_.y) * static_cast<std::size_t>(bk));
+  }
+  /// The voxels of brick (bi,bj,bk), clipped to the volume.
+  VoxelBox brick_box(int bi, int bj, int bk) const;
+  /// The density range of brick (bi,bj,bk) computed from the data now (what mark_modified stores).
+  BrickRange compute_brick_range(int bi, int bj, int bk) const;
+  /// Density range of each brick (index brick_index()); meaningful when brick_ranges_current().
+  const std::vector<BrickRange>& brick_ranges() const { return brick_ranges_; }
+  /// False after density_data() handed out writable access, until mark_all_modified().
+  bool brick_ranges_current() const { return ranges_current_; }
+  /// Modification stamp of each brick: the value of modification_count() when it last changed.
+  const std::vector<std::uint64_t>& brick_stamps() const { return brick_stamps_; }
+  /// Number of mark_modified()/mark_all_modified() calls so far (0 for a fresh volume).
+  std::uint64_t modification_count() const { return modification_count_; }
+
+  /// Writable density for code that reports its writes: call mark_modified(box) with a box that
+  /// covers every voxel written. Unlike density_data() it leaves the brick ranges current.
+  float* density_for_tracked_write() { return density_.data(); }
+  /// Writable labels for code that reports its writes through mark_modified(box).
+  std::uint8_t* labels_for_tracked_write() { return labels_.data(); }
+
+  /// Recomputes the ranges of the bricks overlapping `box` (clipped to the volume), advances the
+  /// modification counter and stamps those bricks. Does nothing for an empty box.
+  void mark_modified(const VoxelBox& box);
+  /// Recomputes every brick range (OpenMP), stamps every brick, and makes the ranges current.
+  void mark_all_modified();
+  /// Bricks stamped after `stamp` (brick indices, ascending).
+  std::vector<std::size_t> bricks_modified_since(std::uint64_t stamp) const;
+  /// Bounding box of the voxels of the bricks stamped after `stamp` (empty when none).
+  VoxelBox modified_since(std::uint64_t stamp) const;
 
   /// Checks sizes agree with the geometry and densities lie in [0,1] (finite);
   /// throws tsf::Error naming the first offending field and value.
@@ -87,6 +146,15 @@ class VoxelVolume {
   std::vector<float> density_;
   std::vector<std::uint8_t> labels_;
   std::vector<std::array<std::uint8_t, 4>> weights_;
+  Int3 brick_dims_;
+  std::vector<BrickRange> brick_ranges_;
+  std::vector<std::uint64_t> brick_stamps_;
+  std::uint64_t modification_count_ = 0;
+  bool ranges_current_ = true;
+
+  void recompute_brick_range(int bi, int bj, int bk) {
+    brick_ranges_[brick_index(bi, bj, bk)] = compute_brick_range(bi, bj, bk);
+  }
 };
 
 }  // namespace tsf

@@ -1,0 +1,787 @@
+#include "tsf/imt/imt_surface.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "lattice_window.h"
+#include "surface_internals.h"
+#include "tsf/common/error.h"
+#include "tsf/common/stopwatch.h"
+
+namespace tsf::imt {
+
+using detail::CubeGrid;
+using detail::LatticeWindow;
+using detail::NormalSum;
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+constexpr std::uint64_t kNoKey = std::numeric_limits<std::uint64_t>::max();
+constexpr int kPageEdge = 8;  // cubes per record page edge
+constexpr int kPageCubes = kPageEdge * kPageEdge * kPageEdge;
+constexpr int kChunk = 32;  // cubes per window edge when re-meshing a large region
+
+// Change-tracking bits (per slot, since the last take_changes()).
+constexpr std::uint8_t kTouched = 1, kWasLive = 2, kModified = 4, kNormal = 8;
+
+constexpr std::uint32_t kNoSignature = 0xFFFFFFFFu;  // signatures use 24 bits
+
+struct CubeRecord {
+  std::uint32_t vertex[kSlotsPerCube];  // vertex slot per lattice slot, 0 = none
+  std::uint32_t first_triangle;         // head of the cube's triangle list, kNone = empty
+  std::uint32_t signature;              // LatticeWindow::signature its triangles were made from
+};
+
+}  // namespace
+
+struct ImtSurface::State {
+  SurfaceOptions options;
+  double headroom = 0.5;
+  bool built = false;
+  VolumeGeometry geometry;
+  CubeGrid grid{Int3{0, 0, 0}};
+  Int3 pages{0, 0, 0};
+  double normal_scale = 1.0;
+
+  // Vertices (SoA, size = capacity).
+  std::vector<Vec3f> positions, normals;
+  std::vector<std::uint8_t> labels;
+  std::vector<std::uint32_t> refcount;
+  std::vector<std::uint64_t> key;
+  std::vector<NormalSum> normal_sum;
+  std::vector<std::uint32_t> stamp;
+  std::vector<std::uint8_t> vchange;
+  std::vector<std::uint8_t> live;  // 1 while the slot holds a vertex (compact: hot in cache)
+  std::uint32_t vertex_slots = 1;  // slot 0: sentinel
+  std::vector<std::uint32_t> free_vertices;
+
+  // Triangles.
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<std::uint32_t> next_triangle;
+  std::vector<std::uint8_t> tchange;
+  std::uint32_t triangle_slots = 0;
+  std::vector<std::uint32_t> free_triangles;
+
+  // Cube records: page per 8³ cubes, record per cube that owns vertices or triangles.
+  std::vector<std::uint32_t> page_of;  // per page cell: 0 = none, else page index + 1
+  std::vector<std::array<std::uint32_t, kPageCubes>> page_records;  // record id, 0 = none
+  std::vector<CubeRecord> records{CubeRecord{}};                    // record 0 unused
+  std::vector<std::uint32_t> free_records;
+
+  // Changes and scratch.
+  std::vector<std::uint32_t> touched_vertices, touched_triangles;
+  bool reallocated = false;
+  std::uint32_t generation = 0;
+  std::vector<std::uint32_t> released_vertices, normal_dirty;
+  std::vector<Int3> released_cubes;
+  std::vector<std::uint8_t> normal_dirty_flag;
+  LatticeWindow window;
+  SurfaceUpdateStats stats;
+
+  // ---- capacity ---------------------------------------------------------------------------------
+  void resize_vertices(std::size_t capacity) {
+    positions.resize(capacity);
+    normals.resize(capacity);
+    labels.resize(capacity, 0);
+    refcount.resize(capacity, 0);
+    key.resize(capacity, kNoKey);
+    normal_sum.resize(capacity);
+    stamp.resize(capacity, 0);
+    vchange.resize(capacity, 0);
+    live.resize(capacity, 0);
+    normal_dirty_flag.resize(capacity, 0);
+    pending.resize(capacity, 0);
+  }
+  void resize_triangles(std::size_t capacity) {
+    triangles.resize(capacity, {0, 0, 0});
+    next_triangle.resize(capacity, kNone);
+    tchange.resize(capacity, 0);
+  }
+  static std::size_t grown(std::size_t needed) { return needed + needed / 2 + 1024; }
+
+  // ---- change tracking --------------------------------------------------------------------------
+  bool vertex_live(std::uint32_t v) const { return live[v] != 0; }
+  void touch_vertex(std::uint32_t v, std::uint8_t bits) {
+    if (!(vchange[v] & kTouched)) {
+      vchange[v] = static_cast<std::uint8_t>(kTouched | (vertex_live(v) ? kWasLive : 0));
+      touched_vertices.push_back(v);
+    }
+    vchange[v] = static_cast<std::uint8_t>(vchange[v] | bits);
+  }
+  void touch_triangle(std::uint32_t t) {
+    if (!(tchange[t] & kTouched)) {
+      tchange[t] = static_cast<std::uint8_t>(kTouched | (triangles[t][0] != 0 ? kWasLive : 0));
+      touched_triangles.push_back(t);
+    }
+  }
+  void mark_normal_dirty(std::uint32_t v) {
+    if (!normal_dirty_flag[v]) {
+      normal_dirty_flag[v] = 1;
+      normal_dirty.push_back(v);
+    }
+  }
+
+  // ---- records ----------------------------------------------------------------------------------
+  // u = c + 1 >= 0 always: unsigned shifts and masks (kPageEdge = 8).
+  std::size_t page_cell(const Int3& u) const {
+    const auto x = static_cast<unsigned>(u.x) >> 3, y = static_cast<unsigned>(u.y) >> 3,
+               z = static_cast<unsigned>(u.z) >> 3;
+    return x + static_cast<std::size_t>(pages.x) *
+                   (y + static_cast<std::size_t>(pages.y) * static_cast<std::size_t>(z));
+  }
+  static int page_local(const Int3& u) {
+    const auto x = static_cast<unsigned>(u.x) & 7u, y = static_cast<unsigned>(u.y) & 7u,
+               z = static_cast<unsigned>(u.z) & 7u;
+    return static_cast<int>(x + 8u * (y + 8u * z));
+  }
+  /// Record id of cube c (0 when it has none and `create` is false).
+  std::uint32_t record_of(const Int3& c, bool create) {
+    const Int3 u{c.x + 1, c.y + 1, c.z + 1};
+    std::uint32_t& page = page_of[page_cell(u)];
+    if (page == 0) {
+      if (!create) return 0;
+      page_records.emplace_back();
+      page_records.back().fill(0);
+      page = static_cast<std::uint32_t>(page_records.size());
+    }
+    std::uint32_t& rid = page_records[page - 1][static_cast<std::size_t>(page_local(u))];
+    if (rid == 0 && create) {
+      if (!free_records.empty()) {
+        rid = free_records.back();
+        free_records.pop_back();
+      } else {
+        records.emplace_back();
+        rid = static_cast<std::uint32_t>(records.size() - 1);
+      }
+      CubeRecord& r = records[rid];
+      std::fill(std::begin(r.vertex), std::end(r.vertex), 0u);
+      r.first_triangle = kNone;
+      r.signature = kNoSignature;
+    }
+    return rid;
+  }
+  void release_record_if_empty(const Int3& c) {
+    const Int3 u{c.x + 1, c.y + 1, c.z + 1};
+    const std::uint32_t page = page_of[page_cell(u)];
+    if (page == 0) return;
+    std::uint32_t& rid = page_records[page - 1][static_cast<std::size_t>(page_local(u))];
+    if (rid == 0) return;
+    const CubeRecord& r = records[rid];
+    if (r.first_triangle != kNone) return;
+    for (std::uint32_t v : r.vertex)
+      if (v != 0) return;
+    free_records.push_back(rid);
+    rid = 0;
+  }
+
+  // ---- slots ------------------------------------------------------------------------------------
+  std::uint32_t allocate_vertex() {
+    std::uint32_t v;
+    if (!free_vertices.empty()) {
+      v = free_vertices.back();
+      free_vertices.pop_back();
+    } else {
+      if (vertex_slots == positions.size()) {
+        resize_vertices(grown(vertex_slots));
+        reallocated = true;
+      }
+      v = vertex_slots++;
+    }
+    return v;
+  }
+  std::uint32_t allocate_triangle() {
+    std::uint32_t t;
+    if (!free_triangles.empty()) {
+      t = free_triangles.back();
+      free_triangles.pop_back();
+    } else {
+      if (triangle_slots == triangles.size()) {
+        resize_triangles(grown(triangle_slots));
+        reallocated = true;
+      }
+      t = triangle_slots++;
+    }
+    return t;
+  }
+  void free_vertex(std::uint32_t v) {
+    touch_vertex(v, 0);
+    const std::uint64_t k = key[v];
+    const Int3 c = grid.cube(k / kSlotsPerCube);
+    const std::uint32_t rid = record_of(c, false);
+    if (rid != 0) records[rid].vertex[k % kSlotsPerCube] = 0;
+    release_record_if_empty(c);
+    key[v] = kNoKey;
+    live[v] = 0;
+    normal_sum[v] = {};
+    normals[v] = {};
+    free_vertices.push_back(v);
+    ++stats.vertices_freed;
+  }
+
+  NormalSum face_sum(const std::array<std::uint32_t, 3>& t) const {
+    return detail::face_normal_sum(positions[t[0]], positions[t[1]], positions[t[2]], normal_scale);
+  }
+
+  /// Releases every triangle of record `rid`.
+  void release_triangles(std::uint32_t rid) {
+    std::uint32_t t = records[rid].first_triangle;
+    while (t != kNone) {
+      const std::uint32_t next = next_triangle[t];
+      const NormalSum n = face_sum(triangles[t]);
+      for (std::uint32_t v : triangles[t]) {
+        normal_sum[v] -= n;
+        mark_normal_dirty(v);
+        if (--refcount[v] == 0) released_vertices.push_back(v);
+      }
+      touch_triangle(t);
+      triangles[t] = {0, 0, 0};
+      next_triangle[t] = kNone;
+      free_triangles.push_back(t);
+      ++stats.triangles_released;
+      t = next;
+    }
+    records[rid].first_triangle = kNone;
+  }
+
+  /// The vertex for lattice slot `slot` of cube `o`: made from the current window when new;
+  /// refreshed once per update otherwise, a changed position or label going to `moved` (applied
+  /// after the old normal contributions are taken off).
+  std::uint32_t vertex_for(const Int3& o, int slot) {
+    const std::uint32_t rid = record_of(o, true);
+    std::uint32_t v = records[rid].vertex[slot];
+    if (v != 0 && stamp[v] == generation) return v;
+    Vec3d ip;
+    std::uint8_t label;
+    window.vertex(o, window.local_index(o), slot, ip, label);
+    const Vec3f p = detail::tissue_position(geometry, ip);
+    if (v == 0) {
+      v = allocate_vertex();
+      touch_vertex(v, kModified);
+      records[rid].vertex[slot] = v;
+      key[v] = grid.key(o, slot);
+      live[v] = 1;
+      positions[v] = p;
+      labels[v] = label;
+      refcount[v] = 0;
+      normal_sum[v] = {};
+      created.push_back(v);
+      ++stats.vertices_made;
+    } else if (!(positions[v] == p) || labels[v] != label) {
+      moved.push_back({v, p, label});
+      pending[v] = 1;
+      ++stats.vertices_moved;
+    }
+    stamp[v] = generation;
+    return v;
+  }
+
+  /// Takes triangle t's normal contribution off (or puts it on) its vertices.
+  void add_normal(std::uint32_t t, bool add) {
+    const NormalSum n = face_sum(triangles[t]);
+    for (std::uint32_t v : triangles[t]) {
+      if (add)
+        normal_sum[v] += n;
+      else
+        normal_sum[v] -= n;
+      mark_normal_dirty(v);
+    }
+  }
+
+  /// A new triangle of record rid (appended to its list's head).
+  void make_triangle(std::uint32_t rid, const std::array<std::uint32_t, 3>& ids) {
+    const std::uint32_t t = allocate_triangle();
+    touch_triangle(t);
+    triangles[t] = ids;
+    next_triangle[t] = records[rid].first_triangle;
+    records[rid].first_triangle = t;
+    for (std::uint32_t v : ids) ++refcount[v];
+    add_normal(t, true);
+    ++stats.triangles_made;
+  }
+
+  /// vertex_for through a cache local to one owner cube: its triangles share most vertices.
+  /// Keys are packed (offset + 1 per axis, 2 bits each; slot, 4 bits) into 10 bits.
+  std::uint32_t cube_cache_stamp = 0;
+  std::array<std::uint32_t, 1024> cube_cache_stamps{};
+  std::array<std::uint32_t, 1024> cube_cache_ids{};
+  void begin_cube() {
+    if (++cube_cache_stamp == 0) {
+      cube_cache_stamps.fill(0);
+      cube_cache_stamp = 1;
+    }
+  }
+  std::uint32_t cube_vertex(const Int3& c, const LatticeRef& k) {
+    const unsigned packed =
+        static_cast<unsigned>(k.offset[0] + 1) | (static_cast<unsigned>(k.offset[1] + 1) << 2) |
+        (static_cast<unsigned>(k.offset[2] + 1) << 4) | (static_cast<unsigned>(k.slot) << 6);
+    if (cube_cache_stamps[packed] == cube_cache_stamp) return cube_cache_ids[packed];
+    const std::uint32_t v =
+        vertex_for({c.x + k.offset[0], c.y + k.offset[1], c.z + k.offset[2]}, k.slot);
+    cube_cache_stamps[packed] = cube_cache_stamp;
+    cube_cache_ids[packed] = v;
+    return v;
+  }
+
+  // Per-update scratch.
+  struct Moved {
+    std::uint32_t vertex;
+    Vec3f position;
+    std::uint8_t label;
+  };
+  struct ChangedCube {
+    Int3 c;
+    std::uint32_t first, count;  // new triangles in new_triangles
+    std::uint32_t signature;
+  };
+  std::vector<std::uint32_t> created;
+  std::vector<Moved> moved;
+  std::vector<ChangedCube> changed_cubes;
+  std::vector<std::array<std::uint32_t, 3>> new_triangles;
+  std::vector<std::uint32_t> kept_records, readd;
+  std::vector<std::uint32_t> record_stamp;  // per record: generation when last visited
+  std::vector<std::uint8_t> pending;        // per vertex slot: moved in this update
+};
+
+ImtSurface::ImtSurface(const SurfaceOptions& options, double headroom)
+    : s_(std::make_unique<State>()) {
+  options.validate();
+  require(std::isfinite(headroom) && headroom >= 0.0 && headroom <= 16.0,
+          "ImtSurface headroom must lie in [0, 16], got " + std::to_string(headroom));
+  s_->options = options;
+  s_->headroom = headroom;
+}
+ImtSurface::~ImtSurface() = default;
+ImtSurface::ImtSurface(ImtSurface&&) noexcept = default;
+ImtSurface& ImtSurface::operator=(ImtSurface&&) noexcept = default;
+
+const SurfaceOptions& ImtSurface::options() const {
+  return s_->options;
+}
+bool ImtSurface::built() const {
+  return s_->built;
+}
+
+void ImtSurface::build(const VoxelVolume& volume) {
+  State& s = *s_;
+  detail::ExtractionExtras extras;
+  SurfaceMesh mesh = detail::extract_surface_detailed(volume, s.options, nullptr, true, &extras);
+  const Int3 dims = volume.dims();
+
+  State fresh;
+  fresh.options = s.options;
+  fresh.headroom = s.headroom;
+  fresh.built = true;
+  fresh.geometry = volume.geometry();
+  fresh.grid = CubeGrid(dims);
+  fresh.pages = {(fresh.grid.size.x + kPageEdge - 1) / kPageEdge,
+                 (fresh.grid.size.y + kPageEdge - 1) / kPageEdge,
+                 (fresh.grid.size.z + kPageEdge - 1) / kPageEdge};
+  fresh.page_of.assign(static_cast<std::size_t>(fresh.pages.volume()), 0);
+  fresh.normal_scale = detail::normal_scale(fresh.geometry);
+
+  const std::size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
+  fresh.resize_vertices(static_cast<std::size_t>(static_cast<double>(nv + 1) * (1.0 + s.headroom)) +
+                        1024);
+  fresh.resize_triangles(static_cast<std::size_t>(static_cast<double>(nt) * (1.0 + s.headroom)) +
+                         1024);
+  fresh.positions[0] = to_float(fresh.geometry.origin);  // the sentinel
+  fresh.normals[0] = {};
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto slot = static_cast<std::uint32_t>(v + 1);
+    fresh.positions[slot] = mesh.positions[v];
+    fresh.normals[slot] = mesh.normals[v];
+    fresh.labels[slot] = mesh.labels[v];
+    fresh.key[slot] = extras.vertex_keys[v];
+    fresh.live[slot] = 1;
+    fresh.normal_sum[slot] = extras.normal_sums[v];
+    const std::uint64_t k = extras.vertex_keys[v];
+    const std::uint32_t rid = fresh.record_of(fresh.grid.cube(k / kSlotsPerCube), true);
+    fresh.records[rid].vertex[k % kSlotsPerCube] = slot;
+  }
+  fresh.vertex_slots = static_cast<std::uint32_t>(nv + 1);
+  for (std::size_t t = 0; t < nt; ++t) {
+    std::array<std::uint32_t, 3> tri{};
+    for (int k = 0; k < 3; ++k) {
+      tri[static_cast<std::size_t>(k)] = mesh.triangles[t][static_cast<std::size_t>(k)] + 1;
+      ++fresh.refcount[tri[static_cast<std::size_t>(k)]];
+    }
+    fresh.triangles[t] = tri;
+    const std::uint32_t rid = fresh.record_of(fresh.grid.cube(extras.triangle_owner[t]), true);
+    fresh.next_triangle[t] = fresh.records[rid].first_triangle;
+    fresh.records[rid].first_triangle = static_cast<std::uint32_t>(t);
+    fresh.records[rid].signature = extras.triangle_owner_signature[t];
+  }
+  fresh.triangle_slots = static_cast<std::uint32_t>(nt);
+  fresh.reallocated = true;
+  *s_ = std::move(fresh);
+}
+
+SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox& changed_voxels) {
+  State& s = *s_;
+  require(s.built, "ImtSurface::update called before build()");
+  require(volume.dims() == s.geometry.dims,
+          "ImtSurface::update: the volume is " + std::to_string(volume.dims().x) + "x" +
+              std::to_string(volume.dims().y) + "x" + std::to_string(volume.dims().z) +
+              ", the surface was built from " + std::to_string(s.geometry.dims.x) + "x" +
+              std::to_string(s.geometry.dims.y) + "x" + std::to_string(s.geometry.dims.z));
+  Stopwatch clock;
+  s.stats = {};
+  const VoxelBox changed = changed_voxels.intersected(VoxelBox::of_dims(volume.dims()));
+  if (changed.empty()) return s.stats;
+  ++s.generation;
+  if (s.generation == 0) {  // wrapped: stale stamps could alias
+    std::fill(s.stamp.begin(), s.stamp.end(), 0u);
+    std::fill(s.record_stamp.begin(), s.record_stamp.end(), 0u);
+    s.generation = 1;
+  }
+
+  // Owner cubes whose tetrahedra can see a changed value or a changed merging decision: the
+  // changed samples touch cubes [lo − 1, hi − 1] and their centres; a tetrahedron of cube c spans
+  // cubes c − 1 .. c; merging decisions look two lattice steps (one cube) further each way.
+  const bool merging = s.options.snap_epsilon > 0.0f;
+  const int below = merging ? 3 : 1, above = merging ? 3 : 1;
+  const VoxelBox region =
+      changed.dilated(below, above)
+          .intersected({{-1, -1, -1}, {s.grid.size.x - 1, s.grid.size.y - 1, s.grid.size.z - 1}});
+  s.stats.cubes_remeshed = static_cast<std::size_t>(region.voxel_count());
+  // Cubes whose triangles can use a vertex that moved: vertices move only on edges with a changed
+  // end value, and the tetrahedra holding those edges belong to these cubes.
+  const VoxelBox core = changed.dilated(1, 1);
+  s.created.clear();
+  s.moved.clear();
+  s.changed_cubes.clear();
+  s.new_triangles.clear();
+  s.kept_records.clear();
+  s.readd.clear();
+  s.released_vertices.clear();
+  if (s.record_stamp.size() < s.records.size()) s.record_stamp.resize(s.records.size() * 2, 0);
+  if (s.pending.size() < s.positions.size()) s.pending.resize(s.positions.size(), 0);
+
+  // 1. Per chunk: mesh every cube that can hold surface now; compare with what it held.
+  const bool ranges = volume.brick_ranges_current();
+  for (int z0 = region.lo.z; z0 < region.hi.z; z0 += kChunk)
+    for (int y0 = region.lo.y; y0 < region.hi.y; y0 += kChunk)
+      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk) {
+        const Int3 c0{x0, y0, z0};
+        const Int3 c1{std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
+                      std::min(z0 + kChunk, region.hi.z)};
+        const bool may_hold_surface =
+            !ranges ||
+            detail::range_straddles(
+                volume, volume.brick_ranges(), {c0.x - below, c0.y - below, c0.z - below},
+                {c1.x + above - 1, c1.y + above - 1, c1.z + above - 1}, s.options.iso);
+        if (may_hold_surface) {
+          s.window.compute(volume, s.options, c0, c1);
+          for (const auto& cube : s.window.relevant_cubes()) {
+            const std::uint32_t signature = s.window.signature(cube.local);
+            const std::uint32_t rid = s.record_of(cube.c, false);
+            if (rid != 0) {
+              if (rid >= s.record_stamp.size()) s.record_stamp.resize(2 * rid + 2, 0);
+              s.record_stamp[rid] = s.generation;
+            }
+            const bool in_core = core.contains(cube.c.x, cube.c.y, cube.c.z);
+            if (rid != 0 && s.records[rid].signature == signature) {
+              // Same triangles (as lattice keys, so as vertex ids). Only near the change can
+              // their vertices have moved: refresh those.
+              if (in_core && s.records[rid].first_triangle != kNone) {
+                bool moved = false;
+                s.begin_cube();
+                s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+                  for (int k = 0; k < 3; ++k) {
+                    const std::size_t before = s.moved.size();
+                    const std::uint32_t v = s.cube_vertex(cube.c, keys[k]);
+                    // Moved now, or earlier in this update by another cube.
+                    moved = moved || s.moved.size() != before || s.pending[v];
+                  }
+                });
+                if (moved) s.kept_records.push_back(rid);
+              }
+              continue;
+            }
+            const std::uint32_t first = static_cast<std::uint32_t>(s.new_triangles.size());
+            s.begin_cube();
+            s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+              s.new_triangles.push_back({s.cube_vertex(cube.c, keys[0]),
+                                         s.cube_vertex(cube.c, keys[1]),
+                                         s.cube_vertex(cube.c, keys[2])});
+            });
+            const std::uint32_t count = static_cast<std::uint32_t>(s.new_triangles.size()) - first;
+            s.changed_cubes.push_back({cube.c, first, count, signature});
+          }
+        }
+        // Cubes that held triangles and are not relevant any more lose them all.
+        for (int pz = (c0.z + 1) / kPageEdge; pz <= c1.z / kPageEdge; ++pz)
+          for (int py = (c0.y + 1) / kPageEdge; py <= c1.y / kPageEdge; ++py)
+            for (int px = (c0.x + 1) / kPageEdge; px <= c1.x / kPageEdge; ++px) {
+              if (px >= s.pages.x || py >= s.pages.y || pz >= s.pages.z) continue;
+              const std::uint32_t page = s.page_of[static_cast<std::size_t>(px) +
+                                                   static_cast<std::size_t>(s.pages.x) *
+                                                       (static_cast<std::size_t>(py) +
+                                                        static_cast<std::size_t>(s.pages.y) *
+                                                            static_cast<std::size_t>(pz))];
+              if (page == 0) continue;
+              const VoxelBox cubes = VoxelBox{
+                  {px * kPageEdge - 1, py * kPageEdge - 1, pz * kPageEdge - 1},
+                  {px * kPageEdge + kPageEdge - 1, py * kPageEdge + kPageEdge - 1,
+                   pz * kPageEdge + kPageEdge -
+                       1}}.intersected({c0, c1});
+              const std::uint32_t* cells = s.page_records[page - 1].data();
+              for (int z = cubes.lo.z; z < cubes.hi.z; ++z)
+                for (int y = cubes.lo.y; y < cubes.hi.y; ++y) {
+                  const std::uint32_t* row =
+                      cells + kPageEdge * (((y + 1) & 7) + kPageEdge * ((z + 1) & 7));
+                  for (int x = cubes.lo.x; x < cubes.hi.x; ++x) {
+                    const std::uint32_t rid = row[(x + 1) & 7];
+                    if (rid == 0 || s.records[rid].first_triangle == kNone) continue;
+                    if (rid < s.record_stamp.size() && s.record_stamp[rid] == s.generation)
+                      continue;  // visited as a relevant cube
+                    s.changed_cubes.push_back({{x, y, z},
+                                               static_cast<std::uint32_t>(s.new_triangles.size()),
+                                               0,
+                                               kNoSignature});
+                  }
+                }
+            }
+      }
+
+  // 2. Take off the normal contributions that change, with the old positions: every triangle of
+  // a changed cube (released), and kept triangles that use a moved vertex.
+  for (const auto& cc : s.changed_cubes) {
+    const std::uint32_t rid = s.record_of(cc.c, false);
+    if (rid != 0 && s.records[rid].first_triangle != kNone) {
+      s.release_triangles(rid);
+      s.released_cubes.push_back(cc.c);
+    }
+  }
+  for (std::uint32_t rid : s.kept_records)  // kept cubes with a moved vertex: redo their fans
+    for (std::uint32_t t = s.records[rid].first_triangle; t != kNone; t = s.next_triangle[t]) {
+      s.add_normal(t, false);
+      s.readd.push_back(t);
+    }
+
+  // 3. Move the vertices, then put the contributions back and make the new triangles.
+  for (const State::Moved& m : s.moved) {
+    s.touch_vertex(m.vertex, kModified);
+    s.positions[m.vertex] = m.position;
+    s.labels[m.vertex] = m.label;
+    s.pending[m.vertex] = 0;
+  }
+  for (std::uint32_t t : s.readd) s.add_normal(t, true);  // same indices: not a triangle change
+  for (const auto& cc : s.changed_cubes) {
+    if (cc.count == 0) {
+      const std::uint32_t rid = s.record_of(cc.c, false);
+      if (rid != 0) s.records[rid].signature = kNoSignature;
+      continue;
+    }
+    const std::uint32_t rid = s.record_of(cc.c, true);
+    s.records[rid].signature = cc.signature;
+    for (std::uint32_t i = cc.first + cc.count; i-- > cc.first;)  // reversed: list keeps order
+      s.make_triangle(rid, s.new_triangles[i]);
+  }
+
+  // 4. Free vertices no triangle uses any more; tidy records.
+  for (std::uint32_t v : s.released_vertices)
+    if (s.vertex_live(v) && s.refcount[v] == 0) s.free_vertex(v);
+  for (std::uint32_t v : s.created)
+    if (s.vertex_live(v) && s.refcount[v] == 0) s.free_vertex(v);
+  s.released_vertices.clear();
+  for (const Int3& c : s.released_cubes) s.release_record_if_empty(c);
+  s.released_cubes.clear();
+
+  // 5. Normals of the vertices whose fans changed.
+  for (std::uint32_t v : s.normal_dirty) {
+    s.normal_dirty_flag[v] = 0;
+    if (!s.vertex_live(v)) continue;
+    const Vec3f n = detail::unit_normal(s.normal_sum[v]);
+    if (!(n == s.normals[v])) {
+      s.normals[v] = n;
+      s.touch_vertex(v, kNormal);
+    }
+  }
+  s.normal_dirty.clear();
+  s.stats.seconds = clock.seconds();
+  return s.stats;
+}
+
+std::uint32_t ImtSurface::vertex_slot_count() const {
+  return s_->vertex_slots;
+}
+std::uint32_t ImtSurface::triangle_slot_count() const {
+  return s_->triangle_slots;
+}
+std::uint32_t ImtSurface::vertex_capacity() const {
+  return static_cast<std::uint32_t>(s_->positions.size());
+}
+std::uint32_t ImtSurface::triangle_capacity() const {
+  return static_cast<std::uint32_t>(s_->triangles.size());
+}
+std::size_t ImtSurface::live_vertex_count() const {
+  return s_->vertex_slots == 0 ? 0 : s_->vertex_slots - 1 - s_->free_vertices.size();
+}
+std::size_t ImtSurface::live_triangle_count() const {
+  return s_->triangle_slots - s_->free_triangles.size();
+}
+const std::vector<Vec3f>& ImtSurface::positions() const {
+  return s_->positions;
+}
+const std::vector<Vec3f>& ImtSurface::normals() const {
+  return s_->normals;
+}
+const std::vector<std::uint8_t>& ImtSurface::labels() const {
+  return s_->labels;
+}
+const std::vector<std::array<std::uint32_t, 3>>& ImtSurface::triangles() const {
+  return s_->triangles;
+}
+bool ImtSurface::vertex_live(std::uint32_t slot) const {
+  return slot < s_->vertex_slots && s_->vertex_live(slot);
+}
+bool ImtSurface::triangle_live(std::uint32_t slot) const {
+  return slot < s_->triangle_slots && s_->triangles[slot][0] != 0;
+}
+std::uint64_t ImtSurface::vertex_key(std::uint32_t slot) const {
+  require(vertex_live(slot),
+          "ImtSurface::vertex_key: slot " + std::to_string(slot) + " is not live");
+  return s_->key[slot];
+}
+
+SurfaceBuffersView ImtSurface::view() const {
+  SurfaceBuffersView v;
+  v.positions = s_->positions.data();
+  v.normals = s_->normals.data();
+  v.labels = s_->labels.data();
+  v.triangles = s_->triangles.empty() ? nullptr : s_->triangles.front().data();
+  v.vertex_slots = s_->vertex_slots;
+  v.triangle_slots = s_->triangle_slots;
+  return v;
+}
+
+SurfaceChanges ImtSurface::take_changes() {
+  State& s = *s_;
+  SurfaceChanges out;
+  out.reallocated = s.reallocated;
+  s.reallocated = false;
+  for (std::uint32_t v : s.touched_vertices) {
+    const std::uint8_t c = s.vchange[v];
+    s.vchange[v] = 0;
+    const bool was = c & kWasLive, now = s.vertex_live(v);
+    if (!was && now)
+      out.vertices_added.push_back(v);
+    else if (was && !now)
+      out.vertices_freed.push_back(v);
+    else if (was && now && (c & kModified))
+      out.vertices_modified.push_back(v);
+    else if (was && now && (c & kNormal))
+      out.vertices_normal_changed.push_back(v);
+  }
+  s.touched_vertices.clear();
+  for (std::uint32_t t : s.touched_triangles) {
+    const std::uint8_t c = s.tchange[t];
+    s.tchange[t] = 0;
+    const bool was = c & kWasLive, now = s.triangles[t][0] != 0;
+    if (now)
+      out.triangles_added.push_back(t);
+    else if (was)
+      out.triangles_freed.push_back(t);
+  }
+  s.touched_triangles.clear();
+  return out;
+}
+
+SurfaceMesh ImtSurface::compact(std::vector<std::uint32_t>* vertex_slots) const {
+  const State& s = *s_;
+  SurfaceMesh mesh;
+  std::vector<std::uint32_t> index_of(s.vertex_slots, kNone);
+  if (vertex_slots) vertex_slots->clear();
+  for (std::uint32_t v = 1; v < s.vertex_slots; ++v) {
+    if (!s.vertex_live(v)) continue;
+    index_of[v] = static_cast<std::uint32_t>(mesh.positions.size());
+    mesh.positions.push_back(s.positions[v]);
+    mesh.normals.push_back(s.normals[v]);
+    mesh.labels.push_back(s.labels[v]);
+    if (vertex_slots) vertex_slots->push_back(v);
+  }
+  for (std::uint32_t t = 0; t < s.triangle_slots; ++t) {
+    const auto& tri = s.triangles[t];
+    if (tri[0] == 0) continue;
+    mesh.triangles.push_back({index_of[tri[0]], index_of[tri[1]], index_of[tri[2]]});
+  }
+  return mesh;
+}
+
+std::size_t ImtSurface::memory_bytes() const {
+  const State& s = *s_;
+  const std::size_t per_vertex = sizeof(Vec3f) * 2 + 1 + 4 + 8 + sizeof(NormalSum) + 4 + 1 + 1;
+  const std::size_t per_triangle = sizeof(std::array<std::uint32_t, 3>) + 4 + 1;
+  return s.positions.capacity() * per_vertex + s.triangles.capacity() * per_triangle +
+         (s.free_vertices.capacity() + s.free_triangles.capacity()) * 4 + s.page_of.capacity() * 4 +
+         s.page_records.capacity() * sizeof(s.page_records[0]) +
+         s.records.capacity() * sizeof(CubeRecord) + s.free_records.capacity() * 4;
+}
+
+void ImtSurface::check_invariants() const {
+  const State& s = *s_;
+  auto fail = [](const std::string& what) { throw Error("ImtSurface invariant broken: " + what); };
+  if (!s.built) return;
+  if (s.key[0] != kNoKey) fail("sentinel vertex 0 carries a key");
+  std::vector<std::uint32_t> uses(s.vertex_slots, 0);
+  std::vector<NormalSum> sums(s.vertex_slots);
+  std::size_t live_triangles = 0;
+  for (std::uint32_t t = 0; t < s.triangle_slots; ++t) {
+    const auto& tri = s.triangles[t];
+    if (tri[0] == 0) {
+      if (tri[1] != 0 || tri[2] != 0) fail("triangle " + std::to_string(t) + " half collapsed");
+      continue;
+    }
+    ++live_triangles;
+    for (std::uint32_t v : tri) {
+      if (v >= s.vertex_slots || !s.vertex_live(v))
+        fail("triangle " + std::to_string(t) + " uses free vertex " + std::to_string(v));
+      ++uses[v];
+    }
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2])
+      fail("triangle " + std::to_string(t) + " repeats a vertex");
+    const NormalSum n = s.face_sum(tri);
+    for (std::uint32_t v : tri) sums[v] += n;
+  }
+  if (live_triangles != live_triangle_count()) fail("live triangle count disagrees with free list");
+  for (std::uint32_t v = 1; v < s.vertex_slots; ++v) {
+    if (!s.vertex_live(v)) {
+      if (uses[v] != 0) fail("free vertex " + std::to_string(v) + " is used");
+      continue;
+    }
+    if (uses[v] != s.refcount[v])
+      fail("vertex " + std::to_string(v) + " refcount " + std::to_string(s.refcount[v]) +
+           " but used by " + std::to_string(uses[v]) + " triangles");
+    if (uses[v] == 0) fail("live vertex " + std::to_string(v) + " is used by no triangle");
+    if (!(sums[v] == s.normal_sum[v])) fail("vertex " + std::to_string(v) + " normal sum drifted");
+    const std::uint64_t k = s.key[v];
+    const Int3 c = s.grid.cube(k / kSlotsPerCube);
+    const Int3 u{c.x + 1, c.y + 1, c.z + 1};
+    const std::uint32_t page = s.page_of[s.page_cell(u)];
+    const std::uint32_t rid =
+        page == 0 ? 0 : s.page_records[page - 1][static_cast<std::size_t>(State::page_local(u))];
+    if (rid == 0 || s.records[rid].vertex[k % kSlotsPerCube] != v)
+      fail("vertex " + std::to_string(v) + " is not found through its cube record");
+  }
+  // Every live triangle is on exactly one record list.
+  std::vector<std::uint8_t> listed(s.triangle_slots, 0);
+  for (std::size_t rid = 1; rid < s.records.size(); ++rid) {
+    if (std::find(s.free_records.begin(), s.free_records.end(), rid) != s.free_records.end())
+      continue;
+    for (std::uint32_t t = s.records[rid].first_triangle; t != kNone; t = s.next_triangle[t]) {
+      if (t >= s.triangle_slots || s.triangles[t][0] == 0)
+        fail("record " + std::to_string(rid) + " lists a free triangle");
+      if (listed[t]++) fail("triangle " + std::to_string(t) + " listed twice");
+    }
+  }
+  for (std::uint32_t t = 0; t < s.triangle_slots; ++t)
+    if (s.triangles[t][0] != 0 && !listed[t])
+      fail("triangle " + std::to_string(t) + " is on no cube record");
+}
+
+}  // namespace tsf::imt
