@@ -242,6 +242,23 @@ class CpuBackend final : public SolverBackend {
     });
   }
 
+  void spring_forces(const StepParameters& p, unsigned features,
+                     std::vector<Vec3f>& forces) override {
+    forces.assign(static_cast<std::size_t>(count_), Vec3f{0, 0, 0});
+    dispatch_features(features, [&](auto f) {
+      constexpr unsigned F = decltype(f)::value;
+      const LatticeView lat = lattice_view();
+      const ConstStateView st = state_view();
+#pragma omp parallel for schedule(static) if (count_ >= kParallelNodes)
+      for (std::int64_t n = 0; n < count_; ++n) {
+        if (!(flags_[n] & kAliveBit)) continue;
+        const Int3 c = geometry_.coordinates(n);
+        const IndexedStencil s{lat, st, n, c.x, c.y, c.z};
+        forces[n] = spring_force<F>(s, lat.rest_length, p.palette);
+      }
+    });
+  }
+
   LatticeView lattice_view() const override {
     LatticeView l;
     l.dims = geometry_.dims;

@@ -47,6 +47,8 @@ struct Guard {
 static_assert(sizeof(StepParameters) == sizeof(float) * 6 + sizeof(int) + sizeof(MaterialPalette),
               "StepParameters must have no padding: graphs are keyed on its bytes");
 
+static_assert(sizeof(Vec3f) == 3 * sizeof(float), "Vec3f arrays are copied as float triples");
+
 const dim3 kBlock(32, 4, 2);
 
 template <unsigned F>
@@ -157,6 +159,24 @@ __global__ void __launch_bounds__(256)
   }
   if (t == 0)
     for (int q = 0; q < 3; ++q) atomicAdd(&sums[q], partial[q][0]);
+}
+
+template <unsigned F>
+__global__ void __launch_bounds__(256)
+    force_kernel(LatticeView lat, ConstStateView s, StepParameters p, float* xyz) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const int j = blockIdx.y * blockDim.y + threadIdx.y;
+  const int k = blockIdx.z * blockDim.z + threadIdx.z;
+  if (i >= lat.dims.x || j >= lat.dims.y || k >= lat.dims.z) return;
+  const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
+  Vec3f f{0.0f, 0.0f, 0.0f};
+  if (lat.flags[n] & kAliveBit) {
+    const IndexedStencil st{lat, s, n, i, j, k};
+    f = spring_force<F>(st, lat.rest_length, p.palette);
+  }
+  xyz[3 * n + 0] = f.x;
+  xyz[3 * n + 1] = f.y;
+  xyz[3 * n + 2] = f.z;
 }
 
 template <typename T>
@@ -371,6 +391,24 @@ class CudaBackend final : public SolverBackend {
                                    cudaMemcpyDeviceToHost, stream_));
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
     return EnergySums{energy_host_[0], energy_host_[1], energy_host_[2]};
+  }
+
+  void spring_forces(const StepParameters& p, unsigned features,
+                     std::vector<Vec3f>& forces) override {
+    // The snapshot staging buffer (3 floats per node) is free while no copy is in flight.
+    poll_snapshot();
+    if (copy_in_flight_) TSF_CUDA_CHECK(cudaStreamSynchronize(copy_stream_));
+    poll_snapshot();
+    const LatticeView lat = lattice_view();
+    dispatch_features(features, [&](auto f) {
+      force_kernel<decltype(f)::value>
+          <<<grid(), kBlock, 0, stream_>>>(lat, state_view(), p, staging_);
+    });
+    TSF_CUDA_CHECK_LAUNCH();
+    forces.resize(static_cast<std::size_t>(count_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), staging_, 3 * count_ * sizeof(float),
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
 
   LatticeView lattice_view() const override {

@@ -18,35 +18,34 @@
 namespace tsf::crms {
 namespace {
 
-using D6 = Dual<6>;
-
-/// Stencil over double trial arrays; node `seed` carries derivative seeds: d[0..2] on its
-/// displacement, d[3..5] on its velocity.
+/// Stencil over double trial arrays where every distinct node of the stencil carries its own
+/// six derivative seeds: node number q (in order of first appearance) has d[6q..6q+2] on its
+/// displacement and d[6q+3..6q+5] on its velocity. One evaluation yields the node's whole
+/// Jacobian row block (slots that fall outside the lattice alias the node itself, and so share
+/// its seeds).
+template <int kSlots>
 struct DualStencil {
-  using Scalar = D6;
+  using Scalar = Dual<6 * kSlots>;
   const LatticeView& lattice;
   const std::vector<double>* u_arrays;  // [3]
   const std::vector<double>* v_arrays;  // [3]
-  std::int64_t n;
-  int i, j, k;
-  std::int64_t seed;
+  const std::int64_t* slot_nodes;       // [kSlots] node read by each slot
+  const int* slot_seed;                 // [kSlots] seed number of that node
 
-  std::int64_t slot_index(int slot) const { return stencil_node(lattice, n, i, j, k, slot); }
-  Vec3<D6> load(const std::vector<double>* a, int slot, int seed_offset) const {
-    const std::int64_t m = slot_index(slot);
-    Vec3<D6> r{D6(a[0][m]), D6(a[1][m]), D6(a[2][m])};
-    if (m == seed) {
-      r.x.d[seed_offset + 0] = 1.0;
-      r.y.d[seed_offset + 1] = 1.0;
-      r.z.d[seed_offset + 2] = 1.0;
-    }
+  Vec3<Scalar> load(const std::vector<double>* a, int slot, int offset) const {
+    const std::int64_t m = slot_nodes[slot];
+    Vec3<Scalar> r{Scalar(a[0][m]), Scalar(a[1][m]), Scalar(a[2][m])};
+    const int q = 6 * slot_seed[slot] + offset;
+    r.x.d[q + 0] = 1.0;
+    r.y.d[q + 1] = 1.0;
+    r.z.d[q + 2] = 1.0;
     return r;
   }
   // The accessor interface of node_force.h.
-  Vec3<D6> u(int slot) const { return load(u_arrays, slot, 0); }
-  Vec3<D6> v(int slot) const { return load(v_arrays, slot, 3); }
-  unsigned flags(int slot) const { return lattice.flags[slot_index(slot)]; }
-  int material(int slot) const { return lattice.material[slot_index(slot)]; }
+  Vec3<Scalar> u(int slot) const { return load(u_arrays, slot, 0); }
+  Vec3<Scalar> v(int slot) const { return load(v_arrays, slot, 3); }
+  unsigned flags(int slot) const { return lattice.flags[slot_nodes[slot]]; }
+  int material(int slot) const { return lattice.material[slot_nodes[slot]]; }
 };
 
 struct Block {
@@ -57,9 +56,10 @@ struct Block {
 template <unsigned F>
 ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
                                 const StepParameters& p, int max_iterations, double tolerance) {
+  constexpr int kSlots = (F & features::kSymmetricReactions) ? kStencilSlots : kGatherStencilSlots;
+  using DualF = Dual<6 * kSlots>;
   const std::int64_t count = lat.count;
   const double dt = static_cast<double>(p.dt);
-  const int slots = (F & features::kSymmetricReactions) ? kStencilSlots : kGatherStencilSlots;
   const float rest[3] = {lat.rest_length[0], lat.rest_length[1], lat.rest_length[2]};
 
   std::vector<std::int64_t> free_index(static_cast<std::size_t>(count), -1);
@@ -85,6 +85,10 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
   Eigen::VectorXd g(3 * nf);
   bool pattern_analyzed = false;
+  bool update_small = false;
+  double initial_residual = 0.0;
+  const double min_spacing = static_cast<double>(
+      std::min(lat.rest_length[0], std::min(lat.rest_length[1], lat.rest_length[2])));
   for (int iteration = 0;; ++iteration) {
     for (std::int64_t f = 0; f < nf; ++f) {
       const std::int64_t n = free_nodes[f];
@@ -102,22 +106,28 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
       const int k = static_cast<int>(n / lat.stride_z);
       const double mass = 1.0 / static_cast<double>(lat.inv_mass[n]);
       auto& mine = blocks[static_cast<std::size_t>(omp_get_thread_num())];
-      Vec3d force{0, 0, 0};
-      std::int64_t seen[kStencilSlots];
-      int seen_count = 0;
-      for (int slot = 0; slot < slots; ++slot) {
+      std::int64_t slot_nodes[kSlots];
+      int slot_seed[kSlots];
+      std::int64_t distinct[kSlots];
+      int distinct_count = 0;
+      for (int slot = 0; slot < kSlots; ++slot) {
         const std::int64_t m = stencil_node(lat, n, i, j, k, slot);
-        if (std::find(seen, seen + seen_count, m) != seen + seen_count) continue;
-        seen[seen_count++] = m;
-        const DualStencil st{lat, u, v, n, i, j, k, m};
-        const Vec3<D6> fd = spring_force<F>(st, rest, p.palette);
-        if (slot == 0) force = {fd.x.v, fd.y.v, fd.z.v};
+        int q = static_cast<int>(std::find(distinct, distinct + distinct_count, m) - distinct);
+        if (q == distinct_count) distinct[distinct_count++] = m;
+        slot_nodes[slot] = m;
+        slot_seed[slot] = q;
+      }
+      const DualStencil<kSlots> st{lat, u, v, slot_nodes, slot_seed};
+      const Vec3<DualF> fd = spring_force<F>(st, rest, p.palette);
+      const Vec3d force{fd.x.v, fd.y.v, fd.z.v};
+      for (int q = 0; q < distinct_count; ++q) {
+        const std::int64_t m = distinct[q];
         const std::int64_t col = free_index[m];
         if (col < 0) continue;
         Block b{f, col, {}};
         for (int r = 0; r < 3; ++r)
           for (int c = 0; c < 3; ++c) {
-            const double dfdu = fd[r].d[c], dfdv = fd[r].d[3 + c];
+            const double dfdu = fd[r].d[6 * q + c], dfdv = fd[r].d[6 * q + 3 + c];
             b.value[r][c] = -dt * dfdv - dt * dt * dfdu + (m == n && r == c ? mass : 0.0);
           }
         mine.push_back(b);
@@ -135,7 +145,9 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
     }
     stats.relative_residual = g.norm() / (std::sqrt(scale_sq) + 1e-300);
     if (!std::isfinite(stats.relative_residual)) break;
-    if (stats.relative_residual <= tolerance || nf == 0) {
+    if (iteration == 0) initial_residual = g.norm();
+    if (nf == 0 || stats.relative_residual <= tolerance ||
+        g.norm() <= tolerance * initial_residual || update_small) {
       stats.converged = true;
       break;
     }
@@ -161,6 +173,9 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
     for (std::int64_t f = 0; f < nf; ++f)
       for (int a = 0; a < 3; ++a) v[a][free_nodes[f]] += delta(3 * f + a);
     ++stats.newton_iterations;
+    // The update moved no node by more than tolerance × spacing: converged to the precision the
+    // float state can hold, even where the residual sits at its round-off floor.
+    update_small = dt * delta.lpNorm<Eigen::Infinity>() <= tolerance * min_spacing;
   }
 
   // Stability controls, then positions from the (filtered) velocities; reject non-finite.

@@ -322,6 +322,12 @@ EnergyReport Solver::energy() const {
   return r;
 }
 
+std::vector<Vec3f> Solver::spring_forces() const {
+  std::vector<Vec3f> forces;
+  backend_->spring_forces(step_parameters(1.0), features(), forces);
+  return forces;
+}
+
 LatticeView Solver::lattice_view() const {
   return backend_->lattice_view();
 }

@@ -59,6 +59,9 @@ class SolverBackend {
   virtual void reset_guard() = 0;
 
   virtual EnergySums energy(const StepParameters& parameters, unsigned features) = 0;
+  /// Spring force on every node at the current state, µN (external loads and gravity excluded).
+  virtual void spring_forces(const StepParameters& parameters, unsigned features,
+                             std::vector<Vec3f>& forces) = 0;
 
   virtual LatticeView lattice_view() const = 0;
   virtual StateView state_view() const = 0;

@@ -129,6 +129,9 @@ class Solver {
   std::vector<Vec3f> displacements() const;  ///< #nodes, mm
   std::vector<Vec3f> velocities() const;     ///< #nodes, mm/s
   EnergyReport energy() const;
+  /// Spring force on every node at the current state, µN (#nodes; gravity and external loads
+  /// excluded). At a constrained node, minus this is the reaction the constraint supplies.
+  std::vector<Vec3f> spring_forces() const;
 
   // ---- views for other modules (coupler, collisions) ----
   /// Lattice arrays where the backend keeps them (device memory on CUDA).
