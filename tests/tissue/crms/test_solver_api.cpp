@@ -67,7 +67,7 @@ TEST(CrmsSolver, AnchoredNodesStayAndConstraintsMoveNodes) {
     s.release_nodes(tip);
     s.step(2000, dt);
     EXPECT_TRUE(test::assert_finite(s));
-    EXPECT_LT(s.positions()[tip[0]].z, targets[0].z - 1.0);  // released: sags again
+    EXPECT_LT(s.positions()[tip[0]].z, targets[0].z - 0.3);  // released: falls back
   }
 }
 
