@@ -133,9 +133,8 @@ class CpuBackend final : public SolverBackend {
   explicit CpuBackend(const LatticeGeometry& g) : geometry_(g), count_(g.node_count()) {
     for (auto& buffer : state_)
       for (auto& component : buffer) component.assign(static_cast<std::size_t>(count_), 0.0f);
-    for (auto& s : snapshot_storage_) s.assign(static_cast<std::size_t>(count_) * 3, 0.0f);
-    snapshots_ = std::make_unique<SnapshotBuffer>(snapshot_storage_[0].data(),
-                                                  snapshot_storage_[1].data(), count_);
+    // Snapshot storage is allocated on the first request (most runs never ask).
+    snapshots_ = std::make_unique<SnapshotBuffer>(nullptr, nullptr, count_);
   }
 
   std::string name() const override {
@@ -278,6 +277,10 @@ class CpuBackend final : public SolverBackend {
   }
 
   void request_snapshot(std::int64_t step) override {
+    if (!snapshots_->attached()) {
+      for (auto& s : snapshot_storage_) s.assign(static_cast<std::size_t>(count_) * 3, 0.0f);
+      snapshots_->attach(snapshot_storage_[0].data(), snapshot_storage_[1].data());
+    }
     float* dst = snapshots_->back();
     const auto& s = state_[current_];
     const LatticeGeometry& g = geometry_;

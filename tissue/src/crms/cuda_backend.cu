@@ -207,8 +207,8 @@ class CudaBackend final : public SolverBackend {
     TSF_CUDA_CHECK(cudaMallocHost(&energy_host_, 3 * sizeof(double)));
     energy_device_ = device_alloc<double>(3);
     staging_ = device_alloc<float>(3 * n);
-    for (auto& p : pinned_snapshot_) TSF_CUDA_CHECK(cudaMallocHost(&p, 3 * n * sizeof(float)));
-    snapshots_ = std::make_unique<SnapshotBuffer>(pinned_snapshot_[0], pinned_snapshot_[1], count_);
+    // Pinned snapshot buffers are allocated on the first request (most runs never ask).
+    snapshots_ = std::make_unique<SnapshotBuffer>(nullptr, nullptr, count_);
     Guard initial{kNoNode, kNoStep, 0};
     *guard_host_ = initial;
     TSF_CUDA_CHECK(
@@ -238,7 +238,8 @@ class CudaBackend final : public SolverBackend {
     cudaFree(scatter_values_);
     cudaFreeHost(guard_host_);
     cudaFreeHost(energy_host_);
-    for (auto* p : pinned_snapshot_) cudaFreeHost(p);
+    for (auto* p : pinned_snapshot_)
+      if (p) cudaFreeHost(p);
     cudaEventDestroy(staged_);
     cudaEventDestroy(copied_);
     cudaStreamDestroy(stream_);
@@ -431,6 +432,11 @@ class CudaBackend final : public SolverBackend {
     if (copy_in_flight_) {
       snapshots_->count_dropped();
       return;
+    }
+    if (!snapshots_->attached()) {
+      for (auto& p : pinned_snapshot_)
+        TSF_CUDA_CHECK(cudaMallocHost(&p, 3 * count_ * sizeof(float)));
+      snapshots_->attach(pinned_snapshot_[0], pinned_snapshot_[1]);
     }
     const float3 origin{static_cast<float>(geometry_.origin.x),
                         static_cast<float>(geometry_.origin.y),

@@ -1,9 +1,18 @@
 #include "tsf/crms/snapshot_buffer.h"
 
+#include "tsf/common/error.h"
+
 namespace tsf::crms {
 
 SnapshotBuffer::SnapshotBuffer(float* buffer_a, float* buffer_b, std::int64_t node_count)
     : buffers_{buffer_a, buffer_b}, node_count_(node_count) {}
+
+void SnapshotBuffer::attach(float* buffer_a, float* buffer_b) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  require(version_ == 0, "snapshot buffers can only be attached before the first publish");
+  buffers_[0] = buffer_a;
+  buffers_[1] = buffer_b;
+}
 
 void SnapshotBuffer::publish(std::int64_t step) {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -25,6 +25,9 @@ class SnapshotBuffer {
   SnapshotBuffer& operator=(const SnapshotBuffer&) = delete;
 
   // ---- producer (the solver's thread) ----
+  /// Supplies the two buffers later (allocation on first use); only before the first publish.
+  void attach(float* buffer_a, float* buffer_b);
+  bool attached() const { return buffers_[0] != nullptr; }
   float* back() { return buffers_[1 - front_]; }
   /// Makes the back buffer (holding the state after `step` steps) the readers' front.
   void publish(std::int64_t step);
