@@ -3,9 +3,9 @@
 // Rows (fixed j, k) are distributed over threads; within a row the interior nodes run in a SIMD
 // loop (`omp simd`) over x, reading neighbours through nine row pointers (rows outside the lattice
 // alias the centre row; link bits zero their contribution), and the two row ends go through the
-// bounds-checked IndexedStencil. The SIMD loop is compiled twice, for AVX2+FMA and for the
-// baseline ISA, and picked at run time, so one binary runs everywhere and uses the wide units
-// where they exist.
+// bounds-checked IndexedStencil. The row function is flattened so that the whole per-node
+// physics is inlined into the SIMD loop (a per-function `target("avx2")` clone was tried: GCC
+// then refuses to inline the default-target physics into it and calls it per node, 2× slower).
 //
 // No errno from sqrt: this translation unit is compiled as if with -fno-math-errno (the pragma
 // must precede every include so that all functions defined here agree), which lets sqrtf become a
@@ -30,12 +30,9 @@
 #include "tsf/crms/node_update.h"
 #include "tsf/crms/stencil.h"
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-#define TSF_CRMS_X86_DISPATCH 1
-#define TSF_TARGET_AVX2 __attribute__((target("avx2,fma"), flatten))
+#if defined(__GNUC__)
 #define TSF_FLATTEN __attribute__((flatten))
 #else
-#define TSF_CRMS_X86_DISPATCH 0
 #define TSF_FLATTEN
 #endif
 
@@ -109,24 +106,10 @@ inline __attribute__((always_inline)) bool step_row_interior(const RowBlock& b,
 }
 
 template <unsigned F>
-TSF_FLATTEN bool step_row_baseline(const RowBlock& b, const RowOutput& out,
-                                   const float* rest_length, const StepParameters& p, int i0,
-                                   int i1) {
+TSF_FLATTEN bool step_row_simd(const RowBlock& b, const RowOutput& out, const float* rest_length,
+                               const StepParameters& p, int i0, int i1) {
   return step_row_interior<F>(b, out, rest_length, p, i0, i1);
 }
-
-#if TSF_CRMS_X86_DISPATCH
-template <unsigned F>
-TSF_TARGET_AVX2 bool step_row_avx2(const RowBlock& b, const RowOutput& out,
-                                   const float* rest_length, const StepParameters& p, int i0,
-                                   int i1) {
-  return step_row_interior<F>(b, out, rest_length, p, i0, i1);
-}
-bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-#endif
 
 class CpuBackend final : public SolverBackend {
  public:
@@ -138,11 +121,7 @@ class CpuBackend final : public SolverBackend {
   }
 
   std::string name() const override {
-    std::string isa = "baseline";
-#if TSF_CRMS_X86_DISPATCH
-    if (cpu_has_avx2()) isa = "avx2";
-#endif
-    return "cpu (OpenMP, " + std::to_string(omp_get_max_threads()) + " threads, " + isa + ")";
+    return "cpu (OpenMP, " + std::to_string(omp_get_max_threads()) + " threads)";
   }
 
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
@@ -210,12 +189,8 @@ class CpuBackend final : public SolverBackend {
       }
     });
   }
-  std::optional<GuardHit> synchronize() override {
-    return hit_;
-  }
-  void reset_guard() override {
-    hit_.reset();
-  }
+  std::optional<GuardHit> synchronize() override { return hit_; }
+  void reset_guard() override { hit_.reset(); }
 
   EnergySums energy(const StepParameters& p, unsigned features) override {
     return dispatch_features(features, [&](auto f) {
@@ -326,9 +301,6 @@ class CpuBackend final : public SolverBackend {
     const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
     const std::int64_t rows = static_cast<std::int64_t>(ny) * nz;
     const float rest[3] = {lat.rest_length[0], lat.rest_length[1], lat.rest_length[2]};
-#if TSF_CRMS_X86_DISPATCH
-    const bool avx2 = cpu_has_avx2();
-#endif
     std::int64_t first_bad = LLONG_MAX;
 #pragma omp parallel for schedule(static) reduction(min : first_bad) if (count_ >= kParallelNodes)
     for (std::int64_t row = 0; row < rows; ++row) {
@@ -369,14 +341,7 @@ class CpuBackend final : public SolverBackend {
         }
         row_bad |= !r.finite;
       }
-      if (nx > 2) {
-#if TSF_CRMS_X86_DISPATCH
-        row_bad |= avx2 ? step_row_avx2<F>(b, o, rest, p, 1, nx - 1)
-                        : step_row_baseline<F>(b, o, rest, p, 1, nx - 1);
-#else
-        row_bad |= step_row_baseline<F>(b, o, rest, p, 1, nx - 1);
-#endif
-      }
+      if (nx > 2) row_bad |= step_row_simd<F>(b, o, rest, p, 1, nx - 1);
       if (row_bad) {
         // Rare: find the first failing node of the row by recomputing it.
         for (int i = 0; i < nx; ++i) {
