@@ -63,6 +63,7 @@ struct NodeArms {
   Vec3<S> dir[6];  ///< unit vector from the node to neighbour d (rest direction when absent)
   S inv_len[6];    ///< 1/|arm|, 1/mm
   S len[6];        ///< |arm|, mm
+  S stretch[6];    ///< |arm| − rest length, mm, computed without cancellation (see load_arms)
   Vec3<S> dv[6];   ///< v_neighbour − v_node, mm/s (0 when absent)
   S w[6];          ///< 1 when the link exists, else 0
 };
@@ -81,9 +82,15 @@ TSF_HD_INLINE void load_arms(const St& st, unsigned links, const float rest_leng
     const bool on = ((links >> d) & 1u) != 0;
     V rest{S(0), S(0), S(0)};
     rest[ax] = S(direction_sign(d) * rest_length[ax]);
-    const V r = select(on, rest + (st.u(face_slot(d)) - u0), rest);
+    const V du = select(on, st.u(face_slot(d)) - u0, V{S(0), S(0), S(0)});
+    const V r = rest + du;
     const S l = crms_max(crms_length(r), S(1e-6f * rest_length[ax]));
     arms.len[d] = l;
+    // l − L = (l² − L²)/(l + L) with l² − L² = 2·rest·du + du·du: no subtraction of two numbers
+    // near L, so small strains keep full float precision (and the CPU and CUDA backends, whose
+    // roundings differ, agree to ~1e-6 instead of ~1e-3).
+    const S rest_dot_du = S(direction_sign(d) * rest_length[ax]) * du[ax];
+    arms.stretch[d] = (S(2) * rest_dot_du + dot(du, du)) / (l + S(rest_length[ax]));
     arms.inv_len[d] = S(1) / l;
     arms.dir[d] = r * arms.inv_len[d];
     arms.dv[d] = select(on, st.v(face_slot(d)) - v0, V{S(0), S(0), S(0)});
@@ -118,7 +125,7 @@ TSF_HD_INLINE Vec3<typename St::Scalar> spring_force(const St& st, const float r
       kd = series_stiffness(kd, other.kd_linear[ax]);
     }
     const S inv_rest = S(1.0f / rest_length[ax]);
-    const S strain = (arms.len[d] - S(rest_length[ax])) * inv_rest;
+    const S strain = arms.stretch[d] * inv_rest;
     const S strain_rate = dot(arms.dir[d], arms.dv[d]) * inv_rest;
     force += arms.dir[d] * ((S(ks) * strain + S(kd) * strain_rate) * arms.w[d]);
   }
@@ -200,7 +207,7 @@ TSF_HD_INLINE typename St::Scalar elastic_energy(const St& st, const float rest_
     if constexpr (kHetero) {
       ks = series_stiffness(ks, palette.entry[st.material(face_slot(d))].ks_linear[ax]);
     }
-    const S stretch = arms.len[d] - S(rest_length[ax]);
+    const S stretch = arms.stretch[d];
     energy += S(0.5f * ks / rest_length[ax]) * stretch * stretch * arms.w[d];
   }
   TSF_UNROLL
