@@ -354,9 +354,8 @@ class CudaBackend final : public SolverBackend {
       dispatch_features(features, [&](auto f) {
         for (int s = 0; s < rest; ++s) launch_step<decltype(f)::value>(lat, p, s);
       });
-      advance_steps_kernel<<<1, 1, 0, stream_>>>(guard_, rest);
+      advance_steps_kernel<<<1, 1, 0, stream_>>>(guard_, rest);  // launch_step swapped buffers
       TSF_CUDA_CHECK_LAUNCH();
-      current_ = (current_ + rest) % 2;
     }
     steps_started_ += n;
   }
