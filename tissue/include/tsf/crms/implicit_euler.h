@@ -9,7 +9,10 @@
 // formulation (gather or symmetric, exact or cosine) as the explicit kernels. The gather form's
 // Jacobian is not symmetric, so the linear systems are solved with Eigen's SparseLU. Then
 // u = u0 + dt·v. One Newton iteration is the linearised backward Euler of Baraff & Witkin (1998);
-// iterating to the tolerance makes it the fully implicit step.
+// iterating makes it the fully implicit step. Newton stops when the relative residual is below the
+// tolerance, or the residual has dropped by the tolerance from the step's first, or the last
+// update moved no node by more than tolerance × the smallest spacing (the resolution of the float
+// state, where the residual sits at its round-off floor).
 //
 // After the solve the stability controls (kinetic damping, velocity limit) filter v as in the
 // explicit schemes (node_update.h), and u = u0 + dt·v uses the filtered v.

@@ -1,10 +1,14 @@
 // The CRMS solver: a lattice, its state and a backend (CPU/OpenMP or CUDA) that steps it.
 //
-//   Lattice lattice = build_box_lattice({.size_mm = {40, 10, 10}, .spacing_mm = 2.5});
+//   BoxLatticeOptions box;
+//   box.size_mm = {40, 10, 10};
+//   box.spacing_mm = 2.5;
+//   Lattice lattice = build_box_lattice(box);
 //   fix_nodes_in_box(lattice, {-1, -1, -1}, {1.5, 11, 11});
 //   SolverConfig config;
 //   config.gravity = {0, 0, -9810};
-//   config.materials = {Material{.youngs_modulus_pa = 50e3, .viscosity_pa_s = 20}};
+//   config.materials[0].youngs_modulus_pa = 50e3;
+//   config.materials[0].viscosity_pa_s = 10;
 //   Solver solver(std::move(lattice), config);
 //   const double dt = 0.5 * solver.stable_dt();
 //   StepReport r = solver.step(1000, dt);          // or step_async + synchronize
@@ -40,7 +44,7 @@ struct Instability {
   Int3 coordinates;
   Vec3d rest_position_mm;
   Vec3d position_mm;    ///< its last finite position (kept)
-  Vec3d velocity_mm_s;  ///< its last finite velocity before the failing step was zeroed: 0
+  Vec3d velocity_mm_s;  ///< its velocity as kept: 0 (the failing update is discarded)
   std::string describe() const;
 };
 
