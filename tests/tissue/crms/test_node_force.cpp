@@ -242,7 +242,8 @@ void expect_dual_jacobian_matches_finite_differences() {
       const float h = 1e-3f;
       auto eval = [&](float delta) {
         HostLattice m = l;
-        (q < 3 ? m.u : m.v)[q % 3][seed] += delta;
+        std::vector<float>& component = q < 3 ? m.u[q] : m.v[q - 3];
+        component[static_cast<std::size_t>(seed)] += delta;
         const DualHostStencil s2{m, centre, 1, 1, 1, -1};
         const Vec3<Dual<6>> f = spring_force<F>(s2, m.rest, p);
         return Vec3d{f.x.v, f.y.v, f.z.v};
