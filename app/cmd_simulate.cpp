@@ -1,0 +1,256 @@
+// `tsf simulate SCENE --steps N --report OUT.json`: runs a scene's CRMS lattice headless and
+// reports energy over time, step rate, the stable-dt estimate, any instability and the backend.
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "commands.h"
+#include "scene/scene.h"
+#include "tsf/common/atomic_file.h"
+#include "tsf/common/error.h"
+#include "tsf/common/progress.h"
+#include "tsf/common/stopwatch.h"
+#include "tsf/crms/lattice_builders.h"
+#include "tsf/crms/solver.h"
+#include "tsf/version.h"
+#ifdef TSF_HAVE_IMPORT
+#include "tsf/import/tissue_volume_io.h"
+#endif
+
+namespace tsf::app {
+namespace {
+
+using nlohmann::json;
+
+json to_json(const Vec3d& v) {
+  return json::array({v.x, v.y, v.z});
+}
+
+crms::Lattice build_lattice(const Scene& scene) {
+  const SceneLattice& sl = scene.lattice;
+  const crms::Material& m = scene.solver.materials.at(0);
+  crms::Lattice lattice;
+  if (sl.source == SceneLattice::Source::kBox) {
+    crms::BoxLatticeOptions o;
+    o.size_mm = sl.size_mm;
+    o.spacing_mm = sl.spacing_mm;
+    o.min_corner_mm = sl.min_corner_mm;
+    o.density_g_per_mm3 = m.density_g_per_mm3;
+    lattice = crms::build_box_lattice(o);
+  } else {
+#ifdef TSF_HAVE_IMPORT
+    const VoxelVolume volume = import::read_tissue_volume(sl.volume);
+    crms::VolumeLatticeOptions o;
+    o.node_spacing_voxels = sl.node_spacing_voxels;
+    o.occupancy_threshold = static_cast<float>(sl.occupancy_threshold);
+    o.mass_floor = static_cast<float>(sl.mass_floor);
+    o.density_g_per_mm3 = m.density_g_per_mm3;
+    lattice = crms::build_lattice_from_volume(volume, o);
+#else
+    throw Error(scene.file.string() +
+                ": lattice.source: volume needs a build with ITK (reconfigure with "
+                "-DTSF_WITH_ITK=ON); this build reads analytic boxes only");
+#endif
+  }
+  for (const SceneAnchor& a : scene.anchors) {
+    switch (a.kind) {
+      case SceneAnchor::Kind::kBox:
+        crms::fix_nodes_in_box(lattice, a.min_mm, a.max_mm);
+        break;
+      case SceneAnchor::Kind::kPlane:
+        crms::fix_nodes_behind_plane(lattice, a.point_mm, a.normal);
+        break;
+      case SceneAnchor::Kind::kLabels:
+        crms::fix_nodes_with_labels(lattice, a.labels);
+        break;
+    }
+  }
+  return lattice;
+}
+
+json stable_json(const crms::StableTimeStep& s) {
+  return {{"symplectic_euler_s", s.symplectic_euler_s},
+          {"explicit_euler_s", s.explicit_euler_s},
+          {"omega_max_rad_s", s.omega_max},
+          {"zeta_at_omega_max", s.zeta_at_omega_max},
+          {"damping_time_s", s.damping_time_s},
+          {"critical_node", s.critical_node}};
+}
+
+void run_simulate(const std::string& scene_path, std::int64_t steps_override,
+                  const std::string& report_path, const std::string& backend_override) {
+  Scene scene = read_scene(scene_path);
+  if (!backend_override.empty()) {
+    if (backend_override == "cpu")
+      scene.solver.backend = crms::Backend::kCpu;
+    else if (backend_override == "cuda")
+      scene.solver.backend = crms::Backend::kCuda;
+    else if (backend_override == "auto")
+      scene.solver.backend = crms::Backend::kAuto;
+    else
+      throw Error("--backend: expected cpu, cuda or auto, got '" + backend_override + "'");
+    crms::validate_solver_config(scene.solver);
+  }
+  const std::int64_t steps = steps_override >= 0 ? steps_override : scene.steps;
+
+  Stopwatch setup_clock;
+  crms::Lattice lattice = build_lattice(scene);
+  const std::int64_t fixed = [&] {
+    std::int64_t f = 0;
+    for (std::int64_t n = 0; n < lattice.node_count(); ++n)
+      f += lattice.alive(n) && lattice.fixed(n);
+    return f;
+  }();
+  crms::Solver solver(std::move(lattice), scene.solver);
+  const crms::Lattice& l = solver.lattice();
+  const double stable = solver.stable_dt();
+  double dt = scene.dt_s > 0 ? scene.dt_s : scene.dt_safety * stable;
+  if (!(dt > 0))
+    throw Error(scene.file.string() + ": solver.dt: the stable step of " +
+                crms::to_string(scene.solver.integrator) +
+                " is 0 for this material (explicit Euler needs viscosity > 0); set solver.dt or "
+                "choose symplectic-euler");
+  dt = std::min(dt, 1.0);
+
+  if (!scene.loads.empty()) {
+    std::vector<std::int64_t> nodes;
+    std::vector<Vec3f> forces;
+    for (const SceneLoad& load : scene.loads)
+      for (std::int64_t n = 0; n < l.node_count(); ++n) {
+        const Vec3d p = l.geometry().rest_position(n);
+        if (l.alive(n) && p.x >= load.min_mm.x && p.x <= load.max_mm.x && p.y >= load.min_mm.y &&
+            p.y <= load.max_mm.y && p.z >= load.min_mm.z && p.z <= load.max_mm.z) {
+          nodes.push_back(n);
+          forces.push_back(to_float(load.force_un));
+        }
+      }
+    solver.set_external_forces(nodes, forces);
+  }
+  if (scene.initial.scaled) {
+    std::vector<Vec3f> u(static_cast<std::size_t>(l.node_count())), v(u.size());
+    for (std::int64_t n = 0; n < l.node_count(); ++n) {
+      if (!l.alive(n) || l.fixed(n)) continue;
+      const Vec3d p = l.geometry().rest_position(n);
+      const Vec3d q =
+          scene.initial.about_mm + cwise_mul(scene.initial.scale, p - scene.initial.about_mm);
+      u[n] = to_float(q - p);
+    }
+    solver.set_state(u, v);
+  }
+  const double setup_s = setup_clock.seconds();
+
+  json energy = json::array();
+  auto sample = [&] {
+    const crms::EnergyReport e = solver.energy();
+    energy.push_back({{"step", solver.steps_done()},
+                      {"time_s", static_cast<double>(solver.steps_done()) * dt},
+                      {"kinetic_nj", e.kinetic_nj},
+                      {"elastic_nj", e.elastic_nj},
+                      {"gravitational_nj", e.gravitational_nj},
+                      {"total_nj", e.total_nj()}});
+  };
+  sample();
+  Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(steps));
+  double stepping_s = 0;
+  std::int64_t done = 0;
+  while (done < steps && !solver.instability()) {
+    const auto chunk = static_cast<int>(std::min<std::int64_t>(scene.report_every, steps - done));
+    Stopwatch clock;
+    solver.step(chunk, dt);
+    stepping_s += clock.seconds();
+    done += chunk;
+    progress.set(static_cast<std::uint64_t>(done));
+    sample();
+  }
+  progress.finish();
+
+  double max_displacement = 0;
+  for (const Vec3f& u : solver.displacements())
+    max_displacement = std::max(max_displacement, std::sqrt(static_cast<double>(dot(u, u))));
+  const std::int64_t run = solver.steps_done();
+  const double rate = stepping_s > 0 ? static_cast<double>(run) / stepping_s : 0.0;
+  json instability = nullptr;
+  if (const auto& inst = solver.instability())
+    instability = {{"step", inst->step},
+                   {"node", inst->node},
+                   {"coordinates",
+                    json::array({inst->coordinates.x, inst->coordinates.y, inst->coordinates.z})},
+                   {"rest_position_mm", to_json(inst->rest_position_mm)},
+                   {"position_mm", to_json(inst->position_mm)},
+                   {"message", inst->describe()}};
+  const crms::SpringConstants& k = solver.palette().entry[0];
+  json report = {
+      {"tsf_version", TSF_VERSION_STRING},
+      {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
+      {"backend", solver.backend_name()},
+      {"integrator", crms::to_string(scene.solver.integrator)},
+      {"angular_form", crms::to_string(scene.solver.angular_form)},
+      {"angular_reactions", crms::to_string(scene.solver.angular_reactions)},
+      {"lattice",
+       {{"dims", json::array({l.geometry().dims.x, l.geometry().dims.y, l.geometry().dims.z})},
+        {"spacing_mm", to_json(l.geometry().spacing)},
+        {"origin_mm", to_json(l.geometry().origin)},
+        {"alive_nodes", l.alive_count()},
+        {"fixed_nodes", fixed},
+        {"total_mass_g", l.total_mass()},
+        {"bytes_per_node", solver.bytes_per_node()}}},
+      {"springs",
+       {{"ks_linear_un", json::array({k.ks_linear[0], k.ks_linear[1], k.ks_linear[2]})},
+        {"kd_linear_un_s", json::array({k.kd_linear[0], k.kd_linear[1], k.kd_linear[2]})},
+        {"k_angular_un_mm", json::array({k.k_angular[0], k.k_angular[1], k.k_angular[2]})},
+        {"c_angular_un_mm_s", json::array({k.c_angular[0], k.c_angular[1], k.c_angular[2]})}}},
+      {"stable_dt", stable_json(solver.stable_time_step())},
+      {"dt_s", dt},
+      {"dt_over_stable", stable > 0 ? dt / stable : static_cast<double>(INFINITY)},
+      {"steps_requested", steps},
+      {"steps_run", run},
+      {"setup_s", setup_s},
+      {"stepping_s", stepping_s},
+      {"steps_per_s", rate},
+      {"node_steps_per_s", rate * static_cast<double>(l.node_count())},
+      {"max_displacement_mm", max_displacement},
+      {"instability", instability},
+      {"energy", energy},
+  };
+  if (!report_path.empty()) write_text_atomically(report_path, report.dump(2) + "\n");
+
+  std::printf(
+      "%s: %lld nodes (%lld alive, %lld fixed) on %s, %s, dt %.3g s (%.2f× the stable "
+      "%.3g s)\n",
+      scene.name.c_str(), static_cast<long long>(l.node_count()),
+      static_cast<long long>(l.alive_count()), static_cast<long long>(fixed),
+      solver.backend_name().c_str(), crms::to_string(scene.solver.integrator), dt,
+      stable > 0 ? dt / stable : 0.0, stable);
+  std::printf(
+      "%lld steps in %.3f s: %.4g steps/s, %.4g node-steps/s; energy %.6g -> %.6g nJ; max "
+      "displacement %.4g mm\n",
+      static_cast<long long>(run), stepping_s, rate, rate * static_cast<double>(l.node_count()),
+      energy.front()["total_nj"].get<double>(), energy.back()["total_nj"].get<double>(),
+      max_displacement);
+  if (solver.instability()) throw Error("unstable: " + solver.instability()->describe());
+}
+
+}  // namespace
+
+void add_simulate_command(CLI::App& app) {
+  CLI::App* sub = app.add_subcommand(
+      "simulate",
+      "Run a scene's mass-spring (CRMS) lattice headless and report energy, step rate, the "
+      "stable time step and any instability");
+  auto scene = std::make_shared<std::string>();
+  auto report = std::make_shared<std::string>();
+  auto backend = std::make_shared<std::string>();
+  auto steps = std::make_shared<std::int64_t>(-1);
+  sub->add_option("scene", *scene, "Scene file (YAML), e.g. scenes/beam.yaml")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--steps,-n", *steps, "Steps to run (default: the scene's solver.steps)")
+      ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000'000}));
+  sub->add_option("--report,-r", *report, "Write a JSON report here (written atomically)");
+  sub->add_option("--backend", *backend, "Override the scene's backend: cpu, cuda or auto");
+  sub->callback([=] { run_simulate(*scene, *steps, *report, *backend); });
+}
+
+}  // namespace tsf::app

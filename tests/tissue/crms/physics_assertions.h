@@ -1,0 +1,111 @@
+// Physics assertions and small scene builders for the CRMS tests (iMSTK-style helpers: each
+// returns a gtest AssertionResult that says what was wrong, where).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tsf/common/cuda_support.h"
+#include "tsf/crms/calibration.h"
+#include "tsf/crms/lattice_builders.h"
+#include "tsf/crms/solver.h"
+
+namespace tsf::crms::test {
+
+/// Every node position and velocity finite, and the solver not halted.
+inline ::testing::AssertionResult assert_finite(const Solver& solver) {
+  if (solver.instability())
+    return ::testing::AssertionFailure() << solver.instability()->describe();
+  const auto p = solver.positions();
+  const auto v = solver.velocities();
+  for (std::size_t n = 0; n < p.size(); ++n)
+    if (!std::isfinite(p[n].x) || !std::isfinite(p[n].y) || !std::isfinite(p[n].z) ||
+        !std::isfinite(v[n].x) || !std::isfinite(v[n].y) || !std::isfinite(v[n].z))
+      return ::testing::AssertionFailure()
+             << "node " << n << " is not finite: p = (" << p[n].x << ", " << p[n].y << ", "
+             << p[n].z << "), v = (" << v[n].x << ", " << v[n].y << ", " << v[n].z << ")";
+  return ::testing::AssertionSuccess();
+}
+
+/// Every sample of an energy series is finite and at most `bound` (nJ).
+inline ::testing::AssertionResult assert_energy_bounded(const std::vector<double>& energies,
+                                                        double bound) {
+  for (std::size_t s = 0; s < energies.size(); ++s)
+    if (!std::isfinite(energies[s]) || energies[s] > bound)
+      return ::testing::AssertionFailure() << "energy sample " << s << " = " << energies[s]
+                                           << " nJ exceeds the bound " << bound << " nJ";
+  return ::testing::AssertionSuccess();
+}
+
+/// Largest distance of an alive node from its rest position, in units of the smallest spacing.
+inline double max_rest_deviation(const Solver& solver) {
+  const auto u = solver.displacements();
+  const Lattice& l = solver.lattice();
+  double worst = 0.0;
+  for (std::int64_t n = 0; n < l.node_count(); ++n)
+    if (l.alive(n)) worst = std::max(worst, std::sqrt(static_cast<double>(dot(u[n], u[n]))));
+  return worst / l.geometry().min_spacing();
+}
+
+/// The lattice has returned to its rest shape up to a rigid motion? Here anchored scenes are used,
+/// so the rest shape itself is the reference.
+inline ::testing::AssertionResult assert_rest_shape_recovered(const Solver& solver,
+                                                              double tolerance_spacings) {
+  const double d = max_rest_deviation(solver);
+  if (d <= tolerance_spacings) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "largest deviation from the rest shape is " << d
+                                       << " spacings (tolerance " << tolerance_spacings << ")";
+}
+
+/// Runs `frames` × `steps_per_frame` steps, recording total energy after each frame.
+inline std::vector<double> run_recording_energy(Solver& solver, int frames, int steps_per_frame,
+                                                double dt) {
+  std::vector<double> energy;
+  energy.reserve(static_cast<std::size_t>(frames) + 1);
+  energy.push_back(solver.energy().total_nj());
+  for (int f = 0; f < frames; ++f) {
+    solver.step(steps_per_frame, dt);
+    energy.push_back(solver.energy().total_nj());
+  }
+  return energy;
+}
+
+/// A soft-tissue material: E = 10 kPa, η chosen for damping time τ = η/E, water density.
+inline Material soft_material(double youngs_pa = 10e3, double damping_time_s = 2e-4) {
+  Material m;
+  m.youngs_modulus_pa = youngs_pa;
+  m.viscosity_pa_s = youngs_pa * damping_time_s;
+  m.density_g_per_mm3 = 1e-3;
+  return m;
+}
+
+inline Lattice box(Vec3d size_mm, double spacing_mm) {
+  BoxLatticeOptions o;
+  o.size_mm = size_mm;
+  o.spacing_mm = spacing_mm;
+  return build_box_lattice(o);
+}
+
+/// Node indices whose rest position satisfies `pred`.
+template <typename Pred>
+std::vector<std::int64_t> nodes_where(const Lattice& lattice, Pred pred) {
+  std::vector<std::int64_t> out;
+  for (std::int64_t n = 0; n < lattice.node_count(); ++n)
+    if (lattice.alive(n) && pred(lattice.geometry().rest_position(n))) out.push_back(n);
+  return out;
+}
+
+/// The backends to run a backend-dependent test on: always the CPU; CUDA where a device exists.
+inline std::vector<Backend> available_backends() {
+  std::vector<Backend> b{Backend::kCpu};
+  if (cuda_status().available) b.push_back(Backend::kCuda);
+  return b;
+}
+
+}  // namespace tsf::crms::test

@@ -1,0 +1,291 @@
+// The per-node force (node_force.h): zero at rest, Hooke's law per spring, angular restoring
+// direction, momentum conservation of the symmetric form, exact Jacobian by dual numbers, and the
+// float asin polynomial.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "tsf/crms/calibration.h"
+#include "tsf/crms/dual.h"
+#include "tsf/crms/effects.h"
+#include "tsf/crms/node_force.h"
+#include "tsf/crms/stencil.h"
+
+namespace tsf::crms {
+namespace {
+
+/// A small lattice held in host arrays, all nodes alive and linked, for calling the force
+/// functions directly.
+struct HostLattice {
+  Int3 dims;
+  float rest[3];
+  std::vector<std::uint8_t> flags;
+  std::vector<float> inv_mass;
+  std::vector<std::uint8_t> material;
+  std::vector<float> u[3], v[3];
+
+  HostLattice(Int3 d, float h) : dims(d), rest{h, h, h} {
+    const auto n = static_cast<std::size_t>(d.volume());
+    flags.assign(n, 0);
+    inv_mass.assign(n, 1.0f);
+    material.assign(n, 0);
+    for (auto& c : u) c.assign(n, 0.0f);
+    for (auto& c : v) c.assign(n, 0.0f);
+    for (int k = 0; k < d.z; ++k)
+      for (int j = 0; j < d.y; ++j)
+        for (int i = 0; i < d.x; ++i) {
+          std::uint8_t f = kAliveBit;
+          const int c[3] = {i, j, k};
+          for (int dir = 0; dir < 6; ++dir) {
+            const int a = direction_axis(dir), s = direction_sign(dir);
+            const int dims_a = a == 0 ? d.x : (a == 1 ? d.y : d.z);
+            if (c[a] + s >= 0 && c[a] + s < dims_a) f |= static_cast<std::uint8_t>(1u << dir);
+          }
+          flags[index(i, j, k)] = f;
+        }
+  }
+  std::int64_t index(int i, int j, int k) const {
+    return i + static_cast<std::int64_t>(dims.x) * (j + static_cast<std::int64_t>(dims.y) * k);
+  }
+  LatticeView view() const {
+    LatticeView l;
+    l.dims = dims;
+    l.count = dims.volume();
+    l.stride_y = dims.x;
+    l.stride_z = static_cast<std::int64_t>(dims.x) * dims.y;
+    for (int a = 0; a < 3; ++a) l.rest_length[a] = rest[a];
+    l.flags = flags.data();
+    l.inv_mass = inv_mass.data();
+    l.material = material.data();
+    return l;
+  }
+  ConstStateView state() const {
+    ConstStateView s;
+    for (int a = 0; a < 3; ++a) {
+      s.u[a] = u[a].data();
+      s.v[a] = v[a].data();
+    }
+    return s;
+  }
+  template <unsigned F>
+  Vec3f force(int i, int j, int k, const MaterialPalette& p) const {
+    const IndexedStencil st{view(), state(), index(i, j, k), i, j, k};
+    return spring_force<F>(st, rest, p);
+  }
+  void set_u(int i, int j, int k, Vec3f d) {
+    for (int a = 0; a < 3; ++a) u[a][index(i, j, k)] = d[a];
+  }
+};
+
+MaterialPalette palette_of(const SpringConstants& s) {
+  MaterialPalette p;
+  p.entry[0] = s;
+  p.count = 1;
+  return p;
+}
+
+SpringConstants unit_springs() {
+  SpringConstants s;
+  for (int a = 0; a < 3; ++a) {
+    s.ks_linear[a] = 2.0f;
+    s.kd_linear[a] = 0.1f;
+    s.k_angular[a] = 0.5f;
+    s.c_angular[a] = 0.05f;
+  }
+  return s;
+}
+
+TEST(CrmsNodeForce, RestStateHasExactlyZeroForce) {
+  HostLattice l({4, 3, 3}, 1.5f);
+  const MaterialPalette p = palette_of(unit_springs());
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 4; ++i) {
+        EXPECT_EQ(l.force<0>(i, j, k, p), (Vec3f{0, 0, 0}));
+        EXPECT_EQ(l.force<features::kSymmetricReactions>(i, j, k, p), (Vec3f{0, 0, 0}));
+        EXPECT_EQ(l.force<features::kCosineAngular>(i, j, k, p), (Vec3f{0, 0, 0}));
+      }
+}
+
+TEST(CrmsNodeForce, LinearSpringFollowsHookesLawInStrain) {
+  // Two nodes along x: stretching the pair by 10% pulls each end towards the other with ks·0.1.
+  HostLattice l({2, 1, 1}, 2.0f);
+  SpringConstants s{};
+  s.ks_linear[0] = 3.0f;
+  const MaterialPalette p = palette_of(s);
+  l.set_u(1, 0, 0, {0.2f, 0, 0});
+  const Vec3f f0 = l.force<0>(0, 0, 0, p), f1 = l.force<0>(1, 0, 0, p);
+  EXPECT_NEAR(f0.x, 3.0f * 0.1f, 1e-6f);
+  EXPECT_NEAR(f1.x, -3.0f * 0.1f, 1e-6f);
+  EXPECT_EQ(f0.y, 0.0f);
+  // Damping: relative velocity 0.4 mm/s along the spring = strain rate 0.2/s.
+  s.kd_linear[0] = 5.0f;
+  l.set_u(1, 0, 0, {0, 0, 0});
+  l.v[0][1] = 0.4f;
+  EXPECT_NEAR(l.force<0>(0, 0, 0, palette_of(s)).x, 5.0f * 0.2f, 1e-6f);
+}
+
+TEST(CrmsNodeForce, AngularSpringOpensAClosedAngle) {
+  // An L of three nodes (arm +x and arm +y at the corner). Closing the angle by moving the +y arm
+  // towards +x pushes the corner along the bisector (towards the arms), opening the angle.
+  HostLattice l({2, 2, 1}, 1.0f);
+  // Kill node (1,1,0) so that the corner (0,0,0) has exactly one angle.
+  l.flags[l.index(1, 1, 0)] = 0;
+  l.flags[l.index(1, 0, 0)] &= static_cast<std::uint8_t>(~(1u << 3));
+  l.flags[l.index(0, 1, 0)] &= static_cast<std::uint8_t>(~(1u << 1));
+  SpringConstants s{};
+  s.k_angular[2] = 1.0f;  // xy plane
+  const MaterialPalette p = palette_of(s);
+  const float delta = 0.2f;  // rad
+  l.set_u(0, 1, 0, {std::sin(delta), std::cos(delta) - 1.0f, 0});
+  const Vec3f f = l.force<0>(0, 0, 0, p);
+  EXPECT_GT(f.x, 0.0f);
+  EXPECT_GT(f.y, 0.0f);
+  // Magnitude k·δ·|∇_B θ| with |∇_B θ| = sqrt(2(1 − c))/h for equal arms (c = cos θ).
+  const float c = std::cos(1.5707963f - delta);
+  EXPECT_NEAR(std::sqrt(dot(f, f)), delta * std::sqrt(2.0f * (1.0f - c)), 1e-4f);
+  // The cosine form pushes the same way with k·cos θ instead of k·δ.
+  const Vec3f fc = l.force<features::kCosineAngular>(0, 0, 0, p);
+  EXPECT_GT(dot(f, fc), 0.0f);
+}
+
+template <unsigned F>
+void expect_zero_total_force_for_random_deformation(unsigned seed) {
+  HostLattice l({4, 4, 4}, 1.0f);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.15f, 0.15f);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t n = 0; n < l.u[a].size(); ++n) {
+      l.u[a][n] = jitter(rng);
+      l.v[a][n] = 10.0f * jitter(rng);
+    }
+  const MaterialPalette p = palette_of(unit_springs());
+  Vec3d total{0, 0, 0};
+  double scale = 0;
+  for (int k = 0; k < 4; ++k)
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i) {
+        const Vec3f f = l.force<F>(i, j, k, p);
+        total += to_double(f);
+        scale += std::sqrt(static_cast<double>(dot(f, f)));
+      }
+  EXPECT_LT(std::sqrt(dot(total, total)), 1e-5 * scale) << "features " << F;
+}
+
+TEST(CrmsNodeForce, SymmetricReactionsConserveMomentum) {
+  expect_zero_total_force_for_random_deformation<features::kSymmetricReactions>(1);
+  expect_zero_total_force_for_random_deformation<features::kSymmetricReactions |
+                                                 features::kCosineAngular>(2);
+}
+
+TEST(CrmsNodeForce, GatherFormDoesNotConserveMomentumOfAngles) {
+  // Documented property of the thesis form: without arm reactions the angular forces do not sum
+  // to zero (the reason the symmetric knob exists).
+  HostLattice l({3, 3, 1}, 1.0f);
+  l.set_u(1, 1, 0, {0.1f, 0.05f, 0});
+  l.set_u(2, 1, 0, {0.0f, 0.2f, 0});
+  SpringConstants s{};
+  for (int a = 0; a < 3; ++a) s.k_angular[a] = 1.0f;
+  const MaterialPalette p = palette_of(s);
+  Vec3d total{0, 0, 0};
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) total += to_double(l.force<0>(i, j, 0, p));
+  EXPECT_GT(std::sqrt(dot(total, total)), 1e-3);
+}
+
+/// Dual-number stencil over a HostLattice (double copies), seeding one node.
+struct DualHostStencil {
+  using Scalar = Dual<6>;
+  const HostLattice& l;
+  std::int64_t n;
+  int i, j, k;
+  std::int64_t seed;
+  std::int64_t at(int slot) const { return stencil_node(l.view(), n, i, j, k, slot); }
+  Vec3<Scalar> load(const std::vector<float>* a, int slot, int off) const {
+    const std::int64_t m = at(slot);
+    Vec3<Scalar> r{Scalar(a[0][m]), Scalar(a[1][m]), Scalar(a[2][m])};
+    if (m == seed) {
+      r.x.d[off] = 1;
+      r.y.d[off + 1] = 1;
+      r.z.d[off + 2] = 1;
+    }
+    return r;
+  }
+  Vec3<Scalar> u(int slot) const { return load(l.u, slot, 0); }
+  Vec3<Scalar> v(int slot) const { return load(l.v, slot, 3); }
+  unsigned flags(int slot) const { return l.flags[at(slot)]; }
+  int material(int slot) const { return l.material[at(slot)]; }
+};
+
+template <unsigned F>
+void expect_dual_jacobian_matches_finite_differences() {
+  HostLattice l({3, 3, 3}, 1.0f);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> jitter(-0.1f, 0.1f);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t n = 0; n < l.u[a].size(); ++n) {
+      l.u[a][n] = jitter(rng);
+      l.v[a][n] = jitter(rng);
+    }
+  const MaterialPalette p = palette_of(unit_springs());
+  const std::int64_t centre = l.index(1, 1, 1);
+  // Derivative with respect to a face neighbour and to the node itself (and an edge node for
+  // the symmetric form).
+  const std::int64_t seeds[3] = {centre, l.index(2, 1, 1), l.index(2, 2, 1)};
+  for (std::int64_t seed : seeds) {
+    const DualHostStencil st{l, centre, 1, 1, 1, seed};
+    const Vec3<Dual<6>> fd = spring_force<F>(st, l.rest, p);
+    for (int q = 0; q < 6; ++q) {
+      // Central difference in double through the Dual type with zero seeds.
+      const float h = 1e-3f;
+      auto eval = [&](float delta) {
+        HostLattice m = l;
+        std::vector<float>& component = q < 3 ? m.u[q] : m.v[q - 3];
+        component[static_cast<std::size_t>(seed)] += delta;
+        const DualHostStencil s2{m, centre, 1, 1, 1, -1};
+        const Vec3<Dual<6>> f = spring_force<F>(s2, m.rest, p);
+        return Vec3d{f.x.v, f.y.v, f.z.v};
+      };
+      const Vec3d numeric = (eval(h) - eval(-h)) / (2.0 * static_cast<double>(h));
+      for (int r = 0; r < 3; ++r)
+        EXPECT_NEAR(fd[r].d[q], numeric[r], 2e-3 * (1.0 + std::fabs(numeric[r])))
+            << "features " << F << " seed " << seed << " variable " << q << " row " << r;
+    }
+  }
+}
+
+TEST(CrmsNodeForce, DualJacobianMatchesFiniteDifferences) {
+  expect_dual_jacobian_matches_finite_differences<0>();
+  expect_dual_jacobian_matches_finite_differences<features::kCosineAngular>();
+  expect_dual_jacobian_matches_finite_differences<features::kSymmetricReactions>();
+}
+
+TEST(CrmsNodeForce, FloatAsinPolynomialIsAccurate) {
+  double worst = 0;
+  for (int s = -10000; s <= 10000; ++s) {
+    const float x = static_cast<float>(s) / 10000.0f;
+    worst = std::max(
+        worst, std::fabs(static_cast<double>(crms_asin(x)) - std::asin(static_cast<double>(x))));
+  }
+  EXPECT_LT(worst, 5e-7);
+}
+
+TEST(CrmsNodeForce, FoldedAngleStaysFinite) {
+  // A fully folded corner (arm +y pushed onto arm +x, sin θ = 0) must not produce Inf/NaN.
+  HostLattice l({2, 2, 1}, 1.0f);
+  l.set_u(0, 1, 0, {1.0f, -1.0f, 0.0f});  // node (0,1) on top of node (1,0)
+  SpringConstants s = unit_springs();
+  const MaterialPalette p = palette_of(s);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const Vec3f f = l.force<0>(i, j, 0, p);
+      EXPECT_TRUE(std::isfinite(f.x) && std::isfinite(f.y) && std::isfinite(f.z));
+      const Vec3f fs = l.force<features::kSymmetricReactions>(i, j, 0, p);
+      EXPECT_TRUE(std::isfinite(fs.x) && std::isfinite(fs.y) && std::isfinite(fs.z));
+    }
+}
+
+}  // namespace
+}  // namespace tsf::crms

@@ -1,0 +1,174 @@
+// The CRMS solver: a lattice, its state and a backend (CPU/OpenMP or CUDA) that steps it.
+//
+//   BoxLatticeOptions box;
+//   box.size_mm = {40, 10, 10};
+//   box.spacing_mm = 2.5;
+//   Lattice lattice = build_box_lattice(box);
+//   fix_nodes_in_box(lattice, {-1, -1, -1}, {1.5, 11, 11});
+//   SolverConfig config;
+//   config.gravity = {0, 0, -9810};
+//   config.materials[0].youngs_modulus_pa = 50e3;
+//   config.materials[0].viscosity_pa_s = 10;
+//   Solver solver(std::move(lattice), config);
+//   const double dt = 0.5 * solver.stable_dt();
+//   StepReport r = solver.step(1000, dt);          // or step_async + synchronize
+//   if (r.instability) std::cerr << r.instability->describe();
+//   std::vector<Vec3f> p = solver.positions();      // mm, tissue space
+//
+// Units: mm, g, s; force µN, energy nJ. State is kept as displacement from rest (node_state_view.h)
+// and on CUDA stays on the device: queries synchronise and copy; snapshots() never stall.
+// Not thread-safe: one thread owns the solver; readers use snapshots() from any thread.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tsf/common/vec3.h"
+#include "tsf/crms/lattice.h"
+#include "tsf/crms/node_state_view.h"
+#include "tsf/crms/snapshot_buffer.h"
+#include "tsf/crms/solver_config.h"
+#include "tsf/crms/stable_time_step.h"
+
+namespace tsf::crms {
+
+class SolverBackend;
+
+/// The first node whose update was not finite (NaN or Inf); the solver halts on that step.
+struct Instability {
+  std::int64_t step = 0;  ///< index of the failing step since construction (0-based)
+  std::int64_t node = 0;  ///< lowest node index that failed in that step
+  Int3 coordinates;
+  Vec3d rest_position_mm;
+  Vec3d position_mm;    ///< its last finite position (kept)
+  Vec3d velocity_mm_s;  ///< its velocity as kept: 0 (the failing update is discarded)
+  std::string describe() const;
+};
+
+struct StepReport {
+  std::int64_t steps_run = 0;  ///< steps this call advanced (fewer when it halted)
+  std::optional<Instability> instability;
+};
+
+struct EnergyReport {
+  double kinetic_nj = 0;        ///< Σ ½·m·|v|²
+  double elastic_nj = 0;        ///< Σ springs ½(ks/L)(l−L)² + Σ angles ½kθψ²
+  double gravitational_nj = 0;  ///< −Σ m·g·u (0 at rest)
+  double total_nj() const { return kinetic_nj + elastic_nj + gravitational_nj; }
+};
+
+/// A spring by one end: node and face direction d (0..5 = −x,+x,−y,+y,−z,+z).
+struct SpringRef {
+  std::int64_t node = 0;
+  int direction = 0;
+};
+
+class Solver {
+ public:
+  /// Validates lattice and config (tsf::Error naming the field), calibrates the springs for the
+  /// lattice spacing, and creates the backend (kAuto: CUDA when a device is usable, else CPU;
+  /// kCuda without a device throws with cuda_status().reason). Implicit Euler runs on the CPU.
+  Solver(Lattice lattice, const SolverConfig& config);
+  ~Solver();
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  const Lattice& lattice() const { return lattice_; }
+  const SolverConfig& config() const { return config_; }
+  const MaterialPalette& palette() const { return palette_; }
+  /// "cpu (OpenMP, N threads)" or "cuda (device name)".
+  std::string backend_name() const;
+  bool on_cuda() const { return on_cuda_; }
+  /// The compile-time feature set the kernels run with (effects.h).
+  unsigned features() const;
+
+  // ---- time step ----
+  const StableTimeStep& stable_time_step() const { return stable_; }
+  /// Stable dt estimate of the configured integrator, s (implicit Euler: the symplectic bound,
+  /// as a scale for accuracy rather than a limit).
+  double stable_dt() const;
+
+  // ---- stepping ----
+  /// Advances n steps of dt seconds and waits for them; reports an instability if one occurred
+  /// (the solver then halts: later calls advance nothing until clear_instability()).
+  StepReport step(int n, double dt);
+  /// Enqueues n steps without waiting (CUDA); on the CPU the same as step(). Instabilities are
+  /// reported by the next synchronize().
+  void step_async(int n, double dt);
+  StepReport synchronize();
+  std::int64_t steps_done() const { return steps_done_; }
+  const std::optional<Instability>& instability() const { return instability_; }
+  void clear_instability();
+
+  // ---- loads, anchors, constraints ----
+  void set_gravity(const Vec3d& gravity_mm_s2);
+  /// Per-node external force, µN (allocates the force arrays on first use).
+  void set_external_forces(const std::vector<std::int64_t>& nodes,
+                           const std::vector<Vec3f>& forces_un);
+  void clear_external_forces();
+  /// Holds nodes at target positions (mm, tissue space) with zero velocity until released.
+  void constrain_nodes(const std::vector<std::int64_t>& nodes,
+                       const std::vector<Vec3d>& targets_mm);
+  /// Frees constrained nodes (they keep their current position and start at rest).
+  void release_nodes(const std::vector<std::int64_t>& nodes);
+  /// Overwrites positions and velocities of some nodes (tools moving nodes to a surface).
+  void set_node_states(const std::vector<std::int64_t>& nodes,
+                       const std::vector<Vec3d>& positions_mm,
+                       const std::vector<Vec3f>& velocities_mm_s);
+  /// Overwrites the whole state: displacements from rest (mm) and velocities (mm/s), #nodes each.
+  void set_state(const std::vector<Vec3f>& displacements_mm,
+                 const std::vector<Vec3f>& velocities_mm_s);
+
+  // ---- topology edits (cutting, issue 7) ----
+  /// Deletes nodes during the run: they stop moving and their springs vanish on both ends.
+  void delete_nodes(const std::vector<std::int64_t>& nodes);
+  /// Breaks springs on both ends.
+  void break_springs(const std::vector<SpringRef>& springs);
+
+  // ---- queries (synchronise with the device) ----
+  std::vector<Vec3f> positions() const;      ///< #nodes, mm, rest + displacement
+  std::vector<Vec3f> displacements() const;  ///< #nodes, mm
+  std::vector<Vec3f> velocities() const;     ///< #nodes, mm/s
+  EnergyReport energy() const;
+  /// Spring force on every node at the current state, µN (#nodes; gravity and external loads
+  /// excluded). At a constrained node, minus this is the reaction the constraint supplies.
+  std::vector<Vec3f> spring_forces() const;
+
+  // ---- views for other modules (coupler, collisions) ----
+  /// Lattice arrays where the backend keeps them (device memory on CUDA).
+  LatticeView lattice_view() const;
+  /// The current state buffer (device memory on CUDA); valid until the next step.
+  StateView state_view() const;
+
+  // ---- snapshots for readers on other threads ----
+  /// Starts a copy of the current positions into the snapshot buffer without waiting; dropped
+  /// when the previous copy is still in flight.
+  void request_snapshot();
+  /// Publishes copies that have completed (called by step/request_snapshot too).
+  void poll_snapshot();
+  const SnapshotBuffer& snapshots() const;
+
+  /// Bytes the backend keeps per node for the lattice and state (reported by benchmarks).
+  double bytes_per_node() const;
+
+ private:
+  StepParameters step_parameters(double dt) const;
+  void refresh_flags(const std::vector<std::int64_t>& nodes);
+  void step_implicit(int n, double dt, StepReport& report);
+  Instability make_instability(std::int64_t node, std::int64_t step) const;
+
+  Lattice lattice_;
+  SolverConfig config_;
+  MaterialPalette palette_;
+  StableTimeStep stable_;
+  std::unique_ptr<SolverBackend> backend_;
+  bool on_cuda_ = false;
+  bool external_forces_ = false;
+  std::int64_t steps_done_ = 0;
+  std::optional<Instability> instability_;
+};
+
+}  // namespace tsf::crms

@@ -1,0 +1,75 @@
+// How a CRMS solver runs: integrator, backend, formulation knobs, gravity, stability controls and
+// the materials. Every numeric field has a documented range; validate_solver_config() rejects a
+// value outside it with a message naming the field (`solver.dt`, `material.youngs_modulus`, …).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "tsf/common/vec3.h"
+#include "tsf/crms/calibration.h"
+#include "tsf/crms/spring_constants.h"
+
+namespace tsf::crms {
+
+enum class Integrator {
+  kExplicitEuler,    ///< thesis Eq. 11; needs damping (dt < η/E), cheapest
+  kSymplecticEuler,  ///< same cost, conserves energy in the undamped limit: the default
+  kImplicitEuler,    ///< backward Euler with Newton on the exact Jacobian (CPU, Eigen): the
+                     ///< accurate/stiff reference, unconditionally stable, numerically damped
+};
+enum class Backend { kAuto, kCpu, kCuda };
+enum class AngularForm {
+  kExact,   ///< ψ = θ0 − acos(cos θ): the thesis deflection
+  kCosine,  ///< ψ = cos θ: cheaper, same stiffness at rest, softer at large deflection
+};
+enum class AngularReactions {
+  /// Vertex terms only (the thesis): 7-node stencil, ~2.5× cheaper. Not conservative: its
+  /// stiffness matrix is not symmetric and short-wavelength modes flutter (grow) unless the
+  /// material damping outruns them (test_stable_time_step.cpp, docs/crms.md).
+  kGather,
+  /// Plus the arm reactions: forces derive from one potential (conservative, momentum
+  /// preserving), 19-node stencil. The default.
+  kSymmetric,
+};
+
+const char* to_string(Integrator integrator);
+const char* to_string(Backend backend);
+const char* to_string(AngularForm form);
+const char* to_string(AngularReactions reactions);
+
+struct StabilityControls {
+  /// k_sys, 1/mm: speed-dependent drag a = −k_sys·|v|·v (node_update.h). Range [0, 1e3].
+  double kinetic_damping = 0.0;
+  /// |v| limit, mm/s. 0 = none; < 0 = automatic: |velocity_limit_auto_fraction| of the smallest
+  /// spacing per step (v_max = f·h_min/dt), so no node crosses more than that per step.
+  double velocity_limit = -1.0;
+  /// Fraction used by the automatic limit; range (0, 10].
+  double velocity_limit_auto_fraction = 0.25;
+};
+
+struct SolverConfig {
+  Integrator integrator = Integrator::kSymplecticEuler;
+  Backend backend = Backend::kAuto;
+  AngularForm angular_form = AngularForm::kExact;
+  AngularReactions angular_reactions = AngularReactions::kSymmetric;
+  Vec3d gravity{0.0, 0.0, 0.0};  ///< mm/s² (Earth: 9810); |g| ≤ 1e7
+  StabilityControls stability;
+  /// Materials indexed by the lattice's per-node material (≥ 1, ≤ kMaxMaterials). Calibrated with
+  /// calibrate_springs() for this lattice's spacing and angular_reactions.
+  std::vector<Material> materials{Material{}};
+  /// CUDA: steps captured per CUDA graph launch (even, 2..4096).
+  int cuda_steps_per_graph = 64;
+  /// Implicit Euler: Newton iterations per step (1 = linearised backward Euler) and the relative
+  /// residual at which they stop early. Ranges [1, 50] and [0, 1).
+  int implicit_newton_iterations = 8;
+  double implicit_tolerance = 1e-7;
+};
+
+/// Throws tsf::Error naming the first out-of-range field.
+void validate_solver_config(const SolverConfig& config);
+
+/// Validates a time step, s: finite, > 0, ≤ 1.
+void validate_time_step(double dt);
+
+}  // namespace tsf::crms

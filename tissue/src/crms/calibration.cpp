@@ -1,0 +1,63 @@
+#include "tsf/crms/calibration.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "tsf/common/error.h"
+
+namespace tsf::crms {
+namespace {
+
+void check_range(double value, double lo, double hi, bool lo_open, const std::string& field,
+                 const char* unit) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (!ok) {
+    char range[96];
+    std::snprintf(range, sizeof range, "%c%g, %g]", lo_open ? '(' : '[', lo, hi);
+    throw Error(field + " = " + std::to_string(value) + " " + unit + " is out of range " + range);
+  }
+}
+
+}  // namespace
+
+void validate_material(const Material& m, const char* prefix) {
+  const std::string p = prefix;
+  check_range(m.youngs_modulus_pa, 1.0, 1e11, false, p + ".youngs_modulus", "Pa");
+  if (m.shear_modulus_pa != 0.0)
+    check_range(m.shear_modulus_pa, 0.0, 10.0 * m.youngs_modulus_pa, true, p + ".shear_modulus",
+                "Pa");
+  check_range(m.viscosity_pa_s, 0.0, 1e6, false, p + ".viscosity", "Pa·s");
+  check_range(m.density_g_per_mm3, 1e-6, 1e-1, false, p + ".density", "g/mm³");
+}
+
+SpringConstants calibrate_springs(const Material& m, const Vec3d& h, bool symmetric_reactions) {
+  validate_material(m);
+  const double volume = h.x * h.y * h.z;
+  const double g = m.effective_shear_modulus();
+  const double tau = m.viscosity_pa_s / m.youngs_modulus_pa;  // damping time, s
+  const double angular_factor = symmetric_reactions ? 0.25 : 0.5;
+  SpringConstants s;
+  for (int a = 0; a < 3; ++a) {
+    const double area = volume / h[a];
+    s.ks_linear[a] = static_cast<float>(m.youngs_modulus_pa * area);
+    s.kd_linear[a] = static_cast<float>(m.viscosity_pa_s * area);
+    const double k_theta = g * volume * angular_factor;
+    s.k_angular[a] = static_cast<float>(k_theta);
+    s.c_angular[a] = static_cast<float>(k_theta * tau);
+  }
+  return s;
+}
+
+LatticeModuli lattice_moduli(const SpringConstants& s, const Vec3d& h, bool symmetric_reactions) {
+  const double volume = h.x * h.y * h.z;
+  const double angular_factor = symmetric_reactions ? 4.0 : 2.0;
+  LatticeModuli m;
+  for (int a = 0; a < 3; ++a) {
+    m.youngs_pa[a] = static_cast<double>(s.ks_linear[a]) / (volume / h[a]);
+    m.shear_pa[a] = angular_factor * static_cast<double>(s.k_angular[a]) / volume;
+  }
+  return m;
+}
+
+}  // namespace tsf::crms

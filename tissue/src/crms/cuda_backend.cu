@@ -1,0 +1,616 @@
+// CUDA backend: the per-node step of node_update.h in a thin kernel, one thread per node.
+//
+// The lattice and both state buffers live on the device for the solver's lifetime; the host sees
+// them only through explicit queries. Steps are launched as CUDA graphs of `steps_per_graph`
+// kernels (ping-pong buffers baked in, the graph count even so the current buffer returns to
+// where it started), which removes the per-launch CPU cost that dominates small lattices; a
+// remainder runs as plain launches. A guard word in device memory records the first non-finite
+// node; kernels of later steps see it and copy their input unchanged, so the state stays finite
+// and the host learns about it at the next synchronize().
+//
+// Snapshots: a kernel writes positions (rest + u) into a device staging buffer on the compute
+// stream; a side stream copies staging → pinned host (the SnapshotBuffer's back buffer) after an
+// event, and the next poll publishes it. The solver never waits for that copy; a request while
+// one is in flight is dropped.
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "solver_backend.h"
+#include "tsf/common/cuda_check.h"
+#include "tsf/common/cuda_support.h"
+#include "tsf/common/error.h"
+#include "tsf/crms/device_bandwidth.h"
+#include "tsf/crms/effects.h"
+#include "tsf/crms/node_update.h"
+#include "tsf/crms/stencil.h"
+
+namespace tsf::crms {
+namespace {
+
+constexpr unsigned long long kNoNode = ULLONG_MAX;
+constexpr long long kNoStep = LLONG_MAX;
+
+/// Device-side guard and step counter.
+struct Guard {
+  unsigned long long bad_node;  ///< lowest failing node of the failing step
+  long long bad_step;           ///< failing step, kNoStep while none
+  long long step_base;          ///< steps completed before the current launch batch
+};
+
+static_assert(sizeof(StepParameters) == sizeof(float) * 6 + sizeof(int) + sizeof(MaterialPalette),
+              "StepParameters must have no padding: graphs are keyed on its bytes");
+
+static_assert(sizeof(Vec3f) == 3 * sizeof(float), "Vec3f arrays are copied as float triples");
+
+const dim3 kBlock(32, 4, 2);
+
+template <unsigned F>
+__global__ void __launch_bounds__(256)
+    step_kernel(LatticeView lat, ConstStateView in, StateView out, StepParameters p, Guard* guard,
+                int local_step) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const int j = blockIdx.y * blockDim.y + threadIdx.y;
+  const int k = blockIdx.z * blockDim.z + threadIdx.z;
+  if (i >= lat.dims.x || j >= lat.dims.y || k >= lat.dims.z) return;
+  const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
+  const long long step = guard->step_base + local_step;
+  if (guard->bad_step < step) {  // halted by an earlier step: keep the state as it is
+    for (int a = 0; a < 3; ++a) {
+      out.u[a][n] = in.u[a][n];
+      out.v[a][n] = in.v[a][n];
+    }
+    return;
+  }
+  const IndexedStencil st{lat, in, n, i, j, k};
+  const NodeStepResult r = step_node<F>(st, lat.rest_length, p);
+  out.u[0][n] = r.u.x;
+  out.u[1][n] = r.u.y;
+  out.u[2][n] = r.u.z;
+  out.v[0][n] = r.v.x;
+  out.v[1][n] = r.v.y;
+  out.v[2][n] = r.v.z;
+  if (!r.finite) {
+    guard->bad_step = step;  // every failing thread of this step writes the same value
+    atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
+  }
+}
+
+__global__ void advance_steps_kernel(Guard* guard, int steps) {
+  guard->step_base += steps;
+}
+
+__global__ void scatter_state_kernel(StateView s, const std::int64_t* nodes, const float* values,
+                                     int count) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const std::int64_t n = nodes[t];
+  for (int a = 0; a < 3; ++a) {
+    s.u[a][n] = values[6 * t + a];
+    s.v[a][n] = values[6 * t + 3 + a];
+  }
+}
+
+__global__ void scatter_flags_kernel(std::uint8_t* flags, const std::int64_t* nodes,
+                                     const std::uint8_t* values, int count) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t < count) flags[nodes[t]] = values[t];
+}
+
+__global__ void scatter_vec3_kernel(float* x, float* y, float* z, const std::int64_t* nodes,
+                                    const float* values, int count) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const std::int64_t n = nodes[t];
+  x[n] = values[3 * t];
+  y[n] = values[3 * t + 1];
+  z[n] = values[3 * t + 2];
+}
+
+__global__ void positions_kernel(LatticeView lat, ConstStateView s, float3 origin, float3 spacing,
+                                 float* xyz) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const int j = blockIdx.y * blockDim.y + threadIdx.y;
+  const int k = blockIdx.z * blockDim.z + threadIdx.z;
+  if (i >= lat.dims.x || j >= lat.dims.y || k >= lat.dims.z) return;
+  const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
+  xyz[3 * n + 0] = origin.x + i * spacing.x + s.u[0][n];
+  xyz[3 * n + 1] = origin.y + j * spacing.y + s.u[1][n];
+  xyz[3 * n + 2] = origin.z + k * spacing.z + s.u[2][n];
+}
+
+template <unsigned F>
+__global__ void __launch_bounds__(256)
+    energy_kernel(LatticeView lat, ConstStateView s, StepParameters p, double* sums) {
+  __shared__ double partial[3][256];
+  const int t = threadIdx.x + blockDim.x * (threadIdx.y + blockDim.y * threadIdx.z);
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const int j = blockIdx.y * blockDim.y + threadIdx.y;
+  const int k = blockIdx.z * blockDim.z + threadIdx.z;
+  double kinetic = 0, elastic = 0, gravitational = 0;
+  if (i < lat.dims.x && j < lat.dims.y && k < lat.dims.z) {
+    const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
+    const unsigned fl = lat.flags[n];
+    if (fl & kAliveBit) {
+      const IndexedStencil st{lat, s, n, i, j, k};
+      elastic = elastic_energy<F>(st, lat.rest_length, p.palette);
+      const double m = 1.0 / lat.inv_mass[n];
+      const Vec3f v = st.v(0), u = st.u(0);
+      kinetic = 0.5 * m * (double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
+      if (!(fl & kFixedBit))
+        gravitational = -m * (double(p.gravity.x) * u.x + double(p.gravity.y) * u.y +
+                              double(p.gravity.z) * u.z);
+    }
+  }
+  partial[0][t] = kinetic;
+  partial[1][t] = elastic;
+  partial[2][t] = gravitational;
+  __syncthreads();
+  for (int stride = 128; stride > 0; stride >>= 1) {
+    if (t < stride)
+      for (int q = 0; q < 3; ++q) partial[q][t] += partial[q][t + stride];
+    __syncthreads();
+  }
+  if (t == 0)
+    for (int q = 0; q < 3; ++q) atomicAdd(&sums[q], partial[q][0]);
+}
+
+template <unsigned F>
+__global__ void __launch_bounds__(256)
+    force_kernel(LatticeView lat, ConstStateView s, StepParameters p, float* xyz) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const int j = blockIdx.y * blockDim.y + threadIdx.y;
+  const int k = blockIdx.z * blockDim.z + threadIdx.z;
+  if (i >= lat.dims.x || j >= lat.dims.y || k >= lat.dims.z) return;
+  const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
+  Vec3f f{0.0f, 0.0f, 0.0f};
+  if (lat.flags[n] & kAliveBit) {
+    const IndexedStencil st{lat, s, n, i, j, k};
+    f = spring_force<F>(st, lat.rest_length, p.palette);
+  }
+  xyz[3 * n + 0] = f.x;
+  xyz[3 * n + 1] = f.y;
+  xyz[3 * n + 2] = f.z;
+}
+
+template <typename T>
+T* device_alloc(std::size_t count) {
+  void* p = nullptr;
+  TSF_CUDA_CHECK(cudaMalloc(&p, count * sizeof(T)));
+  return static_cast<T*>(p);
+}
+
+class CudaBackend final : public SolverBackend {
+ public:
+  CudaBackend(const LatticeGeometry& g, int steps_per_graph)
+      : geometry_(g), count_(g.node_count()), steps_per_graph_(steps_per_graph) {
+    const auto n = static_cast<std::size_t>(count_);
+    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&copy_stream_, cudaStreamNonBlocking));
+    TSF_CUDA_CHECK(cudaEventCreateWithFlags(&staged_, cudaEventDisableTiming));
+    TSF_CUDA_CHECK(cudaEventCreateWithFlags(&copied_, cudaEventDisableTiming));
+    for (auto& buffer : state_)
+      for (auto& component : buffer) {
+        component = device_alloc<float>(n);
+        TSF_CUDA_CHECK(cudaMemsetAsync(component, 0, n * sizeof(float), stream_));
+      }
+    flags_ = device_alloc<std::uint8_t>(n);
+    inv_mass_ = device_alloc<float>(n);
+    guard_ = device_alloc<Guard>(1);
+    TSF_CUDA_CHECK(cudaMallocHost(&guard_host_, sizeof(Guard)));
+    TSF_CUDA_CHECK(cudaMallocHost(&energy_host_, 3 * sizeof(double)));
+    energy_device_ = device_alloc<double>(3);
+    staging_ = device_alloc<float>(3 * n);
+    // Pinned snapshot buffers are allocated on the first request (most runs never ask).
+    snapshots_ = std::make_unique<SnapshotBuffer>(nullptr, nullptr, count_);
+    Guard initial{kNoNode, kNoStep, 0};
+    *guard_host_ = initial;
+    TSF_CUDA_CHECK(
+        cudaMemcpyAsync(guard_, guard_host_, sizeof(Guard), cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    cudaDeviceProp prop{};
+    TSF_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
+    device_name_ = prop.name;
+  }
+
+  ~CudaBackend() override {
+    // Destructors must not throw: release what we can and ignore errors.
+    cudaStreamSynchronize(stream_);
+    cudaStreamSynchronize(copy_stream_);
+    for (auto& g : graphs_)
+      if (g.exec) cudaGraphExecDestroy(g.exec);
+    for (auto& buffer : state_)
+      for (auto* c : buffer) cudaFree(c);
+    cudaFree(flags_);
+    cudaFree(inv_mass_);
+    cudaFree(material_);
+    for (auto* c : external_force_) cudaFree(c);
+    cudaFree(guard_);
+    cudaFree(energy_device_);
+    cudaFree(staging_);
+    cudaFree(scatter_nodes_);
+    cudaFree(scatter_values_);
+    cudaFreeHost(guard_host_);
+    cudaFreeHost(energy_host_);
+    for (auto* p : pinned_snapshot_)
+      if (p) cudaFreeHost(p);
+    cudaEventDestroy(staged_);
+    cudaEventDestroy(copied_);
+    cudaStreamDestroy(stream_);
+    cudaStreamDestroy(copy_stream_);
+  }
+
+  std::string name() const override { return "cuda (" + device_name_ + ")"; }
+
+  void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
+                      const std::vector<std::uint8_t>& material) override {
+    const auto n = static_cast<std::size_t>(count_);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(flags_, flags.data(), n, cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_, inv_mass.data(), n * sizeof(float),
+                                   cudaMemcpyHostToDevice, stream_));
+    if (!material.empty()) {
+      if (!material_) material_ = device_alloc<std::uint8_t>(n);
+      TSF_CUDA_CHECK(
+          cudaMemcpyAsync(material_, material.data(), n, cudaMemcpyHostToDevice, stream_));
+    }
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void update_flags(const std::vector<std::int64_t>& nodes,
+                    const std::vector<std::uint8_t>& flags) override {
+    if (nodes.empty()) return;
+    const int count = static_cast<int>(nodes.size());
+    stage_scatter(nodes, flags.data(), flags.size());
+    scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_>>>(
+        flags_, scatter_nodes_, reinterpret_cast<const std::uint8_t*>(scatter_values_), count);
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void enable_external_forces() override {
+    const auto n = static_cast<std::size_t>(count_);
+    for (auto& c : external_force_)
+      if (!c) {
+        c = device_alloc<float>(n);
+        TSF_CUDA_CHECK(cudaMemsetAsync(c, 0, n * sizeof(float), stream_));
+      }
+  }
+  void set_external_forces(const std::vector<std::int64_t>& nodes,
+                           const std::vector<Vec3f>& forces) override {
+    if (nodes.empty()) return;
+    const int count = static_cast<int>(nodes.size());
+    stage_scatter(nodes, reinterpret_cast<const std::uint8_t*>(forces.data()),
+                  forces.size() * sizeof(Vec3f));
+    scatter_vec3_kernel<<<(count + 255) / 256, 256, 0, stream_>>>(
+        external_force_[0], external_force_[1], external_force_[2], scatter_nodes_,
+        reinterpret_cast<const float*>(scatter_values_), count);
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+  void clear_external_forces() override {
+    for (auto* c : external_force_)
+      if (c) TSF_CUDA_CHECK(cudaMemsetAsync(c, 0, count_ * sizeof(float), stream_));
+  }
+
+  void write_nodes(const std::vector<std::int64_t>& nodes, const std::vector<Vec3f>& u,
+                   const std::vector<Vec3f>& v) override {
+    if (nodes.empty()) return;
+    const int count = static_cast<int>(nodes.size());
+    std::vector<float> values(6 * nodes.size());
+    for (std::size_t t = 0; t < nodes.size(); ++t)
+      for (int a = 0; a < 3; ++a) {
+        values[6 * t + a] = u[t][a];
+        values[6 * t + 3 + a] = v[t][a];
+      }
+    stage_scatter(nodes, reinterpret_cast<const std::uint8_t*>(values.data()),
+                  values.size() * sizeof(float));
+    scatter_state_kernel<<<(count + 255) / 256, 256, 0, stream_>>>(
+        state_view(), scatter_nodes_, reinterpret_cast<const float*>(scatter_values_), count);
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void write_state(const std::vector<Vec3f>& u, const std::vector<Vec3f>& v) override {
+    const auto n = static_cast<std::size_t>(count_);
+    std::vector<float> component(n);
+    for (int q = 0; q < 6; ++q) {
+      for (std::size_t m = 0; m < n; ++m) component[m] = q < 3 ? u[m][q] : v[m][q - 3];
+      TSF_CUDA_CHECK(cudaMemcpyAsync(state_[current_][q], component.data(), n * sizeof(float),
+                                     cudaMemcpyHostToDevice, stream_));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    }
+  }
+
+  void read_state(std::vector<Vec3f>* u, std::vector<Vec3f>* v) override {
+    const auto n = static_cast<std::size_t>(count_);
+    std::vector<float> component(n);
+    if (u) u->resize(n);
+    if (v) v->resize(n);
+    for (int q = 0; q < 6; ++q) {
+      std::vector<Vec3f>* dst = q < 3 ? u : v;
+      if (!dst) continue;
+      TSF_CUDA_CHECK(cudaMemcpyAsync(component.data(), state_[current_][q], n * sizeof(float),
+                                     cudaMemcpyDeviceToHost, stream_));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      for (std::size_t m = 0; m < n; ++m) (*dst)[m][q % 3] = component[m];
+    }
+  }
+
+  void step(int n, const StepParameters& p, unsigned features) override {
+    const LatticeView lat = lattice_view();
+    int done = 0;
+    while (n - done >= steps_per_graph_) {
+      TSF_CUDA_CHECK(cudaGraphLaunch(graph_for(p, features, lat), stream_));
+      done += steps_per_graph_;
+    }
+    const int rest = n - done;
+    if (rest > 0) {
+      dispatch_features(features, [&](auto f) {
+        for (int s = 0; s < rest; ++s) launch_step<decltype(f)::value>(lat, p, s);
+      });
+      advance_steps_kernel<<<1, 1, 0, stream_>>>(guard_, rest);  // launch_step swapped buffers
+      TSF_CUDA_CHECK_LAUNCH();
+    }
+    steps_started_ += n;
+  }
+
+  std::optional<GuardHit> synchronize() override {
+    TSF_CUDA_CHECK(
+        cudaMemcpyAsync(guard_host_, guard_, sizeof(Guard), cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    if (guard_host_->bad_step == kNoStep) return std::nullopt;
+    return GuardHit{static_cast<std::int64_t>(guard_host_->bad_node), guard_host_->bad_step};
+  }
+
+  void reset_guard() override {
+    TSF_CUDA_CHECK(
+        cudaMemcpyAsync(guard_host_, guard_, sizeof(Guard), cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    guard_host_->bad_node = kNoNode;
+    guard_host_->bad_step = kNoStep;
+    TSF_CUDA_CHECK(
+        cudaMemcpyAsync(guard_, guard_host_, sizeof(Guard), cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  EnergySums energy(const StepParameters& p, unsigned features) override {
+    TSF_CUDA_CHECK(cudaMemsetAsync(energy_device_, 0, 3 * sizeof(double), stream_));
+    const LatticeView lat = lattice_view();
+    dispatch_features(features, [&](auto f) {
+      energy_kernel<decltype(f)::value>
+          <<<grid(), kBlock, 0, stream_>>>(lat, state_view(), p, energy_device_);
+    });
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_, energy_device_, 3 * sizeof(double),
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    return EnergySums{energy_host_[0], energy_host_[1], energy_host_[2]};
+  }
+
+  void spring_forces(const StepParameters& p, unsigned features,
+                     std::vector<Vec3f>& forces) override {
+    // The snapshot staging buffer (3 floats per node) is free while no copy is in flight.
+    poll_snapshot();
+    if (copy_in_flight_) TSF_CUDA_CHECK(cudaStreamSynchronize(copy_stream_));
+    poll_snapshot();
+    const LatticeView lat = lattice_view();
+    dispatch_features(features, [&](auto f) {
+      force_kernel<decltype(f)::value>
+          <<<grid(), kBlock, 0, stream_>>>(lat, state_view(), p, staging_);
+    });
+    TSF_CUDA_CHECK_LAUNCH();
+    forces.resize(static_cast<std::size_t>(count_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), staging_, 3 * count_ * sizeof(float),
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  LatticeView lattice_view() const override {
+    LatticeView l;
+    l.dims = geometry_.dims;
+    l.count = count_;
+    l.stride_y = geometry_.dims.x;
+    l.stride_z = static_cast<std::int64_t>(geometry_.dims.x) * geometry_.dims.y;
+    for (int a = 0; a < 3; ++a) l.rest_length[a] = static_cast<float>(geometry_.spacing[a]);
+    l.flags = flags_;
+    l.inv_mass = inv_mass_;
+    l.material = material_;
+    for (int a = 0; a < 3; ++a) l.external_force[a] = external_force_[a];
+    return l;
+  }
+  StateView state_view() const override { return buffer_view(current_); }
+
+  void request_snapshot(std::int64_t step) override {
+    poll_snapshot();
+    if (copy_in_flight_) {
+      snapshots_->count_dropped();
+      return;
+    }
+    if (!snapshots_->attached()) {
+      for (auto& p : pinned_snapshot_)
+        TSF_CUDA_CHECK(cudaMallocHost(&p, 3 * count_ * sizeof(float)));
+      snapshots_->attach(pinned_snapshot_[0], pinned_snapshot_[1]);
+    }
+    const float3 origin{static_cast<float>(geometry_.origin.x),
+                        static_cast<float>(geometry_.origin.y),
+                        static_cast<float>(geometry_.origin.z)};
+    const float3 spacing{static_cast<float>(geometry_.spacing.x),
+                         static_cast<float>(geometry_.spacing.y),
+                         static_cast<float>(geometry_.spacing.z)};
+    positions_kernel<<<grid(), kBlock, 0, stream_>>>(lattice_view(), state_view(), origin, spacing,
+                                                     staging_);
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaEventRecord(staged_, stream_));
+    TSF_CUDA_CHECK(cudaStreamWaitEvent(copy_stream_, staged_, 0));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(snapshots_->back(), staging_, 3 * count_ * sizeof(float),
+                                   cudaMemcpyDeviceToHost, copy_stream_));
+    TSF_CUDA_CHECK(cudaEventRecord(copied_, copy_stream_));
+    copy_in_flight_ = true;
+    in_flight_step_ = step;
+  }
+
+  void poll_snapshot() override {
+    if (!copy_in_flight_) return;
+    const cudaError_t state = cudaEventQuery(copied_);
+    if (state == cudaErrorNotReady) return;
+    TSF_CUDA_CHECK(state);
+    snapshots_->publish(in_flight_step_);
+    copy_in_flight_ = false;
+  }
+  const SnapshotBuffer& snapshots() const override { return *snapshots_; }
+
+  double bytes_per_node() const override {
+    double b = 2 * 6 * sizeof(float) + sizeof(std::uint8_t) + sizeof(float);
+    if (material_) b += 1;
+    if (external_force_[0]) b += 3 * sizeof(float);
+    return b;
+  }
+
+ private:
+  struct CachedGraph {
+    StepParameters parameters;
+    unsigned features = 0;
+    int parity = 0;
+    cudaGraphExec_t exec = nullptr;
+  };
+
+  dim3 grid() const {
+    return dim3((geometry_.dims.x + kBlock.x - 1) / kBlock.x,
+                (geometry_.dims.y + kBlock.y - 1) / kBlock.y,
+                (geometry_.dims.z + kBlock.z - 1) / kBlock.z);
+  }
+
+  StateView buffer_view(int which) const {
+    StateView v;
+    for (int a = 0; a < 3; ++a) {
+      v.u[a] = state_[which][a];
+      v.v[a] = state_[which][3 + a];
+    }
+    return v;
+  }
+
+  template <unsigned F>
+  void launch_step(const LatticeView& lat, const StepParameters& p, int local_step) {
+    step_kernel<F><<<grid(), kBlock, 0, stream_>>>(
+        lat, buffer_view(current_), buffer_view(1 - current_), p, guard_, local_step);
+    TSF_CUDA_CHECK_LAUNCH();
+    current_ = 1 - current_;
+  }
+
+  /// The graph of steps_per_graph_ steps for these parameters, starting from the current buffer
+  /// (captured on first use; a handful are cached: one per parity and parameter set in use).
+  cudaGraphExec_t graph_for(const StepParameters& p, unsigned features, const LatticeView& lat) {
+    for (const CachedGraph& g : graphs_)
+      if (g.features == features && g.parity == current_ &&
+          std::memcmp(&g.parameters, &p, sizeof(StepParameters)) == 0)
+        return g.exec;
+    if (graphs_.size() >= 8) {
+      TSF_CUDA_CHECK(cudaGraphExecDestroy(graphs_.front().exec));
+      graphs_.erase(graphs_.begin());
+    }
+    const int parity = current_;
+    cudaGraph_t graph = nullptr;
+    TSF_CUDA_CHECK(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal));
+    dispatch_features(features, [&](auto f) {
+      for (int s = 0; s < steps_per_graph_; ++s) launch_step<decltype(f)::value>(lat, p, s);
+    });
+    advance_steps_kernel<<<1, 1, 0, stream_>>>(guard_, steps_per_graph_);
+    TSF_CUDA_CHECK(cudaStreamEndCapture(stream_, &graph));
+    CachedGraph cached;
+    cached.parameters = p;
+    cached.features = features;
+    cached.parity = parity;
+    TSF_CUDA_CHECK(cudaGraphInstantiate(&cached.exec, graph, 0));
+    TSF_CUDA_CHECK(cudaGraphDestroy(graph));
+    graphs_.push_back(cached);
+    return cached.exec;
+  }
+
+  /// Uploads node indices and raw values for a scatter kernel (buffers grow as needed).
+  void stage_scatter(const std::vector<std::int64_t>& nodes, const std::uint8_t* values,
+                     std::size_t value_bytes) {
+    if (nodes.size() > scatter_capacity_ || value_bytes > scatter_value_capacity_) {
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      cudaFree(scatter_nodes_);
+      cudaFree(scatter_values_);
+      scatter_capacity_ = std::max<std::size_t>(nodes.size(), 2 * scatter_capacity_);
+      scatter_value_capacity_ = std::max<std::size_t>(value_bytes, 2 * scatter_value_capacity_);
+      scatter_nodes_ = device_alloc<std::int64_t>(scatter_capacity_);
+      scatter_values_ = device_alloc<std::uint8_t>(scatter_value_capacity_);
+    }
+    TSF_CUDA_CHECK(cudaMemcpyAsync(scatter_nodes_, nodes.data(),
+                                   nodes.size() * sizeof(std::int64_t), cudaMemcpyHostToDevice,
+                                   stream_));
+    TSF_CUDA_CHECK(
+        cudaMemcpyAsync(scatter_values_, values, value_bytes, cudaMemcpyHostToDevice, stream_));
+  }
+
+  LatticeGeometry geometry_;
+  std::int64_t count_;
+  int steps_per_graph_;
+  std::string device_name_;
+  cudaStream_t stream_ = nullptr, copy_stream_ = nullptr;
+  cudaEvent_t staged_ = nullptr, copied_ = nullptr;
+  float* state_[2][6] = {};
+  int current_ = 0;
+  std::uint8_t* flags_ = nullptr;
+  float* inv_mass_ = nullptr;
+  std::uint8_t* material_ = nullptr;
+  float* external_force_[3] = {nullptr, nullptr, nullptr};
+  Guard* guard_ = nullptr;
+  Guard* guard_host_ = nullptr;
+  double* energy_device_ = nullptr;
+  double* energy_host_ = nullptr;
+  float* staging_ = nullptr;
+  float* pinned_snapshot_[2] = {nullptr, nullptr};
+  std::unique_ptr<SnapshotBuffer> snapshots_;
+  bool copy_in_flight_ = false;
+  std::int64_t in_flight_step_ = 0;
+  std::int64_t steps_started_ = 0;
+  std::vector<CachedGraph> graphs_;
+  std::int64_t* scatter_nodes_ = nullptr;
+  std::uint8_t* scatter_values_ = nullptr;
+  std::size_t scatter_capacity_ = 0, scatter_value_capacity_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry& geometry,
+                                                 int steps_per_graph) {
+  require(cuda_status().available, "the CUDA backend cannot run here: " + cuda_status().reason);
+  return std::make_unique<CudaBackend>(geometry, steps_per_graph);
+}
+
+double measure_device_copy_bandwidth(std::size_t buffer_bytes, int repetitions) {
+  require(cuda_status().available, "cannot measure device bandwidth: " + cuda_status().reason);
+  require(buffer_bytes > 0 && repetitions > 0, "bandwidth measurement needs bytes and repeats");
+  void* a = nullptr;
+  void* b = nullptr;
+  TSF_CUDA_CHECK(cudaMalloc(&a, buffer_bytes));
+  TSF_CUDA_CHECK(cudaMalloc(&b, buffer_bytes));
+  TSF_CUDA_CHECK(cudaMemset(a, 1, buffer_bytes));
+  cudaEvent_t start, stop;
+  TSF_CUDA_CHECK(cudaEventCreate(&start));
+  TSF_CUDA_CHECK(cudaEventCreate(&stop));
+  TSF_CUDA_CHECK(cudaMemcpy(b, a, buffer_bytes, cudaMemcpyDeviceToDevice));  // warm-up
+  TSF_CUDA_CHECK(cudaEventRecord(start));
+  for (int r = 0; r < repetitions; ++r)
+    TSF_CUDA_CHECK(cudaMemcpyAsync(b, a, buffer_bytes, cudaMemcpyDeviceToDevice));
+  TSF_CUDA_CHECK(cudaEventRecord(stop));
+  TSF_CUDA_CHECK(cudaEventSynchronize(stop));
+  float ms = 0.0f;
+  TSF_CUDA_CHECK(cudaEventElapsedTime(&ms, start, stop));
+  cudaEventDestroy(start);
+  cudaEventDestroy(stop);
+  cudaFree(a);
+  cudaFree(b);
+  return 2.0 * static_cast<double>(buffer_bytes) * repetitions / (ms * 1e-3);
+}
+
+}  // namespace tsf::crms

@@ -1,0 +1,352 @@
+#include "tsf/crms/solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <string>
+
+#include "solver_backend.h"
+#include "tsf/common/cuda_support.h"
+#include "tsf/common/error.h"
+#include "tsf/crms/crms_math.h"
+#include "tsf/crms/effects.h"
+#include "tsf/crms/implicit_euler.h"
+
+namespace tsf::crms {
+
+std::string Instability::describe() const {
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "non-finite state at step %lld: node %lld (%d,%d,%d), rest (%.4g, %.4g, %.4g) mm, "
+                "last finite position (%.4g, %.4g, %.4g) mm; the solver halted there",
+                static_cast<long long>(step), static_cast<long long>(node), coordinates.x,
+                coordinates.y, coordinates.z, rest_position_mm.x, rest_position_mm.y,
+                rest_position_mm.z, position_mm.x, position_mm.y, position_mm.z);
+  return text;
+}
+
+Solver::Solver(Lattice lattice, const SolverConfig& config)
+    : lattice_(std::move(lattice)), config_(config) {
+  validate_solver_config(config_);
+  lattice_.validate();
+  const LatticeGeometry& g = lattice_.geometry();
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+    require(lattice_.material(n) < config_.materials.size(),
+            "lattice node " + std::to_string(n) + " uses material " +
+                std::to_string(lattice_.material(n)) + " but only " +
+                std::to_string(config_.materials.size()) + " material(s) are configured");
+
+  const bool symmetric = config_.angular_reactions == AngularReactions::kSymmetric;
+  palette_.count = static_cast<int>(config_.materials.size());
+  for (int m = 0; m < palette_.count; ++m)
+    palette_.entry[m] = calibrate_springs(config_.materials[m], g.spacing, symmetric);
+  stable_ = estimate_stable_time_step(lattice_, palette_, symmetric);
+
+  Backend backend = config_.backend;
+  if (config_.integrator == Integrator::kImplicitEuler) backend = Backend::kCpu;
+  if (backend == Backend::kAuto) backend = cuda_status().available ? Backend::kCuda : Backend::kCpu;
+  if (backend == Backend::kCuda) {
+    require(cuda_status().available,
+            "backend cuda requested but CUDA is not usable here: " + cuda_status().reason);
+    backend_ = make_cuda_backend(g, config_.cuda_steps_per_graph);
+    on_cuda_ = true;
+  } else {
+    backend_ = make_cpu_backend(g);
+  }
+
+  std::vector<float> inv_mass(static_cast<std::size_t>(lattice_.node_count()), 0.0f);
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+    if (lattice_.alive(n)) inv_mass[n] = 1.0f / lattice_.mass(n);
+  std::vector<std::uint8_t> material;
+  if (palette_.count > 1) {
+    material.resize(static_cast<std::size_t>(lattice_.node_count()));
+    for (std::int64_t n = 0; n < lattice_.node_count(); ++n) material[n] = lattice_.material(n);
+  }
+  backend_->upload_lattice(lattice_.packed_flags(), inv_mass, material);
+}
+
+Solver::~Solver() = default;
+
+std::string Solver::backend_name() const {
+  return backend_->name();
+}
+
+unsigned Solver::features() const {
+  unsigned f = 0;
+  if (config_.angular_form == AngularForm::kCosine) f |= features::kCosineAngular;
+  if (config_.angular_reactions == AngularReactions::kSymmetric) f |= features::kSymmetricReactions;
+  if (external_forces_) f |= features::kExternalForces;
+  if (palette_.count > 1) f |= features::kHeterogeneous;
+  return f;
+}
+
+double Solver::stable_dt() const {
+  return config_.integrator == Integrator::kExplicitEuler ? stable_.explicit_euler_s
+                                                          : stable_.symplectic_euler_s;
+}
+
+StepParameters Solver::step_parameters(double dt) const {
+  StepParameters p;
+  p.dt = static_cast<float>(dt);
+  p.gravity = to_float(config_.gravity);
+  p.kinetic_damping = static_cast<float>(config_.stability.kinetic_damping);
+  double limit = config_.stability.velocity_limit;
+  if (limit < 0.0)
+    limit = config_.stability.velocity_limit_auto_fraction * lattice_.geometry().min_spacing() / dt;
+  p.velocity_limit = static_cast<float>(limit);
+  p.scheme = static_cast<int>(config_.integrator == Integrator::kExplicitEuler
+                                  ? ExplicitScheme::kExplicitEuler
+                                  : ExplicitScheme::kSymplecticEuler);
+  p.palette = palette_;
+  return p;
+}
+
+StepReport Solver::step(int n, double dt) {
+  const std::int64_t before = steps_done_;
+  if (config_.integrator == Integrator::kImplicitEuler) {
+    validate_time_step(dt);
+    require(n >= 0, "step count must not be negative");
+    StepReport report;
+    if (!instability_) step_implicit(n, dt, report);
+    report.steps_run = steps_done_ - before;
+    report.instability = instability_;
+    return report;
+  }
+  step_async(n, dt);
+  StepReport report = synchronize();
+  report.steps_run = steps_done_ - before;
+  return report;
+}
+
+void Solver::step_async(int n, double dt) {
+  validate_time_step(dt);
+  require(n >= 0, "step count must not be negative");
+  require(config_.integrator != Integrator::kImplicitEuler,
+          "step_async: implicit Euler steps synchronously, use step()");
+  if (instability_ || n == 0) return;
+  backend_->step(n, step_parameters(dt), features());
+  steps_done_ += n;
+  backend_->poll_snapshot();
+}
+
+StepReport Solver::synchronize() {
+  StepReport report;
+  const std::optional<GuardHit> hit = backend_->synchronize();
+  backend_->poll_snapshot();
+  if (hit && !instability_) {
+    instability_ = make_instability(hit->node, hit->step);
+    steps_done_ = hit->step + 1;
+  }
+  report.instability = instability_;
+  return report;
+}
+
+void Solver::clear_instability() {
+  instability_.reset();
+  backend_->reset_guard();
+}
+
+void Solver::step_implicit(int n, double dt, StepReport& report) {
+  (void)report;
+  const StepParameters p = step_parameters(dt);
+  for (int s = 0; s < n; ++s) {
+    const ImplicitStepStats stats =
+        implicit_euler_step(backend_->lattice_view(), backend_->state_view(), p, features(),
+                            config_.implicit_newton_iterations, config_.implicit_tolerance);
+    if (stats.first_non_finite_node >= 0) {
+      instability_ = make_instability(stats.first_non_finite_node, steps_done_);
+      ++steps_done_;
+      return;
+    }
+    ++steps_done_;
+  }
+}
+
+Instability Solver::make_instability(std::int64_t node, std::int64_t step) const {
+  Instability s;
+  s.step = step;
+  s.node = node;
+  const LatticeGeometry& g = lattice_.geometry();
+  s.coordinates = g.coordinates(node);
+  s.rest_position_mm = g.rest_position(node);
+  std::vector<Vec3f> u, v;
+  backend_->read_state(&u, &v);
+  s.position_mm = s.rest_position_mm + to_double(u[node]);
+  s.velocity_mm_s = to_double(v[node]);
+  return s;
+}
+
+void Solver::set_gravity(const Vec3d& gravity) {
+  SolverConfig c = config_;
+  c.gravity = gravity;
+  validate_solver_config(c);
+  config_.gravity = gravity;
+}
+
+void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
+                                 const std::vector<Vec3f>& forces) {
+  require(nodes.size() == forces.size(), "set_external_forces: nodes and forces differ in size");
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    require(nodes[i] >= 0 && nodes[i] < lattice_.node_count(),
+            "set_external_forces: node " + std::to_string(nodes[i]) + " is out of range");
+    require(crms_finite(forces[i]),
+            "set_external_forces: force on node " + std::to_string(nodes[i]) + " is not finite");
+  }
+  if (!external_forces_) {
+    backend_->enable_external_forces();
+    external_forces_ = true;
+  }
+  backend_->set_external_forces(nodes, forces);
+}
+
+void Solver::clear_external_forces() {
+  if (external_forces_) backend_->clear_external_forces();
+}
+
+void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
+                             const std::vector<Vec3d>& targets) {
+  require(nodes.size() == targets.size(), "constrain_nodes: nodes and targets differ in size");
+  std::vector<Vec3f> u(nodes.size()), v(nodes.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    require(nodes[i] >= 0 && nodes[i] < lattice_.node_count(),
+            "constrain_nodes: node " + std::to_string(nodes[i]) + " is out of range");
+    require(
+        std::isfinite(targets[i].x) && std::isfinite(targets[i].y) && std::isfinite(targets[i].z),
+        "constrain_nodes: target of node " + std::to_string(nodes[i]) + " is not finite");
+    lattice_.set_fixed(nodes[i], true);
+    u[i] = to_float(targets[i] - lattice_.geometry().rest_position(nodes[i]));
+  }
+  refresh_flags(nodes);
+  backend_->write_nodes(nodes, u, v);
+}
+
+void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
+  for (std::int64_t n : nodes) {
+    require(n >= 0 && n < lattice_.node_count(),
+            "release_nodes: node " + std::to_string(n) + " is out of range");
+    lattice_.set_fixed(n, false);
+  }
+  refresh_flags(nodes);
+}
+
+void Solver::set_node_states(const std::vector<std::int64_t>& nodes,
+                             const std::vector<Vec3d>& positions,
+                             const std::vector<Vec3f>& velocities) {
+  require(nodes.size() == positions.size() && nodes.size() == velocities.size(),
+          "set_node_states: nodes, positions and velocities differ in size");
+  std::vector<Vec3f> u(nodes.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    require(nodes[i] >= 0 && nodes[i] < lattice_.node_count(),
+            "set_node_states: node " + std::to_string(nodes[i]) + " is out of range");
+    u[i] = to_float(positions[i] - lattice_.geometry().rest_position(nodes[i]));
+  }
+  backend_->write_nodes(nodes, u, velocities);
+}
+
+void Solver::set_state(const std::vector<Vec3f>& displacements,
+                       const std::vector<Vec3f>& velocities) {
+  const auto count = static_cast<std::size_t>(lattice_.node_count());
+  require(displacements.size() == count && velocities.size() == count,
+          "set_state: expected " + std::to_string(count) + " displacements and velocities");
+  for (std::size_t n = 0; n < count; ++n)
+    require(crms_finite(displacements[n]) && crms_finite(velocities[n]),
+            "set_state: node " + std::to_string(n) + " has a non-finite state");
+  backend_->write_state(displacements, velocities);
+}
+
+void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
+  for (std::int64_t n : nodes) {
+    require(n >= 0 && n < lattice_.node_count(),
+            "delete_nodes: node " + std::to_string(n) + " is out of range");
+    lattice_.set_alive(n, false);
+  }
+  refresh_flags(nodes);
+}
+
+void Solver::break_springs(const std::vector<SpringRef>& springs) {
+  std::vector<std::int64_t> touched;
+  for (const SpringRef& s : springs) {
+    require(s.node >= 0 && s.node < lattice_.node_count() && s.direction >= 0 &&
+                s.direction < kFaceDirections,
+            "break_springs: spring (" + std::to_string(s.node) + ", " +
+                std::to_string(s.direction) + ") is out of range");
+    lattice_.break_spring(s.node, s.direction);
+    touched.push_back(s.node);
+  }
+  refresh_flags(touched);
+}
+
+void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {
+  std::set<std::int64_t> affected;
+  for (std::int64_t n : nodes) {
+    affected.insert(n);
+    for (int d = 0; d < kFaceDirections; ++d) {
+      const std::int64_t m = lattice_.neighbour(n, d);
+      if (m >= 0) affected.insert(m);
+    }
+  }
+  std::vector<std::int64_t> list(affected.begin(), affected.end());
+  std::vector<std::uint8_t> flags(list.size());
+  for (std::size_t i = 0; i < list.size(); ++i) flags[i] = lattice_.packed_flags(list[i]);
+  backend_->update_flags(list, flags);
+}
+
+std::vector<Vec3f> Solver::positions() const {
+  std::vector<Vec3f> u;
+  backend_->read_state(&u, nullptr);
+  const LatticeGeometry& g = lattice_.geometry();
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+    u[n] = to_float(g.rest_position(n) + to_double(u[n]));
+  return u;
+}
+
+std::vector<Vec3f> Solver::displacements() const {
+  std::vector<Vec3f> u;
+  backend_->read_state(&u, nullptr);
+  return u;
+}
+
+std::vector<Vec3f> Solver::velocities() const {
+  std::vector<Vec3f> v;
+  backend_->read_state(nullptr, &v);
+  return v;
+}
+
+EnergyReport Solver::energy() const {
+  const EnergySums s = backend_->energy(step_parameters(1.0), features());
+  EnergyReport r;
+  r.kinetic_nj = s.kinetic;
+  r.elastic_nj = s.elastic;
+  r.gravitational_nj = s.gravitational;
+  return r;
+}
+
+std::vector<Vec3f> Solver::spring_forces() const {
+  std::vector<Vec3f> forces;
+  backend_->spring_forces(step_parameters(1.0), features(), forces);
+  return forces;
+}
+
+LatticeView Solver::lattice_view() const {
+  return backend_->lattice_view();
+}
+StateView Solver::state_view() const {
+  return backend_->state_view();
+}
+
+void Solver::request_snapshot() {
+  backend_->request_snapshot(steps_done_);
+}
+void Solver::poll_snapshot() {
+  backend_->poll_snapshot();
+}
+const SnapshotBuffer& Solver::snapshots() const {
+  return backend_->snapshots();
+}
+
+double Solver::bytes_per_node() const {
+  return backend_->bytes_per_node();
+}
+
+}  // namespace tsf::crms

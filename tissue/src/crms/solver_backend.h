@@ -1,0 +1,81 @@
+// What a CRMS backend does for the solver: keep the lattice arrays and the ping-pong state where
+// the kernels run, step them with the per-node function of node_update.h, and move data in and
+// out. Private to tissue/src/crms: users talk to crms::Solver.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tsf/common/vec3.h"
+#include "tsf/crms/lattice_geometry.h"
+#include "tsf/crms/node_state_view.h"
+#include "tsf/crms/snapshot_buffer.h"
+
+namespace tsf::crms {
+
+/// The first non-finite node update: lowest node index within the first failing step.
+struct GuardHit {
+  std::int64_t node = 0;
+  std::int64_t step = 0;  ///< backend step index (steps started since creation)
+};
+
+struct EnergySums {
+  double kinetic = 0, elastic = 0, gravitational = 0;
+};
+
+class SolverBackend {
+ public:
+  virtual ~SolverBackend() = default;
+  virtual std::string name() const = 0;
+
+  /// Copies the lattice arrays (#nodes each); `material` may be empty (homogeneous).
+  virtual void upload_lattice(const std::vector<std::uint8_t>& flags,
+                              const std::vector<float>& inv_mass,
+                              const std::vector<std::uint8_t>& material) = 0;
+  /// Overwrites the flags of some nodes (topology edits, anchors).
+  virtual void update_flags(const std::vector<std::int64_t>& nodes,
+                            const std::vector<std::uint8_t>& flags) = 0;
+  /// Allocates zeroed per-node external forces (features::kExternalForces).
+  virtual void enable_external_forces() = 0;
+  virtual void set_external_forces(const std::vector<std::int64_t>& nodes,
+                                   const std::vector<Vec3f>& forces) = 0;
+  virtual void clear_external_forces() = 0;
+
+  /// Scatters displacement and velocity of some nodes into the current state.
+  virtual void write_nodes(const std::vector<std::int64_t>& nodes, const std::vector<Vec3f>& u,
+                           const std::vector<Vec3f>& v) = 0;
+  virtual void write_state(const std::vector<Vec3f>& u, const std::vector<Vec3f>& v) = 0;
+  /// Waits for queued work and copies the current state (either pointer may be null).
+  virtual void read_state(std::vector<Vec3f>* u, std::vector<Vec3f>* v) = 0;
+
+  /// Runs n steps (asynchronously where the backend can). After a guard hit every later step
+  /// leaves the state unchanged until reset_guard().
+  virtual void step(int n, const StepParameters& parameters, unsigned features) = 0;
+  /// Waits for queued steps; returns the guard hit if one happened since the last reset.
+  virtual std::optional<GuardHit> synchronize() = 0;
+  virtual void reset_guard() = 0;
+
+  virtual EnergySums energy(const StepParameters& parameters, unsigned features) = 0;
+  /// Spring force on every node at the current state, µN (external loads and gravity excluded).
+  virtual void spring_forces(const StepParameters& parameters, unsigned features,
+                             std::vector<Vec3f>& forces) = 0;
+
+  virtual LatticeView lattice_view() const = 0;
+  virtual StateView state_view() const = 0;
+
+  virtual void request_snapshot(std::int64_t step) = 0;
+  virtual void poll_snapshot() = 0;
+  virtual const SnapshotBuffer& snapshots() const = 0;
+
+  virtual double bytes_per_node() const = 0;
+};
+
+std::unique_ptr<SolverBackend> make_cpu_backend(const LatticeGeometry& geometry);
+/// Throws tsf::Error (with cuda_status().reason) when CUDA is not built or has no device.
+std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry& geometry,
+                                                 int steps_per_graph);
+
+}  // namespace tsf::crms
