@@ -83,6 +83,17 @@ void finish_gltf(GltfDocument& doc, const FileContext& c) {
                                 {"tsf_colour_srgb8", {srgb[0], srgb[1], srgb[2]}}};
     }
   }
+  // assimp leaves the target of morph-target buffer views unset (the validator hints at it):
+  // they hold vertex attributes.
+  for (const auto& mesh : doc.json.value("meshes", nlohmann::json::array()))
+    for (const auto& primitive : mesh["primitives"])
+      for (const auto& target : primitive.value("targets", nlohmann::json::array()))
+        for (const auto& attribute : target) {
+          auto& view = doc.json["bufferViews"]
+                               [doc.json["accessors"][attribute.get<std::size_t>()]["bufferView"]
+                                    .get<std::size_t>()];
+          if (!view.contains("target")) view["target"] = 34962;  // ARRAY_BUFFER
+        }
   if (!c.animation_times.empty()) add_morph_animation(doc, c.animation_times, "tissue-motion");
 }
 
@@ -248,9 +259,8 @@ ExportReport start_report(const ExportOptions& options) {
 void ExportOptions::validate() const {
   const ExportFormatInfo& f = format_info(format);
   if (units && f.fixed_units && *units != f.default_units)
-    throw Error(std::string("format ") + f.name + " stores " + unit_name(f.default_units) +
-                " by specification; --units " + unit_name(*units) + " applies to obj, stl, ply " +
-                "and fbx");
+    throw Error(std::string("format ") + f.name + " stores metres by specification; --units " +
+                unit_name(*units) + " applies to obj, stl, ply and fbx");
   if (axes && f.fixed_axes && *axes != f.default_axes)
     throw Error(std::string("format ") + f.name + " declares " + axes_name(f.default_axes) +
                 " axes (" +
