@@ -5,6 +5,8 @@
 #include <cstring>
 #include <vector>
 
+#include <zlib.h>
+
 #include "tsf/common/error.h"
 
 namespace tsf::exporter {
@@ -87,6 +89,8 @@ class BinaryReader {
   bool wide_;
 };
 
+std::string compress_arrays(const std::string& props);
+
 class BinaryWriter {
  public:
   explicit BinaryWriter(bool wide) : wide_(wide) {}
@@ -114,10 +118,11 @@ class BinaryWriter {
     const std::size_t start = out.size();
     offset(0);
     offset(n.property_count);
-    offset(n.properties.size());
+    const std::string properties = compress_arrays(n.properties);
+    offset(properties.size());
     out.push_back(static_cast<char>(n.name.size()));
     out += n.name;
-    out += n.properties;
+    out += properties;
     for (const Node& c : n.children) node(c);
     // The FBX SDK ends every nested list, and the record of a node without properties, with a
     // null record; readers require it after nested records.
@@ -172,6 +177,63 @@ std::size_t property_offset(const std::string& props, std::size_t index) {
     at += property_size(props, at);
   }
   return at < props.size() ? at : std::string::npos;
+}
+
+/// The property list with every raw array of at least kCompressBytes deflated (encoding 1), as
+/// the FBX SDK writes large arrays; an array that would not shrink stays raw. The arrays of one
+/// node (a mesh's vertices, indices, normals, colours) are compressed in parallel.
+std::string compress_arrays(const std::string& props) {
+  constexpr std::size_t kCompressBytes = 1024;
+  struct Span {
+    std::size_t at, size;
+    bool compress;
+    std::vector<unsigned char> packed;
+  };
+  std::vector<Span> spans;
+  for (std::size_t at = 0; at < props.size();) {
+    const std::size_t n = property_size(props, at);
+    if (n > props.size() - at) throw Error("FBX binary document: property runs past its node");
+    const char type = props[at];
+    bool compress = false;
+    if (type == 'f' || type == 'd' || type == 'l' || type == 'i' || type == 'b') {
+      std::uint32_t encoding = 0, bytes = 0;
+      std::memcpy(&encoding, props.data() + at + 5, 4);
+      std::memcpy(&bytes, props.data() + at + 9, 4);
+      compress = encoding == 0 && bytes >= kCompressBytes;
+    }
+    spans.push_back({at, n, compress, {}});
+    at += n;
+  }
+  const auto count = static_cast<std::ptrdiff_t>(spans.size());
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t i = 0; i < count; ++i) {
+    Span& span = spans[static_cast<std::size_t>(i)];
+    if (!span.compress) continue;
+    const std::size_t bytes = span.size - 13;
+    uLongf packed_bytes = compressBound(static_cast<uLong>(bytes));
+    span.packed.resize(packed_bytes);
+    const int status = compress2(span.packed.data(), &packed_bytes,
+                                 reinterpret_cast<const Bytef*>(props.data() + span.at + 13),
+                                 static_cast<uLong>(bytes), 1);
+    if (status == Z_OK && packed_bytes < bytes)
+      span.packed.resize(packed_bytes);
+    else
+      span.packed.clear();
+  }
+  std::string out;
+  out.reserve(props.size());
+  for (const Span& span : spans) {
+    if (span.packed.empty()) {
+      out.append(props, span.at, span.size);
+      continue;
+    }
+    const std::uint32_t one = 1, size = static_cast<std::uint32_t>(span.packed.size());
+    out.append(props, span.at, 5);  // type and element count
+    out.append(reinterpret_cast<const char*>(&one), 4);
+    out.append(reinterpret_cast<const char*>(&size), 4);
+    out.append(reinterpret_cast<const char*>(span.packed.data()), span.packed.size());
+  }
+  return out;
 }
 
 bool is_string_property(const std::string& props, std::size_t at, const char* value) {
