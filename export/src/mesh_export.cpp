@@ -20,6 +20,7 @@
 #include "tsf/export/output_frame.h"
 #include "tsf/export/ply_document.h"
 #include "tsf/export/tissue_palette.h"
+#include "tsf/io/mesh_validation.h"
 
 namespace tsf::exporter {
 namespace fs = std::filesystem;
@@ -190,7 +191,7 @@ std::vector<std::pair<fs::path, std::string>> encode_scene(const aiScene& scene,
 imt::SurfaceMesh prepare_state(const imt::SurfaceMesh& mesh, const OutputFrame& frame,
                                const std::string& what, ExportReport& report) {
   try {
-    imt::validate_mesh(mesh);
+    io::validate_mesh_quickly(mesh);
   } catch (const Error& e) {
     throw Error(what + ": " + e.what());
   }

@@ -11,6 +11,7 @@
 
 #include "tsf/common/error.h"
 #include "tsf/io/crc32.h"
+#include "tsf/io/mesh_validation.h"
 
 namespace tsf::io {
 namespace fs = std::filesystem;
@@ -120,14 +121,15 @@ void validate_geometry(const VolumeGeometry& g, const std::string& where) {
 void validate_vectors(const std::vector<Vec3f>& values, const char* field,
                       const std::string& where) {
   for (std::size_t i = 0; i < values.size(); ++i)
-    require(all_finite(values[i]),
-            where + ": field '" + field + "' of vertex " + std::to_string(i) + " is not finite");
+    if (!all_finite(values[i]))
+      throw Error(where + ": field '" + field + "' of vertex " + std::to_string(i) +
+                  " is not finite");
 }
 
 /// imt::validate_mesh with the record named in the message.
 void validate_mesh_in(const imt::SurfaceMesh& mesh, const std::string& where) {
   try {
-    imt::validate_mesh(mesh);
+    validate_mesh_quickly(mesh);
   } catch (const Error& e) {
     throw Error(where + ": " + e.what());
   }
