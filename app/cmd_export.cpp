@@ -17,6 +17,7 @@
 
 #include "commands.h"
 #include "tsf/common/error.h"
+#include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/export/export_format.h"
 #include "tsf/export/frame_selection.h"
@@ -69,7 +70,9 @@ ExportReport run_volume(const ExportArgs& a, const ExportOptions& options, doubl
               "-DTSF_WITH_ITK=ON");
 #else
   Stopwatch clock;
+  Progress progress("export " + fs::path(a.output).filename().string(), 3);
   const VoxelVolume volume = import::read_tissue_volume(a.input);
+  progress.advance();
   imt::SurfaceOptions surface;
   surface.iso = a.iso;
   surface.validate();
@@ -81,11 +84,14 @@ ExportReport run_volume(const ExportArgs& a, const ExportOptions& options, doubl
     imt::smooth_taubin(mesh, smoothing);
   }
   surface_s = clock.seconds();
+  progress.advance();
   if (a.frames_given) {
     // A volume is one state (0); other selections name states it does not have.
     (void)FrameSelection::parse(a.frames).states(1);
   }
-  return export_surface(mesh, volume.geometry(), a.output, options);
+  ExportReport report = export_surface(mesh, volume.geometry(), a.output, options);
+  progress.finish();
+  return report;
 #endif
 }
 

@@ -89,22 +89,36 @@ std::string finalise_ply_binary(std::string_view bytes, const std::string& comme
           "PLY document: " + std::to_string(data) + " data bytes fit neither its header (" +
               std::to_string(vertices * declared + face_bytes) + ") nor float colours (" +
               std::to_string(vertices * written_as_float + face_bytes) + ")");
-  out.reserve(out.size() + vertices * declared + face_bytes);
+  // Per property: its byte offset in the written row, its size there, and whether it is a colour
+  // channel written as a float.
+  struct Field {
+    std::size_t from, size;
+    bool float_colour;
+  };
+  std::vector<Field> fields;
+  std::size_t from = 0;
+  for (const Property& prop : vertex_properties) {
+    const bool colour = prop.type == "uchar" && is_colour(prop.name);
+    fields.push_back({from, colour ? 4 : type_size(prop.type), colour});
+    from += fields.back().size;
+  }
+  const std::size_t head = out.size();
+  out.resize(head + vertices * declared);
   const char* p = bytes.data() + header.size();
-  for (std::size_t v = 0; v < vertices; ++v)
-    for (const Property& prop : vertex_properties) {
-      if (prop.type == "uchar" && is_colour(prop.name)) {
+  char* q = &out[head];
+  for (std::size_t v = 0; v < vertices; ++v, p += written_as_float) {
+    for (const Field& f : fields) {
+      if (f.float_colour) {
         float c;
-        std::memcpy(&c, p, 4);
+        std::memcpy(&c, p + f.from, 4);
         const float clamped = std::isfinite(c) ? std::min(std::max(c, 0.0f), 1.0f) : 0.0f;
-        out.push_back(static_cast<char>(static_cast<std::uint8_t>(std::lround(clamped * 255.0f))));
-        p += 4;
+        *q++ = static_cast<char>(static_cast<std::uint8_t>(std::lround(clamped * 255.0f)));
       } else {
-        const std::size_t n = type_size(prop.type);
-        out.append(p, n);
-        p += n;
+        std::memcpy(q, p + f.from, f.size);
+        q += f.size;
       }
     }
+  }
   out.append(p, face_bytes);
   return out;
 }
