@@ -120,7 +120,7 @@ TEST(ExportCommand, VolumeLandsInThePatientFrame) {
 
   // Labels came along: per-tissue meshes in an OBJ.
   const ProcessRun split = run(tsf, "export " + q(dir / "sphere-density.nrrd") + " -o " +
-                                 q(dir / "split.obj") + " --split-labels");
+                                        q(dir / "split.obj") + " --split-labels");
   ASSERT_EQ(split.status, 0) << split.output;
   const Imported parts = import_file(dir / "split.obj");
   EXPECT_EQ(parts.meshes, 2u) << "soft tissue and mucosa";
@@ -139,8 +139,8 @@ TEST(ExportCommand, SequenceExportsFramesAndAnimation) {
     s.frames.push_back(frame);
   }
   io::write_mesh_sequence(dir / "state.tsfmesh", s);
-  const ProcessRun r = run(tsf, "export " + q(dir / "state.tsfmesh") + " -o " + q(dir / "out" / "t.glb") +
-                             " --frames all --stats");
+  const ProcessRun r = run(tsf, "export " + q(dir / "state.tsfmesh") + " -o " +
+                                    q(dir / "out" / "t.glb") + " --frames all --stats");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json stats = nlohmann::json::parse(r.output);
   EXPECT_EQ(stats["input_kind"], "mesh sequence");
@@ -149,7 +149,8 @@ TEST(ExportCommand, SequenceExportsFramesAndAnimation) {
   EXPECT_EQ(files_in(dir / "out"),
             (std::vector<std::string>{"t-0000.glb", "t-0001.glb", "t-0002.glb", "t.glb"}));
 
-  const ProcessRun last = run(tsf, "export " + q(dir / "state.tsfmesh") + " -o " + q(dir / "last.ply"));
+  const ProcessRun last =
+      run(tsf, "export " + q(dir / "state.tsfmesh") + " -o " + q(dir / "last.ply"));
   ASSERT_EQ(last.status, 0) << last.output;
   EXPECT_NE(last.output.find("state 2"), std::string::npos) << last.output;
 }
@@ -180,7 +181,8 @@ TEST(ExportCommand, ErrorsSayWhyAndLeaveNothing) {
   }
   std::ofstream(dir / "corrupt.tsfmesh", std::ios::binary) << "\x89TSFM\r\n\x1a"
                                                            << "garbage";
-  const ProcessRun corrupt = run(tsf, "export " + q(dir / "corrupt.tsfmesh") + " -o " + q(out / "c.glb"));
+  const ProcessRun corrupt =
+      run(tsf, "export " + q(dir / "corrupt.tsfmesh") + " -o " + q(out / "c.glb"));
   EXPECT_NE(corrupt.status, 0);
   EXPECT_NE(corrupt.output.find("corrupt.tsfmesh"), std::string::npos) << corrupt.output;
 }

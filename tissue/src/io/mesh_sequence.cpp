@@ -241,12 +241,19 @@ MeshSequenceWriter::MeshSequenceWriter(const fs::path& path, const VolumeGeometr
   if (!out_)
     throw Error("cannot write mesh sequence '" + path.string() + "': cannot create '" +
                 temp_.string() + "' (" + std::strerror(errno) + ")");
-  std::string header(reinterpret_cast<const char*>(kMagic), sizeof(kMagic));
-  put(header, kMeshSequenceVersion);
-  put<std::uint32_t>(header, 0u);
-  out_.write(header.data(), static_cast<std::streamsize>(header.size()));
-  write_record("GEOM", geometry_payload(geometry));
-  write_record("MESH", mesh_payload(rest_time_s, kKindRest, rest));
+  try {
+    std::string header(reinterpret_cast<const char*>(kMagic), sizeof(kMagic));
+    put(header, kMeshSequenceVersion);
+    put<std::uint32_t>(header, 0u);
+    out_.write(header.data(), static_cast<std::streamsize>(header.size()));
+    write_record("GEOM", geometry_payload(geometry));
+    write_record("MESH", mesh_payload(rest_time_s, kKindRest, rest));
+  } catch (...) {
+    // The destructor does not run for a constructor that throws: clean up here.
+    out_.close();
+    fs::remove(temp_, ec);
+    throw;
+  }
   last_time_s_ = rest_time_s;
   vertex_count_ = rest.positions.size();
   labels_ = rest.labels;
