@@ -18,6 +18,7 @@
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/imt/extract_surface.h"
+#include "tsf/imt/mesh_quality.h"
 #include "tsf/imt/mesh_smoothing.h"
 #include "tsf/imt/mesh_topology.h"
 #include "tsf/imt/surface_ply.h"
@@ -99,6 +100,12 @@ void run_surface(const SurfaceArgs& a) {
     j["triangles"] = mesh.triangle_count();
     j["components"] = topo.components;
     j["closed_manifold"] = topo.closed_oriented_manifold();
+    const imt::MeshQuality q = imt::measure_quality(mesh);
+    j["quality"] = {{"zero_area_triangles", q.zero_area},
+                    {"slivers_below_10_deg", q.slivers},
+                    {"min_angle_deg", q.min_angle_deg},
+                    {"mean_min_angle_deg", q.mean_min_angle_deg},
+                    {"mean_edge_length_mm", q.mean_edge_length}};
     j["threads"] = build.threads;
     j["blocks"] = {{"total", build.blocks}, {"active", build.active_blocks}};
     j["times_s"] = {{"read", t_read},
@@ -143,8 +150,9 @@ void add_surface_command(CLI::App& app) {
   sub->add_option("--smooth", args->smooth, "Taubin smoothing iterations (0 = none)")
       ->default_val(0)
       ->check(CLI::Range(0, 10000));
-  sub->add_flag("--stats", args->stats,
-                "Print JSON statistics (vertices, triangles, components, times) to stdout");
+  sub->add_flag(
+      "--stats", args->stats,
+      "Print JSON statistics (vertices, triangles, components, triangle quality, times) to stdout");
   sub->add_option("--threads", args->threads, "Threads (0 = all cores)")
       ->default_val(0)
       ->check(CLI::Range(0, 1024));

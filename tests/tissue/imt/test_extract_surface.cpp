@@ -8,6 +8,7 @@
 #include "imt_test_helpers.h"
 #include "tsf/common/error.h"
 #include "tsf/imt/extract_surface.h"
+#include "tsf/imt/mesh_quality.h"
 #include "tsf/volume/analytic_volumes.h"
 
 namespace tsf::imt {
@@ -101,6 +102,31 @@ TEST(ExtractSurface, EmptyAndFullVolumes) {
   const MeshTopology t = test::expect_closed_manifold(m, "full volume");
   ASSERT_EQ(t.components, 1u);
   EXPECT_EQ(t.component_euler[0], 2);
+}
+
+// Tissue cut by the volume's border (a CT cropped at the neck): the surface closes outside the
+// border without degenerate triangles. Centres of cubes reaching outside the volume read 0; as
+// the mean of their corners they would sit exactly on the iso-level (4 corners at 1, 4 at 0) and
+// every edge ending there would emit the same vertex.
+TEST(ExtractSurface, TissueCutByTheBorderHasNoZeroAreaTriangles) {
+  VoxelVolume full(cube_geometry({12, 10, 8}));
+  std::fill(full.density_data().begin(), full.density_data().end(), 1.0f);
+  const SphereField ball{{10.3, 8.2, 4.1}, 9.37};  // no lattice point exactly on the sphere
+  const VoxelVolume cut = make_sdf_volume(
+      cube_geometry({24, 20, 16}), [&](const Vec3d& p) { return ball.signed_distance(p); }, 1.0);
+  for (float eps : {0.0f, 0.1f}) {
+    SurfaceOptions o;
+    o.snap_epsilon = eps;
+    for (const VoxelVolume* v : std::initializer_list<const VoxelVolume*>{&full, &cut}) {
+      const SurfaceMesh m = extract_surface(*v, o);
+      const std::string what = std::string(v == &full ? "full volume" : "ball cut by the border") +
+                               ", merge eps " + std::to_string(eps);
+      expect_closed_manifold(m, what);
+      const MeshQuality q = measure_quality(m);
+      EXPECT_GT(q.triangles, 0u) << what;
+      EXPECT_EQ(q.zero_area, 0u) << what;
+    }
+  }
 }
 
 TEST(ExtractSurface, RejectsBadOptions) {

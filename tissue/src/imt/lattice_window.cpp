@@ -187,6 +187,25 @@ bool LatticeWindow::load_and_classify(const Int3& c0, const Int3& c1) {
     centre[i] = body_centre_value(v);
   }
   for (std::int64_t i = n_cubes; i < n; ++i) centre[i] = 0.0f;
+  // A centre whose cube reaches outside the volume is itself a sample outside the volume: it
+  // reads 0 like every other one. (The mean of 4 inside corners at 1 and 4 outside zeros is
+  // exactly 0.5: a whole plane of centres on the iso-level, each emitting coincident vertices
+  // and zero-area triangles wherever tissue touches the volume's border.)
+  for (int z = 0; z < dims_.z; ++z) {
+    const int gz = lo_.z + z;
+    for (int y = 0; y < dims_.y; ++y) {
+      const int gy = lo_.y + y;
+      float* row = centre + sy_ * y + sz_ * z;
+      if (gz < 0 || gz + 1 >= vd.z || gy < 0 || gy + 1 >= vd.y) {
+        std::fill(row, row + dims_.x, 0.0f);
+        continue;
+      }
+      for (int x = 0; x < dims_.x; ++x) {
+        const int gx = lo_.x + x;
+        if (gx < 0 || gx + 1 >= vd.x) row[x] = 0.0f;
+      }
+    }
+  }
   std::uint8_t* __restrict mf = flags_[kCentreKind].data();
   for (std::int64_t i = 0; i < n; ++i)
     mf[i] = centre[i] >= iso ? std::uint8_t{kInside | kRawInside} : std::uint8_t{0};

@@ -4,7 +4,8 @@
 // Points. Voxel samples ("corners") sit at integer indices s; cube c has corners c + d, d ∈ {0,1}³,
 // and a body centre at c + ½ whose value is the mean of its 8 corners (clamped to their range so
 // a cube whose corners all lie on one side of the iso-level has its centre on that side too, even
-// after rounding). We address points in doubled integer coordinates: corner s -> 2s, the centre of
+// after rounding; a centre whose cube reaches outside the volume reads 0, like every sample
+// outside it). We address points in doubled integer coordinates: corner s -> 2s, the centre of
 // cube c -> 2c + 1 (all three odd).
 //
 // Tetrahedra. Every cube face is shared by two cubes; each of its 4 edges with the two body
