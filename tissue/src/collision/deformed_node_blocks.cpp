@@ -1,0 +1,89 @@
+#include "tsf/collision/deformed_node_blocks.h"
+
+#include <algorithm>
+
+namespace tsf::collision {
+
+DeformedNodeBlocks::DeformedNodeBlocks(const Int3& dims) : dims_(dims) {
+  for (int a = 0; a < 3; ++a) blocks_[a] = (dims[a] + kBlockNodes - 1) / kBlockNodes;
+  boxes_.resize(static_cast<std::size_t>(blocks_.volume()));
+}
+
+void DeformedNodeBlocks::refit(const coupler::DeformedLatticeView& lat) {
+  const auto count = static_cast<std::int64_t>(boxes_.size());
+#pragma omp parallel for schedule(dynamic, 16) if (count > 64)
+  for (std::int64_t b = 0; b < count; ++b) {
+    const int bx = static_cast<int>(b % blocks_.x);
+    const int by = static_cast<int>((b / blocks_.x) % blocks_.y);
+    const int bz = static_cast<int>(b / (static_cast<std::int64_t>(blocks_.x) * blocks_.y));
+    Box box;
+    const int i1 = std::min(dims_.x, (bx + 1) * kBlockNodes);
+    const int j1 = std::min(dims_.y, (by + 1) * kBlockNodes);
+    const int k1 = std::min(dims_.z, (bz + 1) * kBlockNodes);
+    for (int k = bz * kBlockNodes; k < k1; ++k)
+      for (int j = by * kBlockNodes; j < j1; ++j)
+        for (int i = bx * kBlockNodes; i < i1; ++i) {
+          const std::int64_t n = lat.index(i, j, k);
+          if (!lat.alive(n)) continue;
+          const Vec3f p = lat.rest(i, j, k) + lat.displacement(n);
+          if (box.empty) {
+            box.lo = box.hi = p;
+            box.empty = false;
+          } else {
+            box.lo = {std::min(box.lo.x, p.x), std::min(box.lo.y, p.y), std::min(box.lo.z, p.z)};
+            box.hi = {std::max(box.hi.x, p.x), std::max(box.hi.y, p.y), std::max(box.hi.z, p.z)};
+          }
+        }
+    boxes_[static_cast<std::size_t>(b)] = box;
+  }
+}
+
+void DeformedNodeBlocks::query(const coupler::DeformedLatticeView& lat, const Vec3f& lo,
+                               const Vec3f& hi, std::vector<std::int64_t>& nodes,
+                               std::vector<Vec3f>& displacements) const {
+  nodes.clear();
+  displacements.clear();
+  last_visited_ = 0;
+  for (std::size_t b = 0; b < boxes_.size(); ++b) {
+    const Box& box = boxes_[b];
+    if (box.empty || box.hi.x < lo.x || box.hi.y < lo.y || box.hi.z < lo.z || box.lo.x > hi.x ||
+        box.lo.y > hi.y || box.lo.z > hi.z)
+      continue;
+    ++last_visited_;
+    const auto bi = static_cast<std::int64_t>(b);
+    const int bx = static_cast<int>(bi % blocks_.x);
+    const int by = static_cast<int>((bi / blocks_.x) % blocks_.y);
+    const int bz = static_cast<int>(bi / (static_cast<std::int64_t>(blocks_.x) * blocks_.y));
+    const int i1 = std::min(dims_.x, (bx + 1) * kBlockNodes);
+    const int j1 = std::min(dims_.y, (by + 1) * kBlockNodes);
+    const int k1 = std::min(dims_.z, (bz + 1) * kBlockNodes);
+    for (int k = bz * kBlockNodes; k < k1; ++k)
+      for (int j = by * kBlockNodes; j < j1; ++j)
+        for (int i = bx * kBlockNodes; i < i1; ++i) {
+          const std::int64_t n = lat.index(i, j, k);
+          if (!lat.alive(n)) continue;
+          const Vec3f u = lat.displacement(n);
+          const Vec3f p = lat.rest(i, j, k) + u;
+          if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z)
+            continue;
+          nodes.push_back(n);
+          displacements.push_back(u);
+        }
+  }
+  // Blocks are visited in index order but nodes interleave across block rows: sort by node.
+  std::vector<std::size_t> order(nodes.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return nodes[a] < nodes[b];
+  });
+  std::vector<std::int64_t> sorted_nodes(nodes.size());
+  std::vector<Vec3f> sorted_u(nodes.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    sorted_nodes[i] = nodes[order[i]];
+    sorted_u[i] = displacements[order[i]];
+  }
+  nodes.swap(sorted_nodes);
+  displacements.swap(sorted_u);
+}
+
+}  // namespace tsf::collision
