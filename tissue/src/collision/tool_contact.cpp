@@ -187,7 +187,7 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   std::vector<std::int64_t> now;
   std::set_union(keep.begin(), keep.end(), hold.begin(), hold.end(), std::back_inserter(now));
   held_.swap(now);
-  if (!hold.empty() || !really_released.empty()) gatherer.state_changed();
+  if (!hold.empty()) gatherer.state_changed();  // released nodes did not move
 
   // 6: what the tool feels.
   out.nodes_held = held_.size();

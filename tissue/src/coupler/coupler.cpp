@@ -175,6 +175,9 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
   slots.reserve(changes.vertices_added.size() + changes.vertices_modified.size());
   slots.insert(slots.end(), changes.vertices_added.begin(), changes.vertices_added.end());
   slots.insert(slots.end(), changes.vertices_modified.begin(), changes.vertices_modified.end());
+  // A new normal can change which side of a cut the vertex anchors on: re-bind those too.
+  slots.insert(slots.end(), changes.vertices_normal_changed.begin(),
+               changes.vertices_normal_changed.end());
   std::sort(slots.begin(), slots.end());
   slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
   report.from_changes = slots.size();
@@ -217,10 +220,6 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
     require(surface.vertex_live(s), "coupler: change list names vertex slot " +
                                         std::to_string(s) + ", which is not live");
   bind_slots(surface, lattice, slots, report, false);
-  for (std::uint32_t s : changes.vertices_normal_changed) {
-    rest_normals_[s] = surface.normals()[s];
-    pending_upload_.push_back(s);
-  }
   return report;
 }
 

@@ -111,8 +111,7 @@ collision::ContactForce TissueModel::latest_contact() const {
 
 void TissueModel::release_tool() {
   stroke_.end();
-  contact_resolver_->release_all(*solver_);
-  gatherer_->state_changed();
+  contact_resolver_->release_all(*solver_);  // released nodes keep their positions
   last_tool_.reset();
   last_mode_ = ToolMode::kIdle;
   publish_contact({});
@@ -149,7 +148,6 @@ EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolM
   }
   if (last_mode_ == ToolMode::kPress) {
     contact_resolver_->release_all(*solver_);
-    gatherer_->state_changed();
     publish_contact({});
   }
   const bool sweep = last_tool_ && last_mode_ == mode && same_tool(tool, last_tool_spec_);
@@ -250,7 +248,8 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
     solver_->delete_nodes(topo.deleted_nodes);
     contact_resolver_->forget(topo.deleted_nodes);
   }
-  if (!topo.empty()) gatherer_->state_changed();
+  // Deleting nodes and breaking springs moves nothing: the broad phase's boxes stay valid (a
+  // deleted node is skipped by the query), so no refit is needed.
   r.nodes_deleted = topo.deleted_nodes.size();
   r.springs_broken = topo.broken_springs.size();
   r.topology_us = micros(clock);

@@ -32,8 +32,9 @@ class NodeGatherer {
   NodeGatherer(const NodeGatherer&) = delete;
   NodeGatherer& operator=(const NodeGatherer&) = delete;
 
-  /// The solver's state changed (stepped, nodes moved or deleted): the CPU broad phase refits
-  /// at the next query.
+  /// Nodes moved (the solver stepped, nodes were constrained or their state set): the CPU broad
+  /// phase refits at the next query. Deleting nodes, breaking springs or releasing nodes moves
+  /// nothing and needs no refit.
   void state_changed() { blocks_current_ = false; }
 
   /// Alive nodes whose deformed position lies in [lo, hi] (mm); with a tool, each gets the exact

@@ -6,8 +6,9 @@
 //   positions  #vertex slots, mm, deformed tissue space (freed slots: unspecified)
 //   normals    #vertex slots, unit, deformed
 // Only vertices that an edit touched are (re)bound: those in the IMT change list (added,
-// modified), and those whose cube's source nodes were deleted or had springs broken (their side
-// of a cut may have changed); freed slots are unbound. A bucket list per lattice cube finds the
+// modified, new normal — the normal picks the vertex's side of a cut), and those whose cube's
+// source nodes were deleted or had springs broken (their side may have changed); freed slots are
+// unbound. The result equals binding every vertex afresh (CouplerRobustness tests it). A bucket list per lattice cube finds the
 // latter without scanning the surface.
 //
 // Dirty tracking for uploads: slots are grouped in blocks of kDirtyBlockSlots; every couple()
