@@ -1,6 +1,7 @@
 #include "tsf/collision/deformed_node_blocks.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace tsf::collision {
 
@@ -11,9 +12,10 @@ DeformedNodeBlocks::DeformedNodeBlocks(const Int3& dims) : dims_(dims) {
 
 void DeformedNodeBlocks::refit(const coupler::DeformedLatticeView& lat) {
   const auto count = static_cast<std::int64_t>(boxes_.size());
+  float max_disp2 = 0.0f;
   // Threads only for big lattices: on a busy machine a parallel region can wait a whole time
   // slice for its second thread, longer than a serial refit of 100k nodes (~0.3 ms).
-#pragma omp parallel for schedule(static) if (count > 16384)
+#pragma omp parallel for schedule(static) reduction(max : max_disp2) if (count > 16384)
   for (std::int64_t b = 0; b < count; ++b) {
     const int bx = static_cast<int>(b % blocks_.x);
     const int by = static_cast<int>((b / blocks_.x) % blocks_.y);
@@ -27,7 +29,9 @@ void DeformedNodeBlocks::refit(const coupler::DeformedLatticeView& lat) {
         for (int i = bx * kBlockNodes; i < i1; ++i) {
           const std::int64_t n = lat.index(i, j, k);
           if (!lat.alive(n)) continue;
-          const Vec3f p = lat.rest(i, j, k) + lat.displacement(n);
+          const Vec3f u = lat.displacement(n);
+          max_disp2 = std::max(max_disp2, length_squared(u));
+          const Vec3f p = lat.rest(i, j, k) + u;
           if (box.empty) {
             box.lo = box.hi = p;
             box.empty = false;
@@ -38,6 +42,7 @@ void DeformedNodeBlocks::refit(const coupler::DeformedLatticeView& lat) {
         }
     boxes_[static_cast<std::size_t>(b)] = box;
   }
+  max_displacement_ = std::sqrt(max_disp2);
 }
 
 void DeformedNodeBlocks::query(const coupler::DeformedLatticeView& lat, const Vec3f& lo,
@@ -46,16 +51,32 @@ void DeformedNodeBlocks::query(const coupler::DeformedLatticeView& lat, const Ve
   nodes.clear();
   displacements.clear();
   last_visited_ = 0;
-  for (std::size_t b = 0; b < boxes_.size(); ++b) {
+  // A node in the query box rests within max_displacement_ of it: only blocks whose rest range
+  // meets the box grown by that can hold one.
+  Int3 b0, b1;
+  for (int a = 0; a < 3; ++a) {
+    const float d = max_displacement_ * 1.0001f + 1e-4f;
+    const double h = static_cast<double>(lat.spacing[a]), o = static_cast<double>(lat.origin[a]);
+    const double t0 = std::floor((static_cast<double>(lo[a] - d) - o) / h);
+    const double t1 = std::ceil((static_cast<double>(hi[a] + d) - o) / h);
+    const int n0 = static_cast<int>(std::max(0.0, std::min(t0, double(dims_[a] - 1))));
+    const int n1 = static_cast<int>(std::max(0.0, std::min(t1, double(dims_[a] - 1))));
+    if (t1 < 0.0 || t0 > double(dims_[a] - 1)) return;
+    b0[a] = n0 / kBlockNodes;
+    b1[a] = n1 / kBlockNodes;
+  }
+  for (int bz = b0.z; bz <= b1.z; ++bz)
+  for (int by = b0.y; by <= b1.y; ++by)
+  for (int bx = b0.x; bx <= b1.x; ++bx) {
+    const std::size_t b = static_cast<std::size_t>(bx) +
+                          static_cast<std::size_t>(blocks_.x) *
+                              (static_cast<std::size_t>(by) +
+                               static_cast<std::size_t>(blocks_.y) * static_cast<std::size_t>(bz));
     const Box& box = boxes_[b];
     if (box.empty || box.hi.x < lo.x || box.hi.y < lo.y || box.hi.z < lo.z || box.lo.x > hi.x ||
         box.lo.y > hi.y || box.lo.z > hi.z)
       continue;
     ++last_visited_;
-    const auto bi = static_cast<std::int64_t>(b);
-    const int bx = static_cast<int>(bi % blocks_.x);
-    const int by = static_cast<int>((bi / blocks_.x) % blocks_.y);
-    const int bz = static_cast<int>(bi / (static_cast<std::int64_t>(blocks_.x) * blocks_.y));
     const int i1 = std::min(dims_.x, (bx + 1) * kBlockNodes);
     const int j1 = std::min(dims_.y, (by + 1) * kBlockNodes);
     const int k1 = std::min(dims_.z, (bz + 1) * kBlockNodes);

@@ -8,7 +8,6 @@
 #include "tsf/coupler/vertex_binder.h"
 
 namespace tsf::coupler {
-
 DeformedLatticeView deformed_lattice_view(const crms::Solver& solver) {
   const crms::LatticeGeometry& g = solver.lattice().geometry();
   const crms::LatticeView lat = solver.lattice_view();
@@ -46,13 +45,17 @@ void Coupler::ensure_capacity(std::uint32_t capacity) {
   normals_.resize(capacity);
   next_.resize(capacity, -1);
   prev_.resize(capacity, -1);
+  vertex_frames_.resize(capacity);
   block_versions_.resize((capacity + kDirtyBlockSlots - 1) / kDirtyBlockSlots, 0);
   capacity_ = capacity;
   device_stale_ = true;
 }
 
 void Coupler::unlink(std::uint32_t slot) {
-  const std::int32_t cell = bindings_[slot].cell;
+  unlink_from(slot, bindings_[slot].cell);
+}
+
+void Coupler::unlink_from(std::uint32_t slot, std::int32_t cell) {
   if (cell < 0) return;
   const std::int32_t p = prev_[slot], n = next_[slot];
   if (p >= 0)
@@ -74,6 +77,56 @@ void Coupler::link(std::uint32_t slot) {
   ++bound_count_;
 }
 
+std::uint32_t Coupler::acquire_frame(std::int32_t cell, std::uint32_t sources,
+                                     bool single_piece) {
+  const std::uint64_t key = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell)) << 32) |
+                            sources;
+  const std::uint32_t found = frame_index_.find(key);
+  if (found != FrameIndex::kAbsent) {
+    ++frame_refs_[found];
+    return found;
+  }
+  std::uint32_t f;
+  if (!free_frames_.empty()) {
+    f = free_frames_.back();
+    free_frames_.pop_back();
+  } else {
+    f = static_cast<std::uint32_t>(frames_.size());
+    frames_.push_back({});
+    frame_refs_.push_back(0);
+    frame_corners_.push_back({});
+    frame_single_.push_back(0);
+  }
+  frames_[f] = {cell, sources};
+  frame_refs_[f] = 1;
+  frame_single_[f] = single_piece ? 1 : 0;
+  frame_index_.insert(key, f);
+  if (device_) pending_frames_.push_back(f);
+  return f;
+}
+
+void Coupler::release_frame(std::uint32_t f) {
+  if (f == kNoFrame || f >= frames_.size() || frame_refs_[f] == 0) return;
+  if (--frame_refs_[f] > 0) return;
+  const CubeFrame& fr = frames_[f];
+  frame_index_.erase((static_cast<std::uint64_t>(static_cast<std::uint32_t>(fr.cell)) << 32) |
+                     fr.sources);
+  frames_[f] = {};
+  free_frames_.push_back(f);
+  if (device_) pending_frames_.push_back(f);
+}
+
+void Coupler::reset_frames() {
+  frames_.clear();
+  frame_refs_.clear();
+  free_frames_.clear();
+  frame_index_.clear();
+  frame_corners_.clear();
+  frame_single_.clear();
+  pending_frames_.clear();
+  std::fill(vertex_frames_.begin(), vertex_frames_.end(), VertexFrameBinding{});
+}
+
 void Coupler::slots_in_cube(std::int64_t cell, std::vector<std::uint32_t>& out) const {
   if (cell < 0 || cell >= static_cast<std::int64_t>(head_.size())) return;
   for (std::int32_t s = head_[static_cast<std::size_t>(cell)]; s >= 0;
@@ -88,28 +141,59 @@ std::size_t Coupler::orphan_count() const {
 }
 
 void Coupler::bind_slots(const imt::ImtSurface& surface, const crms::Lattice& lattice,
-                         std::vector<std::uint32_t>& slots, RebindReport& report,
-                         bool parallel) {
+                         std::vector<std::uint32_t>& slots, RebindReport& report, bool parallel,
+                         const std::vector<std::int64_t>& touched_cells) {
   const std::vector<Vec3f>& p = surface.positions();
   const std::vector<Vec3f>& n = surface.normals();
-  // Sort by cube so consecutive vertices reuse the binder's per-cube grouping.
-  std::vector<std::pair<std::int64_t, std::uint32_t>> order(slots.size());
+  // Sort by cube (key = cell << 32 | slot) so consecutive vertices reuse the binder's per-cube
+  // grouping and frames.
+  std::vector<std::uint64_t>& order = scratch_order_;
+  order.resize(slots.size());
   for (std::size_t i = 0; i < slots.size(); ++i) {
     const crms::LatticeCellLocation loc = crms::locate_rest_point(geometry_, to_double(p[slots[i]]));
-    order[i] = {geometry_.index(loc.cell.x, loc.cell.y, loc.cell.z), slots[i]};
+    order[i] = (static_cast<std::uint64_t>(geometry_.index(loc.cell.x, loc.cell.y, loc.cell.z))
+                << 32) |
+               slots[i];
   }
   std::sort(order.begin(), order.end());
-  for (std::uint32_t s : slots) unlink(s);
+  // What each slot was bound to, to keep links and frames that do not change.
+  std::vector<std::int32_t>& old_cell = scratch_old_cell_;
+  old_cell.resize(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i)
+    old_cell[i] = bindings_[static_cast<std::uint32_t>(order[i])].cell;
+  // Fast path: a vertex that stays in its cube, bound to a frame of one piece (all alive sources
+  // connected) whose nodes this edit left alone, keeps its frame — binding it afresh would give
+  // the same cell and sources; only w and the normal change.
+  std::vector<std::uint8_t>& full = scratch_full_;
+  full.assign(order.size(), 1);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const auto s = static_cast<std::uint32_t>(order[i]);
+    const auto cell = static_cast<std::int32_t>(order[i] >> 32);
+    const std::uint32_t f = vertex_frames_[s].frame;
+    if (f == kNoFrame || old_cell[i] != cell || !frame_single_[f] || orphan_[s]) continue;
+    if (std::binary_search(touched_cells.begin(), touched_cells.end(), std::int64_t{cell})) continue;
+    full[i] = 0;
+    const Int3 c = geometry_.coordinates(cell);
+    const Vec3d r = geometry_.rest_position(c.x, c.y, c.z);
+    VertexBinding& b = bindings_[s];
+    for (int a = 0; a < 3; ++a)
+      b.w[a] = static_cast<float>((static_cast<double>(p[s][a]) - r[a]) / geometry_.spacing[a]);
+    rest_normals_[s] = n[s];
+  }
 
   const auto count = static_cast<std::int64_t>(order.size());
+  std::vector<std::uint8_t>& single = scratch_single_;
+  single.assign(order.size(), 0);
   std::size_t orphans = 0;
 #pragma omp parallel if (parallel && count > 4096) reduction(+ : orphans)
   {
     VertexBinder binder(lattice);
 #pragma omp for schedule(static)
     for (std::int64_t i = 0; i < count; ++i) {
-      const std::uint32_t s = order[static_cast<std::size_t>(i)].second;
+      if (!full[static_cast<std::size_t>(i)]) continue;
+      const auto s = static_cast<std::uint32_t>(order[static_cast<std::size_t>(i)]);
       const BindingResult r = binder.bind(p[s], n[s]);
+      single[static_cast<std::size_t>(i)] = r.single_piece ? 1 : 0;
       bindings_[s] = r.binding;
       sources_[s] = r.sources;
       orphan_[s] = r.orphan ? 1 : 0;
@@ -117,15 +201,29 @@ void Coupler::bind_slots(const imt::ImtSurface& surface, const crms::Lattice& la
       orphans += r.orphan ? 1 : 0;
     }
   }
-  for (const auto& o : order) {
-    link(o.second);
-    pending_upload_.push_back(o.second);
+  last_rebound_.resize(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const auto s = static_cast<std::uint32_t>(order[i]);
+    last_rebound_[i] = s;
+    const VertexBinding& b = bindings_[s];
+    if (old_cell[i] != b.cell) {
+      unlink_from(s, old_cell[i]);
+      link(s);
+    }
+    VertexFrameBinding& vf = vertex_frames_[s];
+    const std::uint32_t f = vf.frame;
+    if (full[i] &&
+        (f == kNoFrame || frames_[f].cell != b.cell || frames_[f].sources != sources_[s])) {
+      release_frame(f);
+      vf.frame = acquire_frame(b.cell, sources_[s], single[i] != 0);
+    }
+    vf.w[0] = b.w[0];
+    vf.w[1] = b.w[1];
+    vf.w[2] = b.w[2];
+    if (device_) pending_upload_.push_back(s);
   }
   report.rebound += order.size();
   report.orphans += orphans;
-  last_rebound_.clear();
-  last_rebound_.reserve(order.size());
-  for (const auto& o : order) last_rebound_.push_back(o.second);
 }
 
 RebindReport Coupler::bind_all(const imt::ImtSurface& surface, const crms::Lattice& lattice) {
@@ -142,13 +240,15 @@ RebindReport Coupler::bind_all(const imt::ImtSurface& surface, const crms::Latti
   std::fill(sources_.begin(), sources_.end(), 0u);
   std::fill(orphan_.begin(), orphan_.end(), std::uint8_t{0});
   bound_count_ = 0;
+  reset_frames();
   std::vector<std::uint32_t> slots;
   slots.reserve(surface.live_vertex_count());
   for (std::uint32_t s = 1; s < slot_count_; ++s)
     if (surface.vertex_live(s)) slots.push_back(s);
-  bind_slots(surface, lattice, slots, report, true);
+  bind_slots(surface, lattice, slots, report, true, {});
   report.from_changes = report.rebound;
   pending_upload_.clear();
+  pending_frames_.clear();
   device_stale_ = true;
   return report;
 }
@@ -164,10 +264,12 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
   slot_count_ = surface.vertex_slot_count();
   for (std::uint32_t s : changes.vertices_freed) {
     unlink(s);
+    release_frame(vertex_frames_[s].frame);
+    vertex_frames_[s] = {};
     bindings_[s] = VertexBinding{};
     sources_[s] = 0;
     orphan_[s] = 0;
-    pending_upload_.push_back(s);
+    if (device_) pending_upload_.push_back(s);
     ++report.unbound;
   }
 
@@ -217,9 +319,10 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
   report.from_topology = slots.size() - before;
 
   for (std::uint32_t s : slots)
-    require(surface.vertex_live(s), "coupler: change list names vertex slot " +
-                                        std::to_string(s) + ", which is not live");
-  bind_slots(surface, lattice, slots, report, false);
+    if (!surface.vertex_live(s))
+      throw Error("coupler: change list names vertex slot " + std::to_string(s) +
+                  ", which is not live");
+  bind_slots(surface, lattice, slots, report, false, cells);
   return report;
 }
 
@@ -229,21 +332,34 @@ void Coupler::sync_device(const crms::Solver& solver) {
     device_ = make_coupler_device();
     device_stale_ = true;
   }
-  if (device_stale_) {
-    device_->reserve(capacity_);
+  const auto frame_slots = static_cast<std::uint32_t>(frames_.size());
+  if (device_stale_ || frame_slots > device_frame_capacity_) {
+    device_frame_capacity_ = std::max<std::uint32_t>(1024, frame_slots + frame_slots / 2);
+    device_->reserve(capacity_, device_frame_capacity_);
     std::vector<std::uint32_t> all(slot_count_);
     for (std::uint32_t s = 0; s < slot_count_; ++s) all[s] = s;
-    device_->upload(all.data(), all.size(), bindings_.data(), sources_.data(),
-                    rest_normals_.data());
+    device_->upload_vertices(all.data(), all.size(), vertex_frames_.data(), rest_normals_.data());
+    std::vector<std::uint32_t> frames(frame_slots);
+    for (std::uint32_t f = 0; f < frame_slots; ++f) frames[f] = f;
+    device_->upload_frames(frames.data(), frames.size(), frames_.data());
     device_stale_ = false;
-  } else if (!pending_upload_.empty()) {
-    std::sort(pending_upload_.begin(), pending_upload_.end());
-    pending_upload_.erase(std::unique(pending_upload_.begin(), pending_upload_.end()),
-                          pending_upload_.end());
-    device_->upload(pending_upload_.data(), pending_upload_.size(), bindings_.data(),
-                    sources_.data(), rest_normals_.data());
+  } else {
+    if (!pending_frames_.empty()) {
+      std::sort(pending_frames_.begin(), pending_frames_.end());
+      pending_frames_.erase(std::unique(pending_frames_.begin(), pending_frames_.end()),
+                            pending_frames_.end());
+      device_->upload_frames(pending_frames_.data(), pending_frames_.size(), frames_.data());
+    }
+    if (!pending_upload_.empty()) {
+      std::sort(pending_upload_.begin(), pending_upload_.end());
+      pending_upload_.erase(std::unique(pending_upload_.begin(), pending_upload_.end()),
+                            pending_upload_.end());
+      device_->upload_vertices(pending_upload_.data(), pending_upload_.size(),
+                               vertex_frames_.data(), rest_normals_.data());
+    }
   }
   pending_upload_.clear();
+  pending_frames_.clear();
 }
 
 void Coupler::couple(const crms::Solver& solver) {
@@ -254,7 +370,8 @@ void Coupler::couple(const crms::Solver& solver) {
   const CouplerMode mode = options_.mode;
   if (solver.on_cuda()) {
     sync_device(solver);
-    device_->couple_all(view, slot_count_, mode, dirty_scratch_);
+    device_->couple_all(view, static_cast<std::uint32_t>(frames_.size()), slot_count_, mode,
+                        dirty_scratch_);
     // Download the dirty blocks, merged into ranges.
     const auto blocks = static_cast<std::uint32_t>(dirty_scratch_.size());
     std::uint32_t b = 0;
@@ -273,22 +390,32 @@ void Coupler::couple(const crms::Solver& solver) {
     return;
   }
   const LatticeReader reader{view};
+  // Pass 1: every frame in use.
+  const auto frames = static_cast<std::int64_t>(frames_.size());
+  const CubeFrame* table = frames_.data();
+  const std::uint32_t* refs = frame_refs_.data();
+  FrameCorners* corners = frame_corners_.data();
+#pragma omp parallel for schedule(static) if (frames > 4096)
+  for (std::int64_t f = 0; f < frames; ++f)
+    if (refs[f] > 0) corners[f] = resolve_frame(reader, view, table[f], mode);
+  // Pass 2: every vertex from its frame, block by block (a block's stamp is written by the one
+  // thread that owns the block).
   const std::uint32_t slots = slot_count_;
   const auto blocks = static_cast<std::int64_t>((slots + kDirtyBlockSlots - 1) / kDirtyBlockSlots);
-  const VertexBinding* bindings = bindings_.data();
-  const std::uint32_t* sources = sources_.data();
+  const VertexFrameBinding* vf = vertex_frames_.data();
   const Vec3f* rest_normals = rest_normals_.data();
   Vec3f* positions = positions_.data();
   Vec3f* normals = normals_.data();
-#pragma omp parallel for schedule(static) if (slots > 8192)
+#pragma omp parallel for schedule(static) if (slots > 16384)
   for (std::int64_t blk = 0; blk < blocks; ++blk) {
     const auto first = static_cast<std::uint32_t>(blk) * kDirtyBlockSlots;
     const std::uint32_t last = std::min(first + kDirtyBlockSlots, slots);
     bool changed = false;
     for (std::uint32_t s = first; s < last; ++s) {
-      const VertexBinding b = bindings[s];
-      if (b.cell < 0) continue;
-      const CoupledVertex v = couple_vertex(reader, view, b, sources[s], rest_normals[s], mode);
+      const VertexFrameBinding b = vf[s];
+      if (b.frame == kNoFrame) continue;
+      const CoupledVertex v =
+          couple_from_frame(corners[b.frame], b.w, view.spacing, rest_normals[s], mode);
       if (!(v.position == positions[s]) || !(v.normal == normals[s])) {
         positions[s] = v.position;
         normals[s] = v.normal;
@@ -304,20 +431,30 @@ void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::ui
   const DeformedLatticeView view = deformed_lattice_view(solver);
   ++version_;
   const CouplerMode mode = options_.mode;
-  for (std::uint32_t s : slots)
-    require(s < slot_count_, "coupler: slot " + std::to_string(s) + " is beyond the surface");
+  scratch_frames_.clear();
+  for (std::uint32_t s : slots) {
+    if (s >= slot_count_)
+      throw Error("coupler: slot " + std::to_string(s) + " is beyond the surface");
+    if (vertex_frames_[s].frame != kNoFrame) scratch_frames_.push_back(vertex_frames_[s].frame);
+  }
+  std::sort(scratch_frames_.begin(), scratch_frames_.end());
+  scratch_frames_.erase(std::unique(scratch_frames_.begin(), scratch_frames_.end()),
+                        scratch_frames_.end());
   if (solver.on_cuda()) {
     sync_device(solver);
-    device_->couple_slots(view, slots.data(), slots.size(), mode, positions_.data(),
-                          normals_.data());
+    device_->couple_slots(view, scratch_frames_.data(), scratch_frames_.size(), slots.data(),
+                          slots.size(), mode, positions_.data(), normals_.data());
     for (std::uint32_t s : slots) stamp_block(s / kDirtyBlockSlots);
     return;
   }
   const LatticeReader reader{view};
+  for (std::uint32_t f : scratch_frames_)
+    frame_corners_[f] = resolve_frame(reader, view, frames_[f], mode);
   for (std::uint32_t s : slots) {
-    const VertexBinding b = bindings_[s];
-    if (b.cell < 0) continue;
-    const CoupledVertex v = couple_vertex(reader, view, b, sources_[s], rest_normals_[s], mode);
+    const VertexFrameBinding b = vertex_frames_[s];
+    if (b.frame == kNoFrame) continue;
+    const CoupledVertex v =
+        couple_from_frame(frame_corners_[b.frame], b.w, view.spacing, rest_normals_[s], mode);
     positions_[s] = v.position;
     normals_[s] = v.normal;
     stamp_block(s / kDirtyBlockSlots);

@@ -16,18 +16,24 @@ namespace tsf::coupler {
 class CouplerDevice {
  public:
   virtual ~CouplerDevice() = default;
-  /// (Re)allocates `capacity` slots; contents are unspecified until uploaded (bindings of never
-  /// uploaded slots read as unbound).
-  virtual void reserve(std::uint32_t capacity) = 0;
-  /// Copies the bindings, sources and rest normals of `slots` from host arrays indexed by slot.
-  virtual void upload(const std::uint32_t* slots, std::size_t count, const VertexBinding* bindings,
-                      const std::uint32_t* sources, const Vec3f* rest_normals) = 0;
-  /// Couples slots [0, slot_count); dirty_blocks[b] = 1 where an output of block b changed
-  /// (blocks of kDirtyBlockSlots); resized to the block count.
-  virtual void couple_all(const DeformedLatticeView& lattice, std::uint32_t slot_count,
-                          CouplerMode mode, std::vector<std::uint8_t>& dirty_blocks) = 0;
-  /// Couples the listed slots and copies their outputs into the host arrays (indexed by slot).
-  virtual void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* slots,
+  /// (Re)allocates `slots` vertex slots and `frames` frame slots; contents are unspecified until
+  /// uploaded (vertices never uploaded read as unbound).
+  virtual void reserve(std::uint32_t slots, std::uint32_t frames) = 0;
+  /// Copies the frame bindings and rest normals of `slots` from host arrays indexed by slot.
+  virtual void upload_vertices(const std::uint32_t* slots, std::size_t count,
+                               const VertexFrameBinding* bindings, const Vec3f* rest_normals) = 0;
+  /// Copies the listed frames from a host array indexed by frame.
+  virtual void upload_frames(const std::uint32_t* frames, std::size_t count,
+                             const CubeFrame* table) = 0;
+  /// Resolves frames [0, frame_count), then couples slots [0, slot_count); dirty_blocks[b] = 1
+  /// where an output of block b changed (blocks of kDirtyBlockSlots); resized to the block count.
+  virtual void couple_all(const DeformedLatticeView& lattice, std::uint32_t frame_count,
+                          std::uint32_t slot_count, CouplerMode mode,
+                          std::vector<std::uint8_t>& dirty_blocks) = 0;
+  /// Resolves the listed frames, couples the listed slots and copies their outputs into the host
+  /// arrays (indexed by slot).
+  virtual void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* frames,
+                            std::size_t frame_count, const std::uint32_t* slots,
                             std::size_t count, CouplerMode mode, Vec3f* positions,
                             Vec3f* normals) = 0;
   /// Copies outputs of slots [first, first + count) into the host arrays (indexed by slot).

@@ -92,8 +92,14 @@ void VertexBinder::group_cube(const Int3& cell) {
     const int ra = find_root(parent, edge.from), rb = find_root(parent, edge.to);
     if (ra != rb) parent[ra > rb ? ra : rb] = static_cast<std::int8_t>(ra < rb ? ra : rb);
   }
-  for (int b = 0; b < 32; ++b)
+  int first_piece = -1;
+  single_piece_ = true;
+  for (int b = 0; b < 32; ++b) {
     piece_[b] = ((alive_ >> b) & 1u) ? static_cast<std::int8_t>(find_root(parent, b)) : -1;
+    if (piece_[b] < 0) continue;
+    if (first_piece < 0) first_piece = piece_[b];
+    if (piece_[b] != first_piece) single_piece_ = false;
+  }
   cached_cell_ = g.index(cell.x, cell.y, cell.z);
 }
 
@@ -117,7 +123,24 @@ int VertexBinder::pick_anchor(const Int3& cell, const Vec3d& p, const Vec3d& n) 
   const double h = g.min_spacing();
   int best = -1;
   double best_score = std::numeric_limits<double>::infinity();
-  for (int b = 0; b < 32; ++b) {
+  // The cube's corners first: when one of them lies behind the surface it is the anchor (the
+  // usual case); the outside neighbours are scored only when every alive corner is in front.
+  double best_behind = 1.0;
+  for (int b = 0; b < 8; ++b) {
+    if (!((alive_ >> b) & 1u)) continue;
+    const Vec3d d = g.rest_position(cell.x + t.offset[b].x, cell.y + t.offset[b].y,
+                                    cell.z + t.offset[b].z) -
+                    p;
+    const double behind = dot(d, n) / h;
+    const double score = behind + 0.25 * length(d) / h;
+    if (score < best_score) {
+      best_score = score;
+      best = b;
+      best_behind = behind;
+    }
+  }
+  if (best >= 0 && best_behind < 0.0) return best;
+  for (int b = 8; b < 32; ++b) {
     if (!((alive_ >> b) & 1u)) continue;
     const Vec3d r = g.rest_position(cell.x + t.offset[b].x, cell.y + t.offset[b].y,
                                     cell.z + t.offset[b].z);
@@ -204,6 +227,11 @@ BindingResult VertexBinder::bind(const Vec3f& rest_position, const Vec3f& rest_n
   if (alive_ == 0) {
     out.orphan = true;
     ++orphans_;
+    return out;
+  }
+  if (single_piece_) {  // every alive source connects to every other: no side to choose
+    out.sources = alive_;
+    out.single_piece = !out.borrowed;
     return out;
   }
   const int anchor = pick_anchor(cell, p, n);

@@ -119,9 +119,9 @@ void TissueModel::release_tool() {
 
 EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolMode mode) {
   tool.validate();
-  require(tool.supports(mode), std::string("apply_tool: a ") + to_string(tool.shape) +
-                                   " cannot " + to_string(mode) +
-                                   " (ablate: sphere or capsule; cut: blade)");
+  if (!tool.supports(mode))
+    throw Error(std::string("apply_tool: a ") + to_string(tool.shape) + " cannot " +
+                to_string(mode) + " (ablate: sphere or capsule; cut: blade)");
   require(all_finite(pose.position), "apply_tool: the tool position is not finite");
   EditReport report;
   report.mode = mode;
@@ -169,14 +169,26 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   const double voxel = min_voxel(vg);
   const double falloff = options_.removal.falloff_mm < 0 ? voxel : options_.removal.falloff_mm;
 
-  // Map the swept tool into rest space through the lattice.
-  Vec3d lo, hi, a, b;
-  collision::tool_bounds(from, lo, hi);
-  collision::tool_bounds(to, a, b);
-  grow(lo, hi, a, b);
+  // Map the swept tool into rest space through the lattice: gather the nodes around the points
+  // to map (centres, capsule ends) — the cubes Newton tries and their neighbours; only when none
+  // is there (a large tool whose centre is in the air) look around the whole tool.
   const double h_max = std::max(g.spacing.x, std::max(g.spacing.y, g.spacing.z));
   const Vec3d margin{2.5 * h_max, 2.5 * h_max, 2.5 * h_max};
+  Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  if (tool.shape == collision::ToolShape::kBlade) {
+    grow(lo, hi, from.pose.position, to.pose.position);
+  } else {
+    grow(lo, hi, from.a, from.b);
+    grow(lo, hi, to.a, to.b);
+  }
   gatherer_->gather(*solver_, to_float(lo - margin), to_float(hi + margin), std::nullopt, nb_);
+  if (nb_.size() == 0) {
+    Vec3d a, b;
+    collision::tool_bounds(from, lo, hi);
+    collision::tool_bounds(to, a, b);
+    grow(lo, hi, a, b);
+    gatherer_->gather(*solver_, to_float(lo - margin), to_float(hi + margin), std::nullopt, nb_);
+  }
   if (nb_.size() == 0) {
     r.map_us = micros(clock);
     r.total_us = micros(total);
@@ -258,6 +270,7 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   const coupler::RebindReport rebind = coupler_->apply_changes(
       surface_, changes, solver_->lattice(), topo.deleted_nodes, topo.broken_springs);
   r.vertices_rebound = rebind.rebound;
+  r.vertices_rebound_for_topology = rebind.from_topology;
   r.rebind_us = micros(clock);
 
   clock.restart();

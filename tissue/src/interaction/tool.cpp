@@ -41,19 +41,21 @@ const char* to_string(collision::ToolShape shape) {
 void Tool::validate() const {
   using collision::ToolShape;
   if (shape == ToolShape::kSphere || shape == ToolShape::kCapsule) {
-    require(std::isfinite(radius_mm) && radius_mm > 0 && radius_mm <= 1e3,
-            "tool.radius: expected a radius in (0, 1000] mm, got " + std::to_string(radius_mm));
+    if (!(std::isfinite(radius_mm) && radius_mm > 0 && radius_mm <= 1e3))
+      throw Error("tool.radius: expected a radius in (0, 1000] mm, got " +
+                  std::to_string(radius_mm));
   }
   if (shape == ToolShape::kCapsule) {
-    require(std::isfinite(half_length_mm) && half_length_mm >= 0 && half_length_mm <= 1e3,
-            "tool.half_length: expected [0, 1000] mm, got " + std::to_string(half_length_mm));
+    if (!(std::isfinite(half_length_mm) && half_length_mm >= 0 && half_length_mm <= 1e3))
+      throw Error("tool.half_length: expected [0, 1000] mm, got " +
+                  std::to_string(half_length_mm));
   }
   if (shape == ToolShape::kBlade) {
     for (int a = 0; a < 3; ++a)
-      require(std::isfinite(half_extents_mm[a]) && half_extents_mm[a] > 0 &&
-                  half_extents_mm[a] <= 1e3,
-              "tool.half_extents: each must be in (0, 1000] mm, got " +
-                  std::to_string(half_extents_mm[a]));
+      if (!(std::isfinite(half_extents_mm[a]) && half_extents_mm[a] > 0 &&
+            half_extents_mm[a] <= 1e3))
+        throw Error("tool.half_extents: each must be in (0, 1000] mm, got " +
+                    std::to_string(half_extents_mm[a]));
   }
 }
 

@@ -15,16 +15,18 @@ double min_spacing(const VolumeGeometry& g) {
 }
 
 void check(const RemovalOptions& o, const char* what) {
-  require(std::isfinite(o.strength) && o.strength >= 0.0f && o.strength <= 1.0f,
-          std::string(what) + ": strength must lie in [0,1], got " + std::to_string(o.strength));
-  require(std::isfinite(o.falloff_mm), std::string(what) + ": falloff_mm must be finite");
+  if (!(std::isfinite(o.strength) && o.strength >= 0.0f && o.strength <= 1.0f))
+    throw Error(std::string(what) + ": strength must lie in [0,1], got " +
+                std::to_string(o.strength));
+  if (!std::isfinite(o.falloff_mm)) throw Error(std::string(what) + ": falloff_mm must be finite");
 }
 
 /// Sub-steps so that no point moves more than half a voxel between samples.
 int sub_steps(double travel_mm, double voxel_mm, const char* what) {
   const int steps = std::max(1, static_cast<int>(std::ceil(travel_mm / (0.5 * voxel_mm))));
-  require(steps <= 100000, std::string(what) + ": a move of " + std::to_string(travel_mm) +
-                               " mm is too long for one step; split it into shorter moves");
+  if (steps > 100000)
+    throw Error(std::string(what) + ": a move of " + std::to_string(travel_mm) +
+                " mm is too long for one step; split it into shorter moves");
   return steps;
 }
 

@@ -1,6 +1,8 @@
 // Broad phase over the deformed lattice (CPU): the lattice is tiled into blocks of
 // kBlockNodes³ nodes and each block keeps the axis-aligned box of its alive nodes' deformed
-// positions. A query box then visits only the blocks it overlaps. The tiling is the lattice's own
+// positions. A query box visits only the blocks it overlaps, among those whose rest range lies
+// within the largest displacement of the box (so a query costs what is near it, not the
+// lattice's size). The tiling is the lattice's own
 // (fixed topology), so a refit is one pass over the nodes, with no sorting or hashing; it is
 // needed only after the state changed (steps, constraints, topology edits).
 #pragma once
@@ -37,6 +39,7 @@ class DeformedNodeBlocks {
   };
   Int3 dims_, blocks_;
   std::vector<Box> boxes_;
+  float max_displacement_ = 0.0f;  ///< largest |u| of an alive node at the last refit, mm
   mutable std::size_t last_visited_ = 0;
 };
 

@@ -95,30 +95,96 @@ struct CoupledVertex {
   bool bound;      ///< false: no source node was available, position = rest
 };
 
-/// Couples one vertex. `rest_position` is only used when the vertex has no binding or no source
-/// (then it stays where it is at rest).
-template <class Reader>
-TSF_HD_INLINE CoupledVertex couple_vertex(const Reader& reader, const DeformedLatticeView& lattice,
-                                          const VertexBinding& b, std::uint32_t sources,
-                                          const Vec3f& rest_normal, CouplerMode mode) {
+/// The cell (lower corner node coordinates) of a binding.
+TSF_HD_INLINE Int3 binding_cell(const DeformedLatticeView& lattice, std::int64_t n) {
+  return {static_cast<int>(n % lattice.dims.x), static_cast<int>((n / lattice.dims.x) % lattice.dims.y),
+          static_cast<int>(n / (static_cast<std::int64_t>(lattice.dims.x) * lattice.dims.y))};
+}
+
+/// Corners mode `mode` reads (the local frame needs 0, 1, 2 and 4 only).
+TSF_HD_INLINE unsigned corners_needed(CouplerMode mode) {
+  return mode == CouplerMode::kLocalFrame ? 0x17u : 0xffu;
+}
+
+/// Couples one vertex from its cube's resolved corners (resolve_cube_corners with
+/// corners_needed(mode)); vertices of one cube with the same sources share them.
+TSF_HD_INLINE CoupledVertex couple_resolved(const DeformedLatticeView& lattice, const Int3& cell,
+                                            const Vec3f q[8], bool bound, const VertexBinding& b,
+                                            const Vec3f& rest_normal, CouplerMode mode) {
   CoupledVertex out;
-  out.normal = rest_normal;
-  if (b.cell < 0 || b.cell >= lattice.dims.volume()) {
-    out.position = {0, 0, 0};
-    out.bound = false;
-    return out;
-  }
-  const std::int64_t n = b.cell;
-  const Int3 cell{static_cast<int>(n % lattice.dims.x),
-                  static_cast<int>((n / lattice.dims.x) % lattice.dims.y),
-                  static_cast<int>(n / (static_cast<std::int64_t>(lattice.dims.x) * lattice.dims.y))};
-  Vec3f q[8];
-  const unsigned needed = mode == CouplerMode::kLocalFrame ? 0x17u : 0xffu;
-  out.bound = resolve_cube_corners(reader, cell, lattice.spacing, sources, q, nullptr, needed);
+  out.bound = bound;
   Vec3f axes[3];
   const Vec3f rel = map_cube_point(q, b.w, mode, axes);
   out.position = lattice.rest(cell.x, cell.y, cell.z) + rel;
   out.normal = deform_normal(axes, lattice.spacing, rest_normal);
+  return out;
+}
+
+/// Couples one vertex. A vertex without a source node (an orphan) keeps its rest position
+/// (`bound` false); an unbound slot (cell < 0) gives a zero position.
+template <class Reader>
+TSF_HD_INLINE CoupledVertex couple_vertex(const Reader& reader, const DeformedLatticeView& lattice,
+                                          const VertexBinding& b, std::uint32_t sources,
+                                          const Vec3f& rest_normal, CouplerMode mode) {
+  if (b.cell < 0 || b.cell >= lattice.dims.volume()) {
+    CoupledVertex out;
+    out.position = {0, 0, 0};
+    out.normal = rest_normal;
+    out.bound = false;
+    return out;
+  }
+  const Int3 cell = binding_cell(lattice, b.cell);
+  Vec3f q[8];
+  const bool bound =
+      resolve_cube_corners(reader, cell, lattice.spacing, sources, q, nullptr, corners_needed(mode));
+  return couple_resolved(lattice, cell, q, bound, b, rest_normal, mode);
+}
+
+/// Two-pass coupling (what Coupler runs): a cube as its vertices see it — the cell and the
+/// sources they use — is a frame, shared by the ~5–10 vertices of a surface cube. Pass 1 resolves
+/// each frame's corners once (the inference of missing corners is the costly part); pass 2
+/// interpolates every vertex from its frame's corners.
+struct CubeFrame {
+  std::int32_t cell = -1;     ///< lower corner node; −1 = free
+  std::uint32_t sources = 0;  ///< cube_corners.h bit layout
+};
+/// A frame's corners for the current state: q relative to base = rest(cell), mm.
+struct FrameCorners {
+  Vec3f q[8];
+  Vec3f base;
+  std::uint32_t bound;  ///< 0: no source node was available (the corners are rest offsets)
+};
+/// The record pass 2 reads per vertex slot: its frame and local coordinates (one 16-byte load).
+struct VertexFrameBinding {
+  std::uint32_t frame = 0xffffffffu;  ///< 0xffffffff: unbound
+  float w[3] = {0, 0, 0};
+};
+static_assert(sizeof(VertexFrameBinding) == 16, "VertexFrameBinding is one 16-byte load");
+constexpr std::uint32_t kNoFrame = 0xffffffffu;
+
+/// Pass 1 for one frame.
+template <class Reader>
+TSF_HD_INLINE FrameCorners resolve_frame(const Reader& reader, const DeformedLatticeView& lattice,
+                                         const CubeFrame& frame, CouplerMode mode) {
+  FrameCorners out;
+  const Int3 cell = binding_cell(lattice, frame.cell);
+  out.base = lattice.rest(cell.x, cell.y, cell.z);
+  out.bound = resolve_cube_corners(reader, cell, lattice.spacing, frame.sources, out.q, nullptr,
+                                   corners_needed(mode))
+                  ? 1u
+                  : 0u;
+  return out;
+}
+
+/// Pass 2 for one vertex.
+TSF_HD_INLINE CoupledVertex couple_from_frame(const FrameCorners& f, const float w[3],
+                                              const float h[3], const Vec3f& rest_normal,
+                                              CouplerMode mode) {
+  CoupledVertex out;
+  out.bound = f.bound != 0;
+  Vec3f axes[3];
+  out.position = f.base + map_cube_point(f.q, w, mode, axes);
+  out.normal = deform_normal(axes, h, rest_normal);
   return out;
 }
 

@@ -1,6 +1,9 @@
 // The mesh coupler (DESIGN.md "Coupler"): every IMT render vertex follows the deformed CRMS
 // lattice through the cube it is bound to, on the CPU (OpenMP) or on the GPU where the solver's
-// state lives, with the one per-vertex function of couple_vertex.h.
+// state lives, with the per-frame and per-vertex functions of couple_vertex.h. Two passes: the
+// distinct (cube, sources) frames in use are resolved once each (corners read, missing ones
+// inferred), then every vertex is interpolated from its frame; a surface cube's ~5–10 vertices
+// share one frame, so the inference of the surface layer's missing corners runs once per cube.
 //
 // Buffers are aligned with ImtSurface's vertex slots, so a viewer patches its copies by slot:
 //   positions  #vertex slots, mm, deformed tissue space (freed slots: unspecified)
@@ -27,6 +30,7 @@
 #include "tsf/common/vec3.h"
 #include "tsf/coupler/couple_vertex.h"
 #include "tsf/coupler/deformed_lattice_view.h"
+#include "tsf/coupler/frame_index.h"
 #include "tsf/crms/lattice.h"
 #include "tsf/crms/solver.h"
 #include "tsf/imt/imt_surface.h"
@@ -102,15 +106,22 @@ class Coupler {
   /// Vertices currently bound as orphans (no alive node near; they stay at rest).
   std::size_t orphan_count() const;
   std::size_t bound_count() const { return bound_count_; }
+  /// Distinct (cube, sources) frames in use.
+  std::size_t frame_count() const { return frame_index_.size(); }
 
  private:
   void ensure_capacity(std::uint32_t capacity);
   void unlink(std::uint32_t slot);
+  void unlink_from(std::uint32_t slot, std::int32_t cell);
   void link(std::uint32_t slot);
   void bind_slots(const imt::ImtSurface& surface, const crms::Lattice& lattice,
-                  std::vector<std::uint32_t>& slots, RebindReport& report, bool parallel);
+                  std::vector<std::uint32_t>& slots, RebindReport& report, bool parallel,
+                  const std::vector<std::int64_t>& touched_cells);
   void sync_device(const crms::Solver& solver);
   void stamp_block(std::uint32_t block) { block_versions_[block] = version_; }
+  std::uint32_t acquire_frame(std::int32_t cell, std::uint32_t sources, bool single_piece);
+  void release_frame(std::uint32_t frame);
+  void reset_frames();
 
   crms::LatticeGeometry geometry_;
   CouplerOptions options_;
@@ -128,10 +139,24 @@ class Coupler {
   std::vector<std::int32_t> head_;
   std::vector<std::int32_t> next_, prev_;
   std::vector<std::uint32_t> last_rebound_;
+  // Frames: slots [0, frames_.size()) with reference counts, a free list and an index by key.
+  std::vector<VertexFrameBinding> vertex_frames_;  ///< per vertex slot
+  std::vector<CubeFrame> frames_;
+  std::vector<std::uint32_t> frame_refs_;
+  std::vector<std::uint32_t> free_frames_;
+  FrameIndex frame_index_;
+  std::vector<std::uint8_t> frame_single_;  ///< the frame's cube was one piece when bound
+  std::vector<FrameCorners> frame_corners_;
+  std::vector<std::uint32_t> pending_frames_;  ///< frames changed since the last device upload
+  std::vector<std::uint32_t> scratch_frames_;
+  std::vector<std::uint64_t> scratch_order_;
+  std::vector<std::int32_t> scratch_old_cell_;
+  std::vector<std::uint8_t> scratch_full_, scratch_single_;
   // CUDA: device mirror, slots whose binding changed since the last upload, full upload flag.
   std::unique_ptr<CouplerDevice> device_;
   std::vector<std::uint32_t> pending_upload_;
   bool device_stale_ = true;
+  std::uint32_t device_frame_capacity_ = 0;
   std::vector<std::uint8_t> dirty_scratch_;
 };
 

@@ -7,7 +7,10 @@
 // into pieces connected by intact springs (Lattice::link) and keeps the piece of the vertex's
 // anchor: the alive source that lies most behind the surface at the vertex,
 //   score = (r − p)·n̂ / h + ¼·|r − p| / h   (smallest wins; n̂ the outward rest normal),
-// so a vertex on a cut face, whose normal points across the gap, anchors on its own side.
+// so a vertex on a cut face, whose normal points across the gap, anchors on its own side. The
+// cube's corners are scored first and win when the best lies behind the surface ((r − p)·n̂ < 0);
+// the outside neighbours are scored only otherwise. A cube whose alive sources form one piece
+// (no cut through it: the common case) needs no anchor.
 //
 // A cube without any alive source (thin tissue whose cells all fell below the deletion
 // threshold) borrows the nearest cube that has one within kFallbackSearchNodes nodes; its local
@@ -28,6 +31,7 @@ struct BindingResult {
   std::uint32_t sources = 0;  ///< cube_corners.h bit layout
   bool orphan = false;        ///< no alive node near: the vertex stays at rest
   bool borrowed = false;      ///< bound to a nearby cube, not the one holding the point
+  bool single_piece = false;  ///< the cube's alive sources are all connected (sources = alive)
 };
 
 /// The rest position (mm) that (cell, w) stands for, in double precision.
@@ -64,6 +68,7 @@ class VertexBinder {
   const crms::Lattice& lattice_;
   std::int64_t cached_cell_ = -1;
   std::uint32_t alive_ = 0;    ///< alive sources of the cached cube
+  bool single_piece_ = true;  ///< the cached cube's alive sources are all connected
   std::int8_t piece_[32] = {};  ///< piece id per source bit (−1: missing)
   std::int64_t orphans_ = 0;
   std::int64_t borrowed_ = 0;

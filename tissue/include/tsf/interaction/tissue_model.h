@@ -87,6 +87,7 @@ struct EditReport {
   std::size_t nodes_deleted = 0;
   std::size_t springs_broken = 0;
   std::size_t vertices_rebound = 0;
+  std::size_t vertices_rebound_for_topology = 0;  ///< of which only because their cube's nodes changed
   std::size_t vertices_added = 0, vertices_freed = 0, triangles_changed = 0;
   double map_us = 0;       ///< tool pose → rest space (gather + Newton)
   double edit_us = 0;      ///< voxel edit (with the density snapshot)
