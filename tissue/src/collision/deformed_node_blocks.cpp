@@ -45,6 +45,31 @@ void DeformedNodeBlocks::refit(const coupler::DeformedLatticeView& lat) {
   max_displacement_ = std::sqrt(max_disp2);
 }
 
+void DeformedNodeBlocks::nodes_moved(const std::vector<std::int64_t>& nodes,
+                                     const std::vector<Vec3d>& positions,
+                                     const coupler::DeformedLatticeView& lat) {
+  for (std::size_t i = 0; i < nodes.size() && i < positions.size(); ++i) {
+    const std::int64_t n = nodes[i];
+    const int x = static_cast<int>(n % dims_.x), y = static_cast<int>((n / dims_.x) % dims_.y);
+    const int z = static_cast<int>(n / (static_cast<std::int64_t>(dims_.x) * dims_.y));
+    Box& box = boxes_[static_cast<std::size_t>(x / kBlockNodes) +
+                      static_cast<std::size_t>(blocks_.x) *
+                          (static_cast<std::size_t>(y / kBlockNodes) +
+                           static_cast<std::size_t>(blocks_.y) *
+                               static_cast<std::size_t>(z / kBlockNodes))];
+    const Vec3f p = to_float(positions[i]);
+    if (box.empty) {
+      box.lo = box.hi = p;
+      box.empty = false;
+    } else {
+      box.lo = {std::min(box.lo.x, p.x), std::min(box.lo.y, p.y), std::min(box.lo.z, p.z)};
+      box.hi = {std::max(box.hi.x, p.x), std::max(box.hi.y, p.y), std::max(box.hi.z, p.z)};
+    }
+    const Vec3f u = p - lat.rest(x, y, z);
+    max_displacement_ = std::max(max_displacement_, length(u));
+  }
+}
+
 void DeformedNodeBlocks::query(const coupler::DeformedLatticeView& lat, const Vec3f& lo,
                                const Vec3f& hi, std::vector<std::int64_t>& nodes,
                                std::vector<Vec3f>& displacements) const {
@@ -66,39 +91,39 @@ void DeformedNodeBlocks::query(const coupler::DeformedLatticeView& lat, const Ve
     b1[a] = n1 / kBlockNodes;
   }
   for (int bz = b0.z; bz <= b1.z; ++bz)
-  for (int by = b0.y; by <= b1.y; ++by)
-  for (int bx = b0.x; bx <= b1.x; ++bx) {
-    const std::size_t b = static_cast<std::size_t>(bx) +
-                          static_cast<std::size_t>(blocks_.x) *
-                              (static_cast<std::size_t>(by) +
-                               static_cast<std::size_t>(blocks_.y) * static_cast<std::size_t>(bz));
-    const Box& box = boxes_[b];
-    if (box.empty || box.hi.x < lo.x || box.hi.y < lo.y || box.hi.z < lo.z || box.lo.x > hi.x ||
-        box.lo.y > hi.y || box.lo.z > hi.z)
-      continue;
-    ++last_visited_;
-    const int i1 = std::min(dims_.x, (bx + 1) * kBlockNodes);
-    const int j1 = std::min(dims_.y, (by + 1) * kBlockNodes);
-    const int k1 = std::min(dims_.z, (bz + 1) * kBlockNodes);
-    for (int k = bz * kBlockNodes; k < k1; ++k)
-      for (int j = by * kBlockNodes; j < j1; ++j)
-        for (int i = bx * kBlockNodes; i < i1; ++i) {
-          const std::int64_t n = lat.index(i, j, k);
-          if (!lat.alive(n)) continue;
-          const Vec3f u = lat.displacement(n);
-          const Vec3f p = lat.rest(i, j, k) + u;
-          if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z)
-            continue;
-          nodes.push_back(n);
-          displacements.push_back(u);
-        }
-  }
+    for (int by = b0.y; by <= b1.y; ++by)
+      for (int bx = b0.x; bx <= b1.x; ++bx) {
+        const std::size_t b =
+            static_cast<std::size_t>(bx) +
+            static_cast<std::size_t>(blocks_.x) *
+                (static_cast<std::size_t>(by) +
+                 static_cast<std::size_t>(blocks_.y) * static_cast<std::size_t>(bz));
+        const Box& box = boxes_[b];
+        if (box.empty || box.hi.x < lo.x || box.hi.y < lo.y || box.hi.z < lo.z || box.lo.x > hi.x ||
+            box.lo.y > hi.y || box.lo.z > hi.z)
+          continue;
+        ++last_visited_;
+        const int i1 = std::min(dims_.x, (bx + 1) * kBlockNodes);
+        const int j1 = std::min(dims_.y, (by + 1) * kBlockNodes);
+        const int k1 = std::min(dims_.z, (bz + 1) * kBlockNodes);
+        for (int k = bz * kBlockNodes; k < k1; ++k)
+          for (int j = by * kBlockNodes; j < j1; ++j)
+            for (int i = bx * kBlockNodes; i < i1; ++i) {
+              const std::int64_t n = lat.index(i, j, k);
+              if (!lat.alive(n)) continue;
+              const Vec3f u = lat.displacement(n);
+              const Vec3f p = lat.rest(i, j, k) + u;
+              if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z)
+                continue;
+              nodes.push_back(n);
+              displacements.push_back(u);
+            }
+      }
   // Blocks are visited in index order but nodes interleave across block rows: sort by node.
   std::vector<std::size_t> order(nodes.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return nodes[a] < nodes[b];
-  });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return nodes[a] < nodes[b]; });
   std::vector<std::int64_t> sorted_nodes(nodes.size());
   std::vector<Vec3f> sorted_u(nodes.size());
   for (std::size_t i = 0; i < order.size(); ++i) {

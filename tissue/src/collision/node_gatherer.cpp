@@ -22,6 +22,7 @@ void NodeGatherer::gather(const crms::Solver& solver, const Vec3f& lo, const Vec
   if (solver.on_cuda()) {
     if (!device_) device_ = make_collision_device();
     device_->gather(view, lo, hi, tool ? &*tool : nullptr, out);
+    out.build_index(geometry_.dims);
     return;
   }
   if (!blocks_current_) {
@@ -33,12 +34,19 @@ void NodeGatherer::gather(const crms::Solver& solver, const Vec3f& lo, const Vec
   out.inside.assign(n, 0);
   out.target.assign(n, Vec3f{0, 0, 0});
   out.normal.assign(n, Vec3f{0, 0, 0});
+  out.build_index(geometry_.dims);
   if (!tool) return;
   for (std::size_t i = 0; i < n; ++i) {
     const Int3 c = geometry_.coordinates(out.nodes[i]);
     const Vec3f p = view.rest(c.x, c.y, c.z) + out.displacement[i];
     out.inside[i] = node_in_tool(*tool, p, out.target[i], out.normal[i]) ? 1 : 0;
   }
+}
+
+void NodeGatherer::nodes_moved(const crms::Solver& solver, const std::vector<std::int64_t>& nodes,
+                               const std::vector<Vec3d>& positions) {
+  if (solver.on_cuda() || !blocks_current_) return;  // CUDA: no boxes; stale: refit anyway
+  blocks_.nodes_moved(nodes, positions, coupler::deformed_lattice_view(solver));
 }
 
 void NodeGatherer::gather_around_tool(const crms::Solver& solver, const WorldTool& tool,

@@ -89,8 +89,14 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   }
   std::sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  // The vertices of each cube, grouped: cube_begin[c] .. cube_begin[c + 1] in `slots`.
   std::vector<std::uint32_t> slots;
-  for (std::int64_t c : cells) coupler.slots_in_cube(c, slots);
+  std::vector<std::size_t> cube_begin;
+  for (std::int64_t c : cells) {
+    cube_begin.push_back(slots.size());
+    coupler.slots_in_cube(c, slots);
+  }
+  cube_begin.push_back(slots.size());
   out.vertices_tested = slots.size();
 
   coupler::DeformedLatticeView view;
@@ -105,7 +111,6 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   const double tolerance = options_.vertex_tolerance_spacings * g.min_spacing();
   const auto& bindings = coupler.bindings();
   const auto& sources = coupler.sources();
-  const auto& rest_normals = coupler.rest_normals();
   const coupler::CouplerMode mode = coupler.options().mode;
   std::vector<Vec3f> correction(count);
   std::vector<float> correction_len(count);
@@ -114,45 +119,77 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
        ++iteration) {
     std::fill(correction_len.begin(), correction_len.end(), 0.0f);
     double deepest = 0;
-    for (std::size_t v = 0; v < slots.size(); ++v) {
-      const std::uint32_t s = slots[v];
-      const coupler::VertexBinding& b = bindings[s];
-      if (b.cell < 0) continue;
-      const coupler::CoupledVertex cv =
-          coupler::couple_vertex(reader, view, b, sources[s], rest_normals[s], mode);
-      Vec3d n;
-      const double d = tool_distance(tool, to_double(cv.position), n);
-      if (!(d < -tolerance)) continue;
-      deepest = std::max(deepest, -d);
-      pushed[v] = 1;
-      const Vec3d delta = n * (kContactSkinMm - d);
-      // Least-norm corner motion moving the vertex by delta (trilinear weights).
-      const Int3 cell = g.coordinates(b.cell);
-      std::ptrdiff_t at[8];
-      double weight[8], sum_w2 = 0;
+    for (std::size_t cube = 0; cube + 1 < cube_begin.size(); ++cube) {
+      if (cube_begin[cube] == cube_begin[cube + 1]) continue;
+      // Cull the cube: its vertices lie within a spacing of its gathered corners (trilinear
+      // interpolation is a convex combination; surface vertices extrapolate by < ½ spacing).
+      const Int3 cc = g.coordinates(cells[cube]);
+      Vec3d clo{1e300, 1e300, 1e300}, chi{-1e300, -1e300, -1e300};
       for (int c = 0; c < 8; ++c) {
-        at[c] = -1;
-        weight[c] = 0;
-        if (!((sources[s] >> c) & 1u)) continue;
-        const Int3 p{cell.x + coupler::corner_bit(c, 0), cell.y + coupler::corner_bit(c, 1),
-                     cell.z + coupler::corner_bit(c, 2)};
-        if (!g.contains(p.x, p.y, p.z)) continue;
-        const std::int64_t node = g.index(p.x, p.y, p.z);
-        if (anchored_[static_cast<std::size_t>(node)]) continue;
-        at[c] = nb_.find(node);
-        if (at[c] < 0) continue;
-        weight[c] = std::max(0.0f, coupler::trilinear_weight(c, b.w));
-        sum_w2 += weight[c] * weight[c];
+        const std::ptrdiff_t at =
+            nb_.find(cc.x + coupler::corner_bit(c, 0), cc.y + coupler::corner_bit(c, 1),
+                     cc.z + coupler::corner_bit(c, 2), g.dims);
+        if (at < 0) continue;
+        const Vec3d p = rest_of(static_cast<std::size_t>(at)) +
+                        to_double(overrides[static_cast<std::size_t>(at)]);
+        clo = {std::min(clo.x, p.x), std::min(clo.y, p.y), std::min(clo.z, p.z)};
+        chi = {std::max(chi.x, p.x), std::max(chi.y, p.y), std::max(chi.z, p.z)};
       }
-      if (!(sum_w2 > 1e-12)) continue;
-      for (int c = 0; c < 8; ++c) {
-        if (at[c] < 0 || weight[c] <= 0) continue;
-        const Vec3f step = to_float(delta * (weight[c] / sum_w2));
-        const float len = length(step);
-        const auto i = static_cast<std::size_t>(at[c]);
-        if (len > correction_len[i]) {
-          correction_len[i] = len;
-          correction[i] = step;
+      if (chi.x >= clo.x && (chi.x + h_max < lo.x || chi.y + h_max < lo.y || chi.z + h_max < lo.z ||
+                             clo.x - h_max > hi.x || clo.y - h_max > hi.y || clo.z - h_max > hi.z))
+        continue;
+      // Vertices of one cube with the same sources share the resolved corners.
+      std::uint32_t cached_sources = 0;
+      bool have = false, bound = false;
+      Vec3f q[8];
+      const Vec3f base = view.rest(cc.x, cc.y, cc.z);
+      for (std::size_t v = cube_begin[cube]; v < cube_begin[cube + 1]; ++v) {
+        const std::uint32_t s = slots[v];
+        const coupler::VertexBinding& b = bindings[s];
+        if (b.cell < 0) continue;
+        if (!have || sources[s] != cached_sources) {
+          cached_sources = sources[s];
+          bound = coupler::resolve_cube_corners(reader, cc, view.spacing, cached_sources, q,
+                                                nullptr, coupler::corners_needed(mode));
+          have = true;
+        }
+        if (!bound) continue;
+        Vec3f axes[3];
+        const Vec3f position = base + coupler::map_cube_point(q, b.w, mode, axes);
+        Vec3d n;
+        const double d = tool_distance(tool, to_double(position), n);
+        if (!(d < -tolerance)) continue;
+        deepest = std::max(deepest, -d);
+        pushed[v] = 1;
+        const Vec3d delta = n * (kContactSkinMm - d);
+        // Least-norm corner motion moving the vertex by delta (trilinear weights).
+        std::ptrdiff_t at[8];
+        double weight[8], sum_w2 = 0;
+        for (int c = 0; c < 8; ++c) {
+          at[c] = -1;
+          weight[c] = 0;
+          if (!((sources[s] >> c) & 1u)) continue;
+          const Int3 p{cc.x + coupler::corner_bit(c, 0), cc.y + coupler::corner_bit(c, 1),
+                       cc.z + coupler::corner_bit(c, 2)};
+          at[c] = nb_.find(p.x, p.y, p.z, g.dims);
+          if (at[c] < 0) continue;
+          if (anchored_[static_cast<std::size_t>(nb_.nodes[static_cast<std::size_t>(at[c])])]) {
+            at[c] = -1;
+            continue;
+          }
+          weight[c] = std::max(0.0f, coupler::trilinear_weight(c, b.w));
+          sum_w2 += weight[c] * weight[c];
+        }
+        if (!(sum_w2 > 1e-12)) continue;
+        for (int c = 0; c < 8; ++c) {
+          if (at[c] < 0 || weight[c] <= 0) continue;
+          const Vec3f step = to_float(delta * (weight[c] / sum_w2));
+          const float len = length(step);
+          const auto i = static_cast<std::size_t>(at[c]);
+          if (len > correction_len[i]) {
+            correction_len[i] = len;
+            correction[i] = step;
+          }
         }
       }
     }
@@ -187,7 +224,7 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   std::vector<std::int64_t> now;
   std::set_union(keep.begin(), keep.end(), hold.begin(), hold.end(), std::back_inserter(now));
   held_.swap(now);
-  if (!hold.empty()) gatherer.state_changed();  // released nodes did not move
+  if (!hold.empty()) gatherer.nodes_moved(solver, hold, targets);  // released ones did not move
 
   // 6: what the tool feels.
   out.nodes_held = held_.size();

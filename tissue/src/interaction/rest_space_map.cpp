@@ -109,8 +109,7 @@ RestPoint map_to_rest(const collision::NodeNeighbourhood& nb, coupler::VertexBin
     }
     trilinear(q, t.w, t.axes);
     t.out_of_range = 0;
-    for (int a = 0; a < 3; ++a)
-      t.out_of_range += std::max({0.0, -t.w[a], t.w[a] - 1.0});
+    for (int a = 0; a < 3; ++a) t.out_of_range += std::max({0.0, -t.w[a], t.w[a] - 1.0});
     t.valid = std::isfinite(t.residual);
     return t;
   };
@@ -149,11 +148,10 @@ RestPoint map_to_rest(const collision::NodeNeighbourhood& nb, coupler::VertexBin
       const Int3 p{next.x + coupler::corner_bit(c, 0), next.y + coupler::corner_bit(c, 1),
                    next.z + coupler::corner_bit(c, 2)};
       if (!g.contains(p.x, p.y, p.z)) continue;
-      const std::ptrdiff_t at = nb.find(g.index(p.x, p.y, p.z));
+      const std::ptrdiff_t at = nb.find(p.x, p.y, p.z, g.dims);
       if (at < 0) continue;
       const double d = length_squared(g.rest_position(p.x, p.y, p.z) +
-                                      to_double(nb.displacement[static_cast<std::size_t>(at)]) -
-                                      x);
+                                      to_double(nb.displacement[static_cast<std::size_t>(at)]) - x);
       if (d < ad) {
         ad = d;
         anchor = c;

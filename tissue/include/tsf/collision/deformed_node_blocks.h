@@ -23,6 +23,10 @@ class DeformedNodeBlocks {
 
   /// Recomputes every block's box from `lattice` (host pointers). OpenMP over blocks.
   void refit(const coupler::DeformedLatticeView& lattice);
+  /// A few nodes moved to `positions` (mm) without a step (tool constraints): their blocks' boxes
+  /// grow to hold them (they stay valid, perhaps a little loose, until the next refit).
+  void nodes_moved(const std::vector<std::int64_t>& nodes, const std::vector<Vec3d>& positions,
+                   const coupler::DeformedLatticeView& lattice);
   /// Alive nodes whose deformed position lies in the closed box [lo, hi] (mm), ascending, with
   /// their displacements. Needs a refit after the last state change.
   void query(const coupler::DeformedLatticeView& lattice, const Vec3f& lo, const Vec3f& hi,

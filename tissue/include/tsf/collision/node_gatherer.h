@@ -36,6 +36,10 @@ class NodeGatherer {
   /// phase refits at the next query. Deleting nodes, breaking springs or releasing nodes moves
   /// nothing and needs no refit.
   void state_changed() { blocks_current_ = false; }
+  /// A few nodes were moved to `positions` (mm, tool constraints): the broad phase widens the
+  /// boxes of their blocks instead of refitting every block.
+  void nodes_moved(const crms::Solver& solver, const std::vector<std::int64_t>& nodes,
+                   const std::vector<Vec3d>& positions);
 
   /// Alive nodes whose deformed position lies in [lo, hi] (mm); with a tool, each gets the exact
   /// tool-vs-node test.

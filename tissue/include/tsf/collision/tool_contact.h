@@ -35,10 +35,10 @@ struct ContactForce {
   std::size_t nodes_held = 0;   ///< lattice nodes on the tool surface
   std::size_t nodes_released = 0;
   std::size_t vertices_tested = 0;
-  std::size_t vertices_pushed = 0;        ///< vertices the narrow phase moved out
+  std::size_t vertices_pushed = 0;  ///< vertices the narrow phase moved out
   int narrow_iterations = 0;
-  double max_vertex_depth_mm = 0;         ///< deepest vertex left inside (≤ tolerance normally)
-  std::size_t nodes_gathered = 0;         ///< nodes near the tool (collision cost)
+  double max_vertex_depth_mm = 0;  ///< deepest vertex left inside (≤ tolerance normally)
+  std::size_t nodes_gathered = 0;  ///< nodes near the tool (collision cost)
 };
 
 struct ContactOptions {

@@ -18,10 +18,10 @@ enum class ToolShape : int { kSphere = 0, kCapsule = 1, kBlade = 2 };
 
 struct WorldTool {
   ToolShape shape = ToolShape::kSphere;
-  Vec3d a{0, 0, 0};  ///< sphere centre, or capsule end, mm
-  Vec3d b{0, 0, 0};  ///< capsule end, mm
-  double radius = 0;  ///< sphere, capsule, mm
-  ToolPose pose;      ///< blade centre and orientation
+  Vec3d a{0, 0, 0};             ///< sphere centre, or capsule end, mm
+  Vec3d b{0, 0, 0};             ///< capsule end, mm
+  double radius = 0;            ///< sphere, capsule, mm
+  ToolPose pose;                ///< blade centre and orientation
   Vec3d half_extents{0, 0, 0};  ///< blade, mm
 
   /// A point the torque is taken about: the sphere centre, the capsule's midpoint, the blade's
@@ -76,8 +76,8 @@ TSF_HD_INLINE double tool_distance(const WorldTool& t, const Vec3d& p, Vec3d& no
     // On the axis: any direction perpendicular to a capsule's axis, +z for a sphere.
     const Vec3d ab = t.b - t.a;
     normal = t.shape == ToolShape::kCapsule && length_squared(ab) > 0.0
-                 ? normalized_or_zero(cross(ab, fabs(ab.x) < 0.9 * length(ab) ? Vec3d{1, 0, 0}
-                                                                               : Vec3d{0, 1, 0}))
+                 ? normalized_or_zero(
+                       cross(ab, fabs(ab.x) < 0.9 * length(ab) ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0}))
                  : Vec3d{0, 0, 1};
   }
   return len - t.radius;
