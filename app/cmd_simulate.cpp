@@ -78,6 +78,7 @@ struct SimulateArguments {
   std::string report;
   std::string backend;
   std::string mesh;
+  std::string states;
   std::int64_t steps = -1;
   double duration_s = -1.0;
   bool quiet = false;
@@ -107,12 +108,14 @@ void run_simulate(const SimulateArguments& args) {
     if (args.duration_s >= 0) run.duration_s = args.duration_s;
     run.report = report_path;
     run.mesh = args.mesh;
+    run.states = args.states;
     run.quiet = args.quiet;
     run_interaction_scene(scene, run);
     return;
   }
-  if (args.duration_s >= 0 || !args.mesh.empty())
-    throw Error("--duration and --mesh need a scene with a script (tissue, tools, script)");
+  if (args.duration_s >= 0 || !args.mesh.empty() || !args.states.empty())
+    throw Error(
+        "--duration, --mesh and --states need a scene with a script (tissue, tools, script)");
   const std::int64_t steps = steps_override >= 0 ? steps_override : scene.steps;
 
   Stopwatch setup_clock;
@@ -265,7 +268,8 @@ void add_simulate_command(CLI::App& app) {
       "instability), or, when the scene has tissue, tools or a script, the tools pressing, "
       "ablating and cutting the tissue frame by frame (final deformed, cut mesh and a report)");
   auto args = std::make_shared<SimulateArguments>();
-  sub->add_option("scene", args->scene, "Scene file (YAML), e.g. scenes/beam.yaml, scenes/cut-block.yaml")
+  sub->add_option("scene", args->scene,
+                  "Scene file (YAML), e.g. scenes/beam.yaml, scenes/cut-block.yaml")
       ->required()
       ->check(CLI::ExistingFile);
   sub->add_option("--steps,-n", args->steps, "Steps to run (default: the scene's solver.steps)")
@@ -279,11 +283,17 @@ void add_simulate_command(CLI::App& app) {
   sub->add_option("--mesh,-o", args->mesh,
                   "Scripted scenes: write the final deformed, cut mesh here (binary .ply; "
                   "overrides outputs.mesh)");
+  sub->add_option("--states", args->states,
+                  "Scripted scenes: save the rest and deformed, cut states here (.tsfmesh mesh "
+                  "sequence for `tsf export`; every outputs.states_every frames and the last; "
+                  "overrides outputs.states)");
   sub->add_option("--backend", args->backend, "Override the scene's backend: cpu, cuda or auto");
   sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
   sub->callback([args] {
     if (!args->mesh.empty() && std::filesystem::path(args->mesh).extension() != ".ply")
       throw Error("--mesh: expected a .ply file name, got '" + args->mesh + "'");
+    if (!args->states.empty() && std::filesystem::path(args->states).extension() != ".tsfmesh")
+      throw Error("--states: expected a .tsfmesh file name, got '" + args->states + "'");
     run_simulate(*args);
   });
 }

@@ -15,6 +15,7 @@
 #include "tsf/imt/surface_ply.h"
 #include "tsf/interaction/lattice_components.h"
 #include "tsf/interaction/tissue_model.h"
+#include "tsf/io/mesh_sequence.h"
 #include "tsf/version.h"
 #include "tsf/volume/analytic_volumes.h"
 #include "tsf/volume/volume_edits.h"
@@ -36,7 +37,8 @@ VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
                         const std::string& scene_file) {
   const VoxelBox box = voxels_near_box(v.geometry(), lo, hi, 0.0);
   if (box.empty())
-    throw Error(scene_file + ": lattice.crop: the box holds no voxel of the volume (its bounds are " +
+    throw Error(scene_file +
+                ": lattice.crop: the box holds no voxel of the volume (its bounds are " +
                 "given in the volume's tissue space, mm)");
   VolumeGeometry g = v.geometry();
   g.dims = box.extent();
@@ -176,10 +178,13 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
 
   // Outputs named by the command line win over the scene's.
   const std::filesystem::path mesh_path = !run.mesh.empty() ? run.mesh : scene.outputs.mesh;
-  const std::filesystem::path report_path =
-      !run.report.empty() ? run.report : scene.outputs.report;
+  const std::filesystem::path report_path = !run.report.empty() ? run.report : scene.outputs.report;
   if (!scene.outputs.rest_mesh.empty())
     imt::write_surface_ply(scene.outputs.rest_mesh, model.deformed_mesh());
+  const std::filesystem::path states_path = !run.states.empty() ? run.states : scene.outputs.states;
+  // Streams to a temporary beside the file; it appears only when the run finishes.
+  std::optional<io::MeshSequenceWriter> states;
+  if (!states_path.empty()) states.emplace(states_path, vg, model.deformed_mesh(), 0.0);
 
   const imt::MeshTopology start_topology = imt::analyse_topology(model.surface().compact());
   const std::size_t start_components = model.lattice_components();
@@ -206,7 +211,8 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
   std::int64_t steps = 0;
   std::optional<crms::Instability> instability;
   Stopwatch run_clock;
-  Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(std::max<std::int64_t>(frames, 0)),
+  Progress progress("simulate " + scene.name,
+                    static_cast<std::uint64_t>(std::max<std::int64_t>(frames, 0)),
                     !run.quiet && Progress::stderr_is_terminal());
   auto record_edit = [&](double t, const std::string& tool, const interaction::EditReport& r) {
     if (!r.edited) return;
@@ -263,6 +269,8 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
                                 {"force_un", vec(c.force_un)},
                                 {"torque_un_mm", vec(c.torque_un_mm)},
                                 {"nodes_held", c.nodes_held}});
+    if (states && (f + 1) % scene.outputs.states_every == 0 && f + 1 < frames)
+      states->add_frame(t + frame, model.deformed_mesh());
     progress.set(static_cast<std::uint64_t>(f + 1));
   }
   progress.finish();
@@ -270,6 +278,10 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
   const double run_s = run_clock.seconds();
 
   const imt::SurfaceMesh final_mesh = model.deformed_mesh();
+  if (states) {
+    if (frames > 0) states->add_frame(static_cast<double>(frames) * frame, final_mesh);
+    states->finish();
+  }
   const imt::MeshTopology end_topology = imt::analyse_topology(final_mesh);
   if (!mesh_path.empty()) imt::write_surface_ply(mesh_path, final_mesh);
   const interaction::LatticeComponents pieces = interaction::find_lattice_components(lattice);
@@ -281,16 +293,15 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
       {"tsf_version", TSF_VERSION_STRING},
       {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
       {"backend", solver.backend_name()},
-      {"coupler", scene.tissue.coupler == coupler::CouplerMode::kTrilinear ? "trilinear"
-                                                                            : "local-frame"},
+      {"coupler",
+       scene.tissue.coupler == coupler::CouplerMode::kTrilinear ? "trilinear" : "local-frame"},
       {"volume",
        {{"dims", json::array({vg.dims.x, vg.dims.y, vg.dims.z})},
         {"spacing_mm", vec(vg.spacing)},
         {"origin_mm", vec(vg.origin)},
         {"tissue_bounds_mm",
-         {vec(vg.origin),
-          vec(vg.index_to_tissue({double(vg.dims.x - 1), double(vg.dims.y - 1),
-                                  double(vg.dims.z - 1)}))}}}},
+         {vec(vg.origin), vec(vg.index_to_tissue({double(vg.dims.x - 1), double(vg.dims.y - 1),
+                                                  double(vg.dims.z - 1)}))}}}},
       {"lattice",
        {{"dims", json::array({lg.dims.x, lg.dims.y, lg.dims.z})},
         {"spacing_mm", vec(lg.spacing)},
@@ -321,8 +332,9 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
       {"edit_latency_us",
        {{"p50", percentile(latencies_us, 0.5)},
         {"p99", percentile(latencies_us, 0.99)},
-        {"max", latencies_us.empty() ? 0.0
-                                     : *std::max_element(latencies_us.begin(), latencies_us.end())}}},
+        {"max", latencies_us.empty()
+                    ? 0.0
+                    : *std::max_element(latencies_us.begin(), latencies_us.end())}}},
       {"max_tool_force_un", max_force},
       {"timings_s",
        {{"setup", setup_s},
@@ -333,7 +345,9 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
       {"outputs",
        {{"mesh", mesh_path.empty() ? json(nullptr) : json(mesh_path.string())},
         {"rest_mesh",
-         scene.outputs.rest_mesh.empty() ? json(nullptr) : json(scene.outputs.rest_mesh.string())}}},
+         scene.outputs.rest_mesh.empty() ? json(nullptr) : json(scene.outputs.rest_mesh.string())},
+        {"states", states_path.empty() ? json(nullptr) : json(states_path.string())},
+        {"states_saved", states ? json(states->frame_count()) : json(nullptr)}}},
       {"instability", instability ? json(instability->describe()) : json(nullptr)},
       {"edits", edits},
       {"contact", contact_series},
@@ -346,11 +360,14 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
         "triangles, %s; edit → render buffer p50 %.0f µs, p99 %.0f µs\n",
         scene.name.c_str(), static_cast<long long>(frames), static_cast<long long>(steps),
         model.dt(), solver.backend_name().c_str(), tot.edits, tot.removed_mm3, tot.nodes_deleted,
-        tot.springs_broken, start_components, pieces.count(), free_pieces,
-        start_topology.triangles, end_topology.triangles,
+        tot.springs_broken, start_components, pieces.count(), free_pieces, start_topology.triangles,
+        end_topology.triangles,
         end_topology.closed_oriented_manifold() ? "closed manifold" : "NOT a closed manifold",
         percentile(latencies_us, 0.5), percentile(latencies_us, 0.99));
     if (!mesh_path.empty()) std::printf("wrote %s\n", mesh_path.string().c_str());
+    if (states)
+      std::printf("wrote %s (rest + %zu states)\n", states_path.string().c_str(),
+                  states->frame_count());
   }
   if (instability) throw Error("unstable: " + instability->describe());
   return report;

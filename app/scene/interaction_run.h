@@ -1,7 +1,8 @@
 // Running a scene's interactive part (`tsf simulate` when the scene has tissue, tools or a
 // script): build the tissue model (voxels, surface, lattice, coupler), play the script frame by
 // frame — trajectories sampled at the frame rate, events as one-off strokes — and write the
-// outputs: the rest and final deformed, cut meshes (binary PLY) and a JSON report.
+// outputs: the rest and final deformed, cut meshes (binary PLY), the saved states (.tsfmesh mesh
+// sequence for `tsf export`) and a JSON report.
 #pragma once
 
 #include <filesystem>
@@ -17,9 +18,10 @@
 namespace tsf::app {
 
 struct InteractionRunOptions {
-  std::optional<double> duration_s;      ///< overrides script.duration
-  std::filesystem::path report;          ///< overrides outputs.report
-  std::filesystem::path mesh;            ///< overrides outputs.mesh
+  std::optional<double> duration_s;  ///< overrides script.duration
+  std::filesystem::path report;      ///< overrides outputs.report
+  std::filesystem::path mesh;        ///< overrides outputs.mesh
+  std::filesystem::path states;      ///< overrides outputs.states
   bool quiet = false;
 };
 

@@ -84,6 +84,10 @@ struct SceneOutputs {
   std::filesystem::path mesh;       ///< final deformed, cut surface (binary PLY)
   std::filesystem::path rest_mesh;  ///< the surface before the script (binary PLY)
   std::filesystem::path report;     ///< JSON report
+  /// Saved states (.tsfmesh mesh sequence, tsf/io/mesh_sequence.h; `tsf export` reads it): the
+  /// rest surface, then the deformed, cut surface every `states_every` frames and at the end.
+  std::filesystem::path states;
+  std::int64_t states_every = 10;  ///< frames between saved states
 };
 
 struct SceneAnchor {

@@ -171,7 +171,8 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
       l.crop_min_mm = crop["min"].vec3({});
       l.crop_max_mm = crop["max"].vec3({});
       for (int a = 0; a < 3; ++a)
-        if (!(l.crop_max_mm[a] > l.crop_min_mm[a])) crop["max"].fail("must exceed min on every axis");
+        if (!(l.crop_max_mm[a] > l.crop_min_mm[a]))
+          crop["max"].fail("must exceed min on every axis");
     }
   }
 }
@@ -276,7 +277,6 @@ void read_loads(const Field& f, std::vector<SceneLoad>& loads) {
   }
 }
 
-
 void read_tissue(const Field& f, SceneTissue& t) {
   if (!f.defined()) return;
   t.present = true;
@@ -353,7 +353,8 @@ void read_tools(const Field& f, std::vector<SceneTool>& tools) {
       tool.tool.radius_mm = t["radius"].number(1.0, 0.0, 1e3, true);
     } else {
       if (t["radius"].defined()) t["radius"].fail("not for a blade (use size)");
-      if (!t["size"].defined()) t["size"].fail("is required for a blade: [length, depth, thickness] mm");
+      if (!t["size"].defined())
+        t["size"].fail("is required for a blade: [length, depth, thickness] mm");
       const Vec3d size = t["size"].vec3({});
       for (int a = 0; a < 3; ++a)
         if (!(size[a] > 0 && size[a] <= 2e3)) t["size"].fail("each must be in (0, 2000] mm");
@@ -407,7 +408,8 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
         if (!tool.tool.supports(kf.mode))
           key["mode"].fail(std::string("tool '") + tool.name + "' (a " +
                            interaction::to_string(tool.tool.shape) + ") cannot " +
-                           interaction::to_string(kf.mode) + " (ablate: sphere or capsule; cut: blade)");
+                           interaction::to_string(kf.mode) +
+                           " (ablate: sphere or capsule; cut: blade)");
         out.keyframes.push_back(kf);
       }
       // One tool at a time: trajectories may not overlap in time.
@@ -447,7 +449,7 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
 
 void read_outputs(const Field& f, const std::filesystem::path& folder, SceneOutputs& o) {
   if (!f.defined()) return;
-  f.expect_keys({"mesh", "rest_mesh", "report"});
+  f.expect_keys({"mesh", "rest_mesh", "report", "states", "states_every"});
   auto path = [&](const Field& p) -> std::filesystem::path {
     if (!p.defined()) return {};
     std::filesystem::path out = p.text();
@@ -457,6 +459,10 @@ void read_outputs(const Field& f, const std::filesystem::path& folder, SceneOutp
   o.mesh = path(f["mesh"]);
   o.rest_mesh = path(f["rest_mesh"]);
   o.report = path(f["report"]);
+  o.states = path(f["states"]);
+  o.states_every = f["states_every"].integer(10, 1, 1'000'000'000);
+  if (f["states"].defined() && std::filesystem::path(f["states"].text()).extension() != ".tsfmesh")
+    f["states"].fail("expected a .tsfmesh file name");
   for (const char* k : {"mesh", "rest_mesh"})
     if (f[k].defined() && std::filesystem::path(f[k].text()).extension() != ".ply")
       f[k].fail("expected a .ply file name");

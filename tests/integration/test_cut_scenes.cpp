@@ -17,6 +17,7 @@
 #include "support/test_data.h"
 #include "tsf/imt/mesh_topology.h"
 #include "tsf/imt/surface_ply.h"
+#include "tsf/io/mesh_sequence.h"
 
 namespace tsf {
 namespace {
@@ -57,7 +58,8 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
   const fs::path scene = test::source_dir() / "scenes" / "cut-block.yaml";
   const std::string cmd = exe.string() + " simulate " + scene.string() +
                           " --backend cpu -q --mesh " + (dir / "final.ply").string() +
-                          " --report " + (dir / "report.json").string();
+                          " --report " + (dir / "report.json").string() + " --states " +
+                          (dir / "states.tsfmesh").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   expect_closed_mesh(dir / "final.ply", 10000);
   const nlohmann::json r = read_json(dir / "report.json");
@@ -78,6 +80,23 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
   EXPECT_GT(r.at("max_tool_force_un").get<double>(), 0.0) << "the ball pressed";
   EXPECT_FALSE(r.at("edits").empty());
   EXPECT_TRUE(r.at("instability").is_null());
+
+  // The saved states: the rest surface, then every states_every frames and the last; the cuts
+  // changed the topology on the way, and the last state is the final mesh.
+  const io::MeshSequence states = io::read_mesh_sequence(dir / "states.tsfmesh");
+  const auto frames = r.at("frames").get<std::size_t>();
+  EXPECT_EQ(states.frames.size(), r.at("outputs").at("states_saved").get<std::size_t>());
+  EXPECT_EQ(states.frames.size(), (frames - 1) / 10 + 1) << "states_every defaults to 10";
+  EXPECT_FALSE(io::has_constant_topology(states));
+  EXPECT_EQ(states.rest.triangle_count(), r.at("surface").at("triangles_start").get<std::size_t>());
+  const imt::SurfaceMesh last = io::frame_mesh(states, states.frames.size() - 1);
+  const imt::SurfaceMesh final_mesh = imt::read_surface_ply(dir / "final.ply");
+  ASSERT_EQ(last.triangle_count(), final_mesh.triangle_count());
+  ASSERT_EQ(last.vertex_count(), final_mesh.vertex_count());
+  float max_gap = 0;
+  for (std::size_t v = 0; v < last.vertex_count(); ++v)
+    max_gap = std::max(max_gap, length(last.positions[v] - final_mesh.positions[v]));
+  EXPECT_LT(max_gap, 1e-3f) << "the last state is the final deformed, cut mesh";
 }
 
 TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
@@ -96,8 +115,8 @@ TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
   const fs::path scene = dir / "cut-cranium.yaml";
   std::ofstream(scene) << text;
   // Long enough for the press, the ablation and the cut (at 11 ms).
-  const std::string cmd = exe.string() + " simulate " + scene.string() +
-                          " --backend cpu -q --duration 0.012";
+  const std::string cmd =
+      exe.string() + " simulate " + scene.string() + " --backend cpu -q --duration 0.012";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   expect_closed_mesh(dir / "cut-cranium.ply", 100000);
   expect_closed_mesh(dir / "cut-cranium-rest.ply", 100000);
@@ -122,7 +141,12 @@ TEST(CutScenes, SceneTyposNameTheirKeyPath) {
         Case{"      mode: cut\n", "      mode: ablate\n", "script.events[0].mode"},
         Case{"  - tool: wand ", "  - tool: knife ", "script.trajectories[1].tool"},
         Case{"{time: 0.02, position", "{time: 0.0, position",
-             "script.trajectories[0].keyframes[1].time"}}) {
+             "script.trajectories[0].keyframes[1].time"},
+        Case{"  report: ../out/cut-block.json\n",
+             "  report: ../out/cut-block.json\n  states: ../out/cut-block.ply\n",
+             "outputs.states: expected a .tsfmesh"},
+        Case{"  report: ../out/cut-block.json\n",
+             "  report: ../out/cut-block.json\n  states_every: 0\n", "outputs.states_every"}}) {
     std::string text = base;
     const auto at = text.find(c.from);
     ASSERT_NE(at, std::string::npos) << c.from;
@@ -133,8 +157,8 @@ TEST(CutScenes, SceneTyposNameTheirKeyPath) {
     const std::string cmd = exe.string() + " simulate " + scene.string() + " -q 2> " + err.string();
     EXPECT_NE(std::system(cmd.c_str()), 0) << c.to;
     const std::string message = read_text(err);
-    EXPECT_NE(message.find(c.expect), std::string::npos) << "expected '" << c.expect
-                                                           << "' in: " << message;
+    EXPECT_NE(message.find(c.expect), std::string::npos)
+        << "expected '" << c.expect << "' in: " << message;
   }
 }
 
