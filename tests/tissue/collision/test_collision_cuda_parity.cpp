@@ -3,6 +3,7 @@
 // forces, and a whole press must hold the same nodes with the same reaction.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "../interaction/interaction_test_helpers.h"
@@ -17,7 +18,9 @@ using interaction::TissueModel;
 std::unique_ptr<TissueModel> make_model(crms::Backend backend) {
   auto o = interaction::test::block_options(-1, 0.0);
   o.solver.backend = backend;
-  o.anchor = [](crms::Lattice& l) { crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0}); };
+  o.anchor = [](crms::Lattice& l) {
+    crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0});
+  };
   return std::make_unique<TissueModel>(
       interaction::test::block_volume({24, 24, 16}, {2, 2, 2}, {22, 22, 14}), o);
 }
@@ -64,8 +67,15 @@ TEST(CollisionCudaParity, GatherAndForcesAgreeWithTheCpu) {
   std::vector<Vec3f> fa, fb;
   g_cpu.spring_forces_at(cpu->solver(), a.nodes, fa);
   g_gpu.spring_forces_at(gpu->solver(), b.nodes, fb);
+  // The net force at a node is a sum of spring forces that nearly cancel inside a uniformly
+  // squashed block; float rounding (and FMA on the device) is relative to the spring forces, not
+  // to their small sum, so the tolerance scales with the largest net force gathered (a surface
+  // node's: about one spring's force). A missing or wrong spring would be off by ~that force.
+  float scale = 0;
+  for (const Vec3f& f : fa) scale = std::max(scale, length(f));
+  ASSERT_GT(scale, 0.0f);
   for (std::size_t i = 0; i < fa.size(); ++i)
-    EXPECT_LT(length(fa[i] - fb[i]), 1e-4f * (1.0f + length(fa[i]))) << "node " << a.nodes[i];
+    EXPECT_LT(length(fa[i] - fb[i]), 1e-5f * scale + 1e-6f) << "node " << a.nodes[i];
 }
 
 TEST(CollisionCudaParity, APressHoldsTheSameNodesWithTheSameForce) {
