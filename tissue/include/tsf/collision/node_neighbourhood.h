@@ -42,7 +42,8 @@ struct NodeNeighbourhood {
   }
 
   /// Builds a dense index over the gathered nodes' lattice box so find(i, j, k) is O(1) (the
-  /// narrow phase and the inverse map look nodes up by coordinates many times).
+  /// narrow phase and the inverse map look nodes up by coordinates many times). Call it after
+  /// filling `nodes` (ascending); clear() drops it, and without one find(i, j, k) searches.
   void build_index(const Int3& lattice_dims) {
     local_.clear();
     if (nodes.empty()) return;
@@ -58,7 +59,8 @@ struct NodeNeighbourhood {
     }
     local_lo_ = first;
     local_dims_ = {last.x - first.x + 1, last.y - first.y + 1, last.z - first.z + 1};
-    if (local_dims_.volume() > std::int64_t{1} << 26) return;  // too sparse: keep the search
+    // Too sparse (a huge query box): keep the binary search rather than allocate the box.
+    if (local_dims_.volume() > 64 * static_cast<std::int64_t>(nodes.size()) + 4096) return;
     local_.assign(static_cast<std::size_t>(local_dims_.volume()), -1);
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       const std::int64_t n = nodes[i];
