@@ -7,7 +7,7 @@
 // The playback is deterministic (haptic_playback.h): simulation steps and haptic ticks interleave
 // as in a live session, on one thread. Trajectory files are YAML (scenes/trajectories/*.yaml):
 //
-//   stylus: {radius: 2.5, voxel_resolution: 16, sphere_resolution: 1}
+//   stylus: {radius: 2.5, voxel_resolution: 16, sphere_resolution: 1, sampling: trilinear}
 //   force_law: {c1: 1.0e4, c2: 1.0, cutoff: 0.5, taper: 0.5}
 //   lattice_gain: 1.0
 //   loop: {rate: 1000, sim_rate: 200, filter_window: 1, max_force: 3.0e6}
@@ -171,10 +171,15 @@ HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
   if (!top.defined()) top.fail("the trajectory file is empty");
   top.expect_keys({"stylus", "force_law", "lattice_gain", "loop", "target", "path"});
   const Field st = top["stylus"];
-  st.expect_keys({"radius", "voxel_resolution", "sphere_resolution"});
+  st.expect_keys({"radius", "voxel_resolution", "sphere_resolution", "sampling"});
   run.model.stylus_radius_mm = st["radius"].number(2.0, 0.0, 100.0, true);
   run.model.voxel_resolution = st["voxel_resolution"].integer(16, 2, 128);
   run.model.sphere_resolution = st["sphere_resolution"].integer(1, 1, 32);
+  const std::string sampling = st["sampling"].text("trilinear");
+  if (sampling != "trilinear" && sampling != "nearest")
+    st["sampling"].fail("expected trilinear or nearest, got '" + sampling + "'");
+  run.model.sampling = sampling == "nearest" ? haptics::DensitySampling::kNearest
+                                             : haptics::DensitySampling::kTrilinear;
   const Field law = top["force_law"];
   law.expect_keys({"c1", "c2", "cutoff", "taper"});
   run.model.law.c1 = law["c1"].number(1e4, 0.0, 1e12, true);
@@ -388,13 +393,13 @@ std::string quoted(const std::string& s) {
 }
 
 void write_plot(const std::filesystem::path& csv, const std::filesystem::path& png,
-                const std::string& title, bool filtered) {
+                const std::string& title, bool filtered, bool any_direction, double duration_ms) {
   write_file_atomically(png, [&](const std::filesystem::path& temp) {
     std::ostringstream g;
     g << "set terminal pngcairo size 1100,760 font 'Sans,10'\n"
       << "set output " << quoted(temp.string()) << "\n"
       << "set datafile separator ','\nset datafile missing 'nan'\n"
-      << "set key top right\nset grid\n"
+      << "set key top center\nset grid\nset xrange [0:" << fmt(std::max(1.0, duration_ms)) << "]\n"
       << "set multiplot layout 2,1 title " << quoted(title) << "\n"
       << "set lmargin 10\nset ylabel 'force on the stylus (mN)'\nset format x ''\n"
       << "plot " << quoted(csv.string())
@@ -404,10 +409,14 @@ void write_plot(const std::filesystem::path& csv, const std::filesystem::path& p
            "'unfiltered'";
     g << "\nset format x '%g'\nset xlabel 'time (ms)'\n"
       << "set ylabel 'angle to the motion (deg)'\nset yrange [0:180]\nset ytics 0,45,180\n"
-      << "plot " << quoted(csv.string())
-      << " using ($1*1e3):13 skip 1 with points pt 7 ps 0.3 lc rgb '#c0392b' "
-         "title '180 = against the motion'\n"
-      << "unset multiplot\n";
+      << "set key bottom center\n";
+    if (any_direction)
+      g << "plot " << quoted(csv.string())
+        << " using ($1*1e3):13 skip 1 with points pt 7 ps 0.3 lc rgb '#c0392b' "
+           "title 'angle between force and motion: 180 = against it, 0 = along it'\n";
+    else
+      g << "plot 1/0 title 'no force, no direction'\n";
+    g << "unset multiplot\n";
     const std::filesystem::path script = temp.string() + ".gp";
     {
       std::ofstream f(script);
@@ -495,7 +504,13 @@ void run_haptics(const HapticsArguments& args) {
                             haptics::to_string(kind) + " model · " +
                             fmt(run.playback.haptic_rate_hz) + " Hz, filter " +
                             std::to_string(run.playback.filter_window);
-  if (!args.no_plot) write_plot(csv, out / "force.png", title, run.playback.filter_window > 1);
+  bool any_direction = false;
+  for (double a : angles_to_motion(samples)) any_direction = any_direction || std::isfinite(a);
+  const double duration_ms =
+      samples.empty() ? 0.0 : (samples.back().time_s - samples.front().time_s) * 1e3;
+  if (!args.no_plot)
+    write_plot(csv, out / "force.png", title, run.playback.filter_window > 1, any_direction,
+               duration_ms);
   json report = {
       {"tsf_version", TSF_VERSION_STRING},
       {"scene", args.scene},

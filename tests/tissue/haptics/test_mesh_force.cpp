@@ -23,6 +23,11 @@ TEST(MeshForce, ClosestPointOnTriangleMatchesTheRegions) {
   const Vec3d e = closest_point_on_triangle({1, 1, 0}, a, b, c, wa, wb, wc);
   EXPECT_NEAR(e.x, 0.5, 1e-12);
   EXPECT_NEAR(e.y, 0.5, 1e-12);
+  // A zero-area triangle (two corners coincide, as IMT keeps where snapped vertices merge): the
+  // nearest point of its edge, finite.
+  const Vec3d seg = closest_point_on_triangle({0.5, 1, 0}, a, b, b, wa, wb, wc);
+  EXPECT_NEAR(length(seg - Vec3d{0.5, 0, 0}), 0.0, 1e-12);
+  EXPECT_TRUE(std::isfinite(wa + wb + wc));
 }
 
 TEST(MeshForce, PushesOutAlongTheNormalAndFollowsTheLawNearTheSurface) {

@@ -109,14 +109,25 @@ HapticForce VoxelForceModel::evaluate(const HapticFrameView& frame, const Stylus
                                          warp.F_inv[r * 3 + 2] * R[2 * 3 + c]) /
                                         w.spacing[r]);
   }
-  VoxelAccumulation acc = sampling_ == DensitySampling::kNearest
-                              ? accumulate_cells(stylus_, w, g0, G, sample_density_nearest)
-                              : accumulate_cells(stylus_, w, g0, G, sample_density_grid);
-  // The centroid offset is in stylus-local axes; the force acts in the world. The offset in the
-  // deformed world is R·δ (the stylus is rigid there; its rest image is what is warped).
-  acc.weighted_offset = pose.orientation.apply(acc.weighted_offset);
-  out.force_un =
-      voxel_force(acc, stylus_.cell_volume_mm3, stylus_.volume_mm3, law_, out.intersection_mm3);
+  // Inside the window with one voxel to spare on every side, the sampler needs no bounds tests.
+  bool interior = true;
+  for (int r = 0; r < 3; ++r) {
+    const float reach = static_cast<float>(stylus_.radius_mm) *
+                        (std::fabs(G[r * 3]) + std::fabs(G[r * 3 + 1]) + std::fabs(G[r * 3 + 2]));
+    interior = interior && g0[r] - reach >= 0.0f &&
+               g0[r] + reach < static_cast<float>(w.dims[r] - 1) - 1e-3f;
+  }
+  VoxelAccumulation acc;
+  if (sampling_ == DensitySampling::kNearest)
+    acc = accumulate_cells(stylus_, w, g0, G, sample_density_nearest);
+  else if (interior)
+    acc = accumulate_cells(stylus_, w, g0, G, sample_density_interior);
+  else
+    acc = accumulate_cells(stylus_, w, g0, G, sample_density_grid);
+  // The centroid offset is in stylus-local axes; in the deformed world it is R·δ (the stylus is
+  // rigid there; its rest image is what is warped).
+  out.force_un = voxel_force(acc, pose.orientation, stylus_.cell_volume_mm3, stylus_.volume_mm3,
+                             law_, out.intersection_mm3);
   out.contacts = acc.cells_touched;
   return out;
 }
@@ -152,13 +163,15 @@ HapticForce MeshForceModel::evaluate(const HapticFrameView& frame, const StylusP
   const TrianglePatchView& tris = frame.triangles;
   if (tris.count == 0) return out;
   const double rs = stylus_.sphere_radius_mm;
-  const double reach = stylus_.radius_mm + rs;
+  const double reach = stylus_.radius_mm;  // every sphere lies inside the stylus
   const std::size_t n_spheres = stylus_.offsets.size();
-  // Per-sphere deepest contact: scratch kept per thread, so evaluations allocate only the first
+  // Per-sphere nearest triangle: scratch kept per thread, so evaluations allocate only the first
   // time a thread meets a stylus this large.
-  thread_local std::vector<double> deepest;
+  thread_local std::vector<double> nearest;
+  thread_local std::vector<std::uint8_t> behind;
   thread_local std::vector<Vec3d> centres;
-  deepest.assign(n_spheres, 0.0);
+  nearest.assign(n_spheres, rs);
+  behind.assign(n_spheres, 0);
   centres.resize(n_spheres);
   for (std::size_t s = 0; s < n_spheres; ++s)
     centres[s] = pose.position + pose.orientation.apply(to_double(stylus_.offsets[s]));
@@ -173,18 +186,21 @@ HapticForce MeshForceModel::evaluate(const HapticFrameView& frame, const StylusP
     const double limit = reach + tri_r;
     if (length_squared(mid - pose.position) > limit * limit) continue;
     for (std::size_t s = 0; s < n_spheres; ++s) {
+      double d;
       Vec3d n;
-      const double h = sphere_triangle_depth(centres[s], rs, c, tris.normals + 3 * t, n);
-      if (h > 0.0) {
-        normal_sum += n * h;
-        if (h > deepest[s]) deepest[s] = h;
+      bool inside;
+      if (!sphere_triangle_contact(centres[s], rs, c, tris.normals + 3 * t, d, n, inside)) continue;
+      normal_sum += n * (rs - d);
+      if (d < nearest[s]) {
+        nearest[s] = d;
+        behind[s] = inside ? 1 : 0;
       }
     }
   }
   double volume = 0;
   for (std::size_t s = 0; s < n_spheres; ++s)
-    if (deepest[s] > 0.0) {
-      volume += sphere_cap_volume(deepest[s], rs);
+    if (nearest[s] < rs) {
+      volume += sphere_cap_volume(sphere_depth(rs, nearest[s], behind[s] != 0), rs);
       ++out.contacts;
     }
   out.intersection_mm3 = volume * volume_scale_;

@@ -91,6 +91,9 @@ void capture_triangles(const std::vector<Vec3f>& positions, const std::vector<Ve
                                        std::max(length_squared(b - mid), length_squared(d - mid))));
     const float limit = reach + r;
     if (length_squared(mid - c) > limit * limit) continue;
+    // Zero-area triangles (IMT keeps some where snapped vertices coincide) add nothing that their
+    // neighbours' edges do not: leave them out of the patch.
+    if (!(length_squared(cross(b - a, d - a)) > 1e-18f)) continue;
     for (int k = 0; k < 3; ++k) {
       frame.corners.push_back(positions[tri[k]]);
       frame.normals.push_back(normals[tri[k]]);

@@ -77,7 +77,33 @@ TSF_HD_INLINE Vec3d closest_point_on_triangle(const Vec3d& p, const Vec3d& a, co
     wc = w;
     return b + (c - b) * w;
   }
-  const double denom = 1.0 / (va + vb + vc);
+  const double area = va + vb + vc;
+  if (!(area > 1e-30)) {  // degenerate (collinear corners): the nearest point of its edges
+    double u;
+    const double lab = dot(ab, ab), lac = dot(ac, ac);
+    const Vec3d bc = c - b;
+    const double lbc = dot(bc, bc);
+    if (lab >= lac && lab >= lbc) {
+      u = lab > 0 ? fmin(1.0, fmax(0.0, d1 / lab)) : 0.0;
+      wa = 1 - u;
+      wb = u;
+      wc = 0;
+      return a + ab * u;
+    }
+    if (lac >= lbc) {
+      u = lac > 0 ? fmin(1.0, fmax(0.0, d2 / lac)) : 0.0;
+      wa = 1 - u;
+      wb = 0;
+      wc = u;
+      return a + ac * u;
+    }
+    u = fmin(1.0, fmax(0.0, dot(bp, bc) / lbc));
+    wa = 0;
+    wb = 1 - u;
+    wc = u;
+    return b + bc * u;
+  }
+  const double denom = 1.0 / area;
   const double v = vb * denom, w = vc * denom;
   wa = 1 - v - w;
   wb = v;
@@ -85,21 +111,29 @@ TSF_HD_INLINE Vec3d closest_point_on_triangle(const Vec3d& p, const Vec3d& a, co
   return a + ab * v + ac * w;
 }
 
-/// Depth of sphere (q, r) into the tissue bounded by triangle t (corners a,b,c, vertex normals
-/// na,nb,nc), mm; 0 when not touching. `normal` receives the interpolated unit normal there.
-TSF_HD_INLINE double sphere_triangle_depth(const Vec3d& q, double r, const Vec3f* corners,
-                                           const Vec3f* normals, Vec3d& normal) {
+/// Sphere (q, r) against triangle t (corners a,b,c, vertex normals na,nb,nc): true when the
+/// triangle passes within r of q; `distance` receives |q − y| for the closest point y, `normal`
+/// the normal interpolated there (unit, out of the tissue) and `inside` whether q lies behind it.
+TSF_HD_INLINE bool sphere_triangle_contact(const Vec3d& q, double r, const Vec3f* corners,
+                                           const Vec3f* normals, double& distance, Vec3d& normal,
+                                           bool& inside) {
   double wa, wb, wc;
   const Vec3d y = closest_point_on_triangle(q, to_double(corners[0]), to_double(corners[1]),
                                             to_double(corners[2]), wa, wb, wc);
   const Vec3d qy = q - y;
   const double d2 = dot(qy, qy);
-  if (d2 >= r * r) return 0.0;  // the triangle misses the sphere
+  if (!(d2 < r * r)) return false;  // the triangle misses the sphere
   normal = normalized_or_zero(to_double(normals[0]) * wa + to_double(normals[1]) * wb +
                               to_double(normals[2]) * wc);
-  const double d = sqrt(d2);
-  const double h = dot(normal, qy) >= 0.0 ? r - d : r + d;
-  return h > 0.0 && h <= 2.0 * r ? h : 0.0;
+  distance = sqrt(d2);
+  inside = dot(normal, qy) < 0.0;
+  return true;
+}
+
+/// Depth of a sphere of radius r whose centre is `distance` from the nearest surface point,
+/// on the inside or not: r − d outside, r + d inside (0 < depth < 2r).
+TSF_HD_INLINE double sphere_depth(double r, double distance, bool inside) {
+  return inside ? r + distance : r - distance;
 }
 
 /// Volume of a cap of height h cut from a sphere of radius r, mm³.
