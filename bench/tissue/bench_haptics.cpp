@@ -8,11 +8,12 @@
 //   VoxelForceBinary/n    baseline peer in the same run: the thesis's binary nearest-voxel test
 //                         (same cells, one load each, no interpolation), with its error and jitter
 //   VoxelForceWarped/n    the voxel model with a lattice window (the inverse warp's extra cost)
-//   MeshForce/n           mesh model, n spheres across, against the sphere's IMT triangles near
-//                         the stylus; err_pct on the intersection volume over the shallow half
+//   MeshForce/n           mesh model, n spheres across (1 = the stylus sphere itself), against
+//                         the sphere's IMT triangles near the stylus; err_V_pct: max error of
+//                         the intersection volume over the first third of a radius, % of its end
 //   LatticeForce          lattice model (reads the summed reactions: the floor)
-//   Filter/w              the moving average, window w; counters: jitter_pct of a coarse (n = 4)
-//                         skim after filtering, delay_ms (group delay at 1 kHz)
+//   Filter/w              the moving average, window w; counters: jitter_pct of a coarse skim
+//                         (n = 4, nearest voxels) after filtering, delay_ms (group delay, 1 kHz)
 //
 //   bench_haptics [--benchmark_filter=VoxelForce] [--benchmark_repetitions=5]
 #include <benchmark/benchmark.h>
@@ -199,7 +200,7 @@ void MeshForce(benchmark::State& state) {
   state.counters["err_V_pct"] =
       100.0 * worst / sphere_intersection_volume(kr, kR, kR + kr - kr / 3.0);
 }
-BENCHMARK(MeshForce)->Arg(2)->Arg(4)->Arg(6)->Arg(8)->Unit(benchmark::kMicrosecond);
+BENCHMARK(MeshForce)->Arg(1)->Arg(2)->Arg(4)->Arg(6)->Arg(8)->Unit(benchmark::kMicrosecond);
 
 void LatticeForce(benchmark::State& state) {
   const LatticeForceModel model(options(8, 4));
@@ -217,7 +218,9 @@ void Filter(benchmark::State& state) {
     x.x += 1e-3;
     benchmark::DoNotOptimize(filter.filter(x));
   }
-  const VoxelForceModel coarse(options(4, 4));
+  ForceModelOptions o = options(4, 4);
+  o.sampling = DensitySampling::kNearest;  // where the filter matters: a stepwise force
+  const VoxelForceModel coarse(o);
   state.counters["jitter_pct"] = skim_jitter_pct(coarse, w);
   state.counters["delay_ms"] = filter.group_delay_samples() * 1.0;  // at 1 kHz
 }
