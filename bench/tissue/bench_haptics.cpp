@@ -5,6 +5,8 @@
 //   VoxelForce/n          voxel model, n cells across the stylus (trilinear density); counters:
 //                         cells, err_pct = max |F − law(V_exact)| over a pass / peak (%),
 //                         jitter_pct = jitter of a 20 mm/s skim / peak (%)
+//   VoxelForceNoSkip/n    the voxel model reading all 8 densities of every cell (no skipping of
+//                         uniform cubes): the peer of the uniform-cube classification
 //   VoxelForceBinary/n    baseline peer in the same run: the thesis's binary nearest-voxel test
 //                         (same cells, one load each, no interpolation), with its error and jitter
 //   VoxelForceWarped/n    the voxel model with a lattice window (the inverse warp's extra cost)
@@ -48,7 +50,7 @@ struct Case {
 const Case& sphere_case() {
   static const Case c = [] {
     const double voxel = 0.5;
-    const int n = 48;
+    const int n = 56;  // 28 mm: the stylus window stays inside the volume
     const Vec3d centre{0.5 * (n - 1) * voxel, 0.5 * (n - 1) * voxel, 0.5 * (n - 1) * voxel};
     Case k{make_sdf_volume(
                cube_geometry({n, n, n}, voxel),
@@ -145,6 +147,16 @@ BENCHMARK(VoxelForce)
     ->Arg(24)
     ->Arg(32)
     ->Unit(benchmark::kMicrosecond);
+
+void VoxelForceNoSkip(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const VoxelForceModel model(options(n, 4));
+  const StylusPose pose = contact_pose();
+  HapticFrame frame = frame_at(pose, false);
+  frame.density_cells.clear();  // every cell interpolated: the uniform-cube skip's peer
+  run_model(state, model, frame, pose);
+}
+BENCHMARK(VoxelForceNoSkip)->Arg(16)->Unit(benchmark::kMicrosecond);
 
 void VoxelForceBinary(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

@@ -120,6 +120,8 @@ HapticForce VoxelForceModel::evaluate(const HapticFrameView& frame, const Stylus
   VoxelAccumulation acc;
   if (sampling_ == DensitySampling::kNearest)
     acc = accumulate_cells(stylus_, w, g0, G, sample_density_nearest);
+  else if (interior && w.cells)
+    acc = accumulate_cells(stylus_, w, g0, G, sample_density_classified);
   else if (interior)
     acc = accumulate_cells(stylus_, w, g0, G, sample_density_interior);
   else

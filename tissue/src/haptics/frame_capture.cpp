@@ -19,27 +19,58 @@ void grid_range(double origin, double h, int n, double c, double e, int& lo, int
 
 void capture_density(const VoxelVolume& volume, const Vec3d& centre, double half_extent_mm,
                      HapticFrame& frame) {
+  // The window is the whole requested box, one voxel beyond it on each side, whether or not the
+  // volume reaches that far (outside it the density is 0): a stylus within the reach then always
+  // lies strictly inside the window and takes the sampler without bounds tests.
   const VolumeGeometry& g = volume.geometry();
-  int lo[3], hi[3];
-  for (int a = 0; a < 3; ++a)
-    grid_range(g.origin[a], g.spacing[a], g.dims[a], centre[a], half_extent_mm, lo[a], hi[a]);
-  if (hi[0] < lo[0] || hi[1] < lo[1] || hi[2] < lo[2]) {
-    frame.density.clear();
-    frame.density_dims = {0, 0, 0};
-    return;
+  int lo[3], n[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] =
+        static_cast<int>(std::floor((centre[a] - half_extent_mm - g.origin[a]) / g.spacing[a])) - 1;
+    const int hi =
+        static_cast<int>(std::ceil((centre[a] + half_extent_mm - g.origin[a]) / g.spacing[a])) + 1;
+    n[a] = hi - lo[a] + 1;
   }
-  const Int3 dims{hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
-  frame.density.resize(static_cast<std::size_t>(dims.volume()));
+  const Int3 dims{n[0], n[1], n[2]};
+  frame.density.assign(static_cast<std::size_t>(dims.volume()), 0.0f);
   frame.density_dims = dims;
   frame.density_origin = g.index_to_tissue({double(lo[0]), double(lo[1]), double(lo[2])});
   frame.density_spacing = g.spacing;
+  // The part of the window inside the volume, copied row by row.
+  const int i0 = std::max(0, lo[0]), i1 = std::min(g.dims.x - 1, lo[0] + n[0] - 1);
   const std::vector<float>& src = volume.density_data();
-  float* dst = frame.density.data();
-  for (int k = lo[2]; k <= hi[2]; ++k)
-    for (int j = lo[1]; j <= hi[1]; ++j) {
-      const float* row = src.data() + volume.index(lo[0], j, k);
-      dst = std::copy(row, row + dims.x, dst);
-    }
+  if (i0 <= i1)
+    for (int k = std::max(0, lo[2]); k <= std::min(g.dims.z - 1, lo[2] + n[2] - 1); ++k)
+      for (int j = std::max(0, lo[1]); j <= std::min(g.dims.y - 1, lo[1] + n[1] - 1); ++j) {
+        const float* row = src.data() + volume.index(i0, j, k);
+        float* dst = frame.density.data() + (i0 - lo[0]) +
+                     static_cast<std::size_t>(n[0]) *
+                         ((j - lo[1]) + static_cast<std::size_t>(n[1]) * (k - lo[2]));
+        std::copy(row, row + (i1 - i0 + 1), dst);
+      }
+  // Classify the cubes between voxel centres once per capture, so the per-tick trilinear reads
+  // skip the eight loads where the tissue is uniformly empty or full.
+  frame.density_cells.resize(frame.density.size());
+  const float* d = frame.density.data();
+  const std::size_t sy = static_cast<std::size_t>(dims.x),
+                    sz = sy * static_cast<std::size_t>(dims.y);
+  for (int k = 0; k < dims.z; ++k)
+    for (int j = 0; j < dims.y; ++j)
+      for (int i = 0; i < dims.x; ++i) {
+        const std::size_t v = i + sy * j + sz * k;
+        std::uint8_t c = kCellMixed;
+        if (i + 1 < dims.x && j + 1 < dims.y && k + 1 < dims.z) {
+          const float corners[8] = {d[v],      d[v + 1],      d[v + sy],      d[v + 1 + sy],
+                                    d[v + sz], d[v + 1 + sz], d[v + sy + sz], d[v + 1 + sy + sz]};
+          bool empty = true, full = true;
+          for (float x : corners) {
+            empty = empty && x == 0.0f;
+            full = full && x == 1.0f;
+          }
+          c = empty ? kCellEmpty : (full ? kCellFull : kCellMixed);
+        }
+        frame.density_cells[v] = c;
+      }
 }
 
 void capture_lattice(const crms::Lattice& lattice, const float* positions, const Vec3d& centre,

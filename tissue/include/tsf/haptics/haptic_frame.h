@@ -5,6 +5,10 @@
 // A frame holds only what the three force models need near the stylus:
 //   density window   rest space: a box of R1 voxels, density in [0,1]   (voxel model)
 //                      density   #voxels floats, x fastest, origin = centre of voxel (0,0,0), mm
+//                      cells     #voxels uint8: the cube from voxel (i,j,k) to (i+1,j+1,k+1) is
+//                                kCellEmpty (all 8 corners 0), kCellFull (all 1) or kCellMixed
+//                                (the last layer on each axis is mixed); the voxel model reads one
+//                                byte instead of eight densities away from the surface
 //   lattice window   the R3 nodes around the stylus: displacement from rest (inverse warp)
 //                      displacement  #nodes×3 floats, mm; alive #nodes uint8
 //   triangle patch   coupled R2 triangles near the stylus, deformed world (mesh model)
@@ -21,8 +25,11 @@
 
 namespace tsf::haptics {
 
+constexpr std::uint8_t kCellEmpty = 0, kCellFull = 1, kCellMixed = 2;
+
 struct DensityWindowView {
   const float* density = nullptr;
+  const std::uint8_t* cells = nullptr;  ///< optional classification (see above)
   Int3 dims{0, 0, 0};
   Vec3d origin{0, 0, 0};   ///< mm, rest position of voxel (0,0,0)'s centre
   Vec3d spacing{1, 1, 1};  ///< mm
@@ -61,6 +68,7 @@ struct HapticFrameView {
 /// allocates nothing.
 struct HapticFrame {
   std::vector<float> density;
+  std::vector<std::uint8_t> density_cells;
   Int3 density_dims{0, 0, 0};
   Vec3d density_origin{0, 0, 0}, density_spacing{1, 1, 1};
 
@@ -79,7 +87,9 @@ struct HapticFrame {
   HapticFrameView view() const {
     HapticFrameView v;
     if (!density.empty())
-      v.density = {density.data(), density_dims, density_origin, density_spacing};
+      v.density = {density.data(),
+                   density_cells.size() == density.size() ? density_cells.data() : nullptr,
+                   density_dims, density_origin, density_spacing};
     if (!displacement.empty())
       v.lattice = {displacement.data(), alive.data(), lattice_dims, lattice_origin,
                    lattice_spacing};
