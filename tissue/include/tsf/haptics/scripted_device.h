@@ -1,0 +1,35 @@
+// A device that replays a scripted stylus trajectory (thesis §8.6: software drives the stylus, so
+// a haptic algorithm is measured without hand or device). Time is the loop's clock from start()
+// (real time) or what set_time() says (playback in simulated time).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+
+#include "tsf/haptics/haptic_device.h"
+#include "tsf/haptics/seqlock.h"
+#include "tsf/interaction/trajectory.h"
+
+namespace tsf::haptics {
+
+class ScriptedDevice final : public HapticDevice {
+ public:
+  explicit ScriptedDevice(interaction::Trajectory trajectory);
+  /// Follows the wall clock from now.
+  void start_clock();
+  /// Follows simulated time instead (playback): the next read() samples at `time_s`.
+  void set_time(double time_s);
+  DeviceState read() override;
+  void apply_force(const Vec3d& force_un) override { last_force_.store(force_un); }
+  Vec3d last_force() const { return last_force_.load(); }
+  const interaction::Trajectory& trajectory() const { return trajectory_; }
+
+ private:
+  interaction::Trajectory trajectory_;
+  bool wall_clock_ = false;
+  std::chrono::steady_clock::time_point start_;
+  double time_s_ = 0;
+  Seqlock<Vec3d> last_force_;
+};
+
+}  // namespace tsf::haptics
