@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <mutex>
 
+#include <sys/prctl.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -51,8 +52,12 @@ std::string start_xvfb() {
   const pid_t pid = fork();
   if (pid < 0) return "cannot fork to start Xvfb";
   if (pid == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGTERM);  // Xvfb goes when the tests go, even if they crash
     close(fds[0]);
     const std::string fd = std::to_string(fds[1]);
+    // Only the display-number pipe stays open: an inherited stdout would keep a reader of this
+    // process's output (a pipe) waiting for as long as Xvfb lives.
+    std::freopen("/dev/null", "w", stdout);
     std::freopen("/dev/null", "w", stderr);
     execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "1280x1024x24", "-nolisten",
            "tcp", static_cast<char*>(nullptr));

@@ -64,6 +64,9 @@ DisplayStatus x_display_status() {
         "`xvfb-run -a` for offscreen frames)";
     return s;
   }
+  // Xlib must be told before its first call that more than one thread may use it.
+  static const Status threads = XInitThreads();
+  (void)threads;
   Display* d = XOpenDisplay(name);
   if (d == nullptr) {
     s.reason = std::string("cannot open the X display '") + name +
@@ -309,6 +312,7 @@ struct Viewer::Impl {
   std::string slice_description;
   vtkSmartPointer<vtkImageActor> slice_actors[3];  // sagittal (x), coronal (y), axial (z)
   int slice_index[3] = {0, 0, 0};
+  int slice_lo[3] = {0, 0, 0}, slice_hi[3] = {0, 0, 0};  // voxels that show something
   vtkSmartPointer<vtkTextActor> hud, help;
   std::unique_ptr<LivePlot> plot;
   SimulationStats stats;
@@ -445,6 +449,25 @@ void Viewer::Impl::build_slices(const SliceVolume& volume) {
     slice_grey[i] = static_cast<std::uint8_t>(
         std::lround(std::clamp((double{volume.values[i]} - lo) * scale, 0.0, 255.0)));
   slice_description = volume.description;
+  // The planes span the voxels that show something (above the window's black, or labelled):
+  // opaque planes cropped to the body hide less of the scene than whole-volume planes, and stay
+  // in the opaque pass (see-through air would need depth peeling, which llvmpipe renders badly).
+  int first[3] = {g.dims.x, g.dims.y, g.dims.z}, last[3] = {-1, -1, -1};
+  std::size_t i = 0;
+  for (int z = 0; z < g.dims.z; ++z)
+    for (int y = 0; y < g.dims.y; ++y)
+      for (int x = 0; x < g.dims.x; ++x, ++i)
+        if (slice_labels[i] != kLabelOutside) {
+          const int c[3] = {x, y, z};
+          for (int a = 0; a < 3; ++a) {
+            first[a] = std::min(first[a], c[a]);
+            last[a] = std::max(last[a], c[a]);
+          }
+        }
+  for (int a = 0; a < 3; ++a) {
+    slice_lo[a] = last[a] >= first[a] ? first[a] : 0;
+    slice_hi[a] = last[a] >= first[a] ? last[a] : g.dims[a] - 1;
+  }
   refresh_slice_colours();
   for (int a = 0; a < 3; ++a) {
     slice_actors[a] = vtkSmartPointer<vtkImageActor>::New();
@@ -461,7 +484,7 @@ void Viewer::Impl::build_slices(const SliceVolume& volume) {
 
 void Viewer::Impl::refresh_slice_colours() {
   if (!slice_image) return;
-  auto* rgba = static_cast<std::uint8_t*>(slice_image->GetScalarPointer());
+  auto* rgb = static_cast<std::uint8_t*>(slice_image->GetScalarPointer());
   const bool labels = options.slices.labels;
   for (std::size_t i = 0; i < slice_grey.size(); ++i) {
     const double grey = slice_grey[i];
@@ -471,10 +494,9 @@ void Viewer::Impl::refresh_slice_colours() {
       const Rgb c = label_colour(slice_labels[i]);
       for (int k = 0; k < 3; ++k) out[k] = (1 - a) * grey + a * c[static_cast<std::size_t>(k)];
     }
-    for (int k = 0; k < 3; ++k) rgba[4 * i + k] = static_cast<std::uint8_t>(std::lround(out[k]));
-    // Air around the body (black, unlabelled) is see-through, so the planes show the anatomy and
-    // hide no more of the tissue than they must.
-    rgba[4 * i + 3] = (slice_grey[i] == 0 && slice_labels[i] == kLabelOutside) ? 0 : 255;
+    for (int k = 0; k < 3; ++k) rgb[4 * i + k] = static_cast<std::uint8_t>(std::lround(out[k]));
+    // Air around the body (black, unlabelled) is see-through.
+    rgb[4 * i + 3] = (slice_grey[i] == 0 && slice_labels[i] == kLabelOutside) ? 0 : 255;
   }
   slice_image->Modified();
 }
@@ -491,10 +513,11 @@ void Viewer::Impl::place_slices(const Vec3d& mm) {
     slice_index[a] =
         std::clamp(static_cast<int>(std::lround((v - origin[a]) / spacing[a])), 0, dims[a] - 1);
   }
-  const int X = dims[0] - 1, Y = dims[1] - 1, Z = dims[2] - 1;
-  slice_actors[0]->SetDisplayExtent(slice_index[0], slice_index[0], 0, Y, 0, Z);
-  slice_actors[1]->SetDisplayExtent(0, X, slice_index[1], slice_index[1], 0, Z);
-  slice_actors[2]->SetDisplayExtent(0, X, 0, Y, slice_index[2], slice_index[2]);
+  const int* l = slice_lo;
+  const int* h = slice_hi;
+  slice_actors[0]->SetDisplayExtent(slice_index[0], slice_index[0], l[1], h[1], l[2], h[2]);
+  slice_actors[1]->SetDisplayExtent(l[0], h[0], slice_index[1], slice_index[1], l[2], h[2]);
+  slice_actors[2]->SetDisplayExtent(l[0], h[0], l[1], h[1], slice_index[2], slice_index[2]);
 }
 
 void Viewer::Impl::reset_camera() {
@@ -603,8 +626,14 @@ Viewer::Viewer(SimulationSession& session, const SliceVolume* slices, const View
   v.window->SetSize(options.width, options.height);
   v.window->SetOffScreenRendering(options.offscreen ? 1 : 0);
   v.window->SetWindowName("tsf view");
-  v.window->SetMultiSamples(options.offscreen ? 8 : 4);
+  // The slice planes are see-through where there is air: depth peeling sorts them against each
+  // other (it needs multisampling off; FXAA smooths the edges instead).
+  v.window->SetMultiSamples(0);
   v.window->AddRenderer(v.renderer);
+  v.renderer->SetUseDepthPeeling(options.offscreen ? 1 : 0);
+  v.renderer->SetMaximumNumberOfPeels(8);
+  v.renderer->SetOcclusionRatio(0.0);
+  if (options.offscreen) v.renderer->UseFXAAOn();
 
   // Tissue surface: per-vertex label colours, smooth normals, a little specular.
   session.publish_initial();
