@@ -168,6 +168,11 @@ void run_view(const ViewArguments& args) {
   // Cheap checks first (scene, tools, script, display), then the tissue model.
   std::optional<Scene> scene;
   std::vector<viewer::NamedTool> tools;
+  const std::string ext = input.extension().string();
+  if (!is_yaml(input) && ext != ".nrrd" && ext != ".nhdr" && ext != ".mha" && ext != ".mhd")
+    throw Error(input.string() +
+                ": expected a scene (.yaml) or a density volume (PREFIX-density.nrrd from `tsf "
+                "segment`)");
   if (is_yaml(input)) {
     scene = read_scene(input);
     if (!args.backend.empty()) scene->solver.backend = parse_backend(args.backend);

@@ -630,10 +630,10 @@ Viewer::Viewer(SimulationSession& session, const SliceVolume* slices, const View
   // other (it needs multisampling off; FXAA smooths the edges instead).
   v.window->SetMultiSamples(0);
   v.window->AddRenderer(v.renderer);
-  v.renderer->SetUseDepthPeeling(options.offscreen ? 1 : 0);
+  v.renderer->SetUseDepthPeeling(1);
   v.renderer->SetMaximumNumberOfPeels(8);
   v.renderer->SetOcclusionRatio(0.0);
-  if (options.offscreen) v.renderer->UseFXAAOn();
+  v.renderer->UseFXAAOn();
 
   // Tissue surface: per-vertex label colours, smooth normals, a little specular.
   session.publish_initial();
