@@ -6,4 +6,10 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${TSF_BUILD_DIR:-$ROOT/build}"
 "$ROOT/scripts/setup.sh"
 cd "$BUILD_DIR"
-ctest --output-on-failure -j "${TSF_JOBS:-$(nproc)}" --timeout 1800 "$@"
+# The viewer tests render through X (Debian's VTK has no OSMesa/EGL): give them a virtual display
+# when there is none.
+XRUN=()
+if [ -z "${DISPLAY:-}" ] && command -v xvfb-run >/dev/null; then
+  XRUN=(xvfb-run -a -s "-screen 0 1280x1024x24")
+fi
+"${XRUN[@]}" ctest --output-on-failure -j "${TSF_JOBS:-$(nproc)}" --timeout 1800 "$@"

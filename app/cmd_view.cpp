@@ -1,0 +1,348 @@
+// `tsf view [SCENE|VOLUME]`: the live viewer. A scene (YAML) gives the tissue, its tools and
+// anchors; a density volume (PREFIX-density.nrrd from `tsf segment`) gets default tools, bone
+// anchored and no gravity. The window shows the deforming, cuttable tissue, slice planes through
+// the scan with the label overlay, the tool under the mouse, a heads-up display and a live plot;
+// the simulation runs on its own thread (CUDA when available, else CPU).
+//
+//   tsf view scenes/view-block.yaml
+//   xvfb-run -a tsf view scenes/view-block.yaml --offscreen
+//       --script scenes/view-block-ablate.yaml --out out/view-block
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commands.h"
+#include "scene/interaction_run.h"
+#include "scene/scene.h"
+#include "tsf/common/atomic_file.h"
+#include "tsf/common/error.h"
+#include "tsf/common/progress.h"
+#include "tsf/common/stopwatch.h"
+#include "tsf/crms/lattice_builders.h"
+#include "tsf/version.h"
+#include "tsf/viewer/offscreen_render.h"
+#include "tsf/viewer/view_script.h"
+#include "tsf/viewer/viewer.h"
+#include "tsf/volume/tissue_labels.h"
+#ifdef TSF_HAVE_IMPORT
+#include <fstream>
+
+#include "tsf/import/import_volume.h"
+#include "tsf/import/tissue_volume_io.h"
+#endif
+
+namespace tsf::app {
+namespace {
+
+struct ViewArguments {
+  std::string input;
+  bool offscreen = false;
+  std::string script;
+  int frames = -1;
+  std::string out = "out/view";
+  int width = 0, height = 0;
+  std::string backend;
+  std::string ct;
+  double frame_time = 0;
+  bool no_slices = false;
+  bool quiet = false;
+};
+
+/// The tissue model options of a scene (the same mapping as `tsf simulate`'s interactive run).
+interaction::TissueModelOptions scene_model_options(const Scene& scene) {
+  interaction::TissueModelOptions o;
+  const bool box = scene.lattice.source == SceneLattice::Source::kBox;
+  o.surface.iso = static_cast<float>(scene.tissue.iso);
+  o.surface.snap_epsilon = static_cast<float>(scene.tissue.merge_epsilon);
+  o.lattice.node_spacing_voxels =
+      box ? scene.tissue.voxels_per_node : scene.lattice.node_spacing_voxels;
+  o.lattice.occupancy_threshold =
+      box ? 0.125f : static_cast<float>(scene.lattice.occupancy_threshold);
+  o.lattice.mass_floor = static_cast<float>(scene.lattice.mass_floor);
+  o.lattice.density_g_per_mm3 = scene.solver.materials.at(0).density_g_per_mm3;
+  o.deletion_threshold = static_cast<float>(scene.tissue.deletion_threshold);
+  o.solver = scene.solver;
+  o.dt_s = scene.dt_s;
+  o.dt_safety = scene.dt_safety;
+  o.coupler_mode = scene.tissue.coupler;
+  o.removal.strength = static_cast<float>(scene.tissue.removal_strength);
+  o.removal.falloff_mm = scene.tissue.falloff_mm;
+  o.min_blade_thickness_voxels = scene.tissue.min_blade_thickness_voxels;
+  o.contact_passes_per_advance = scene.tissue.contact_passes;
+  return o;
+}
+
+/// Tools for a bare volume: a ball, an ablation wand and a scalpel (sizes of the shipped scenes).
+std::vector<viewer::NamedTool> default_tools() {
+  std::vector<viewer::NamedTool> tools(3);
+  tools[0].name = "ball";
+  tools[0].tool.shape = collision::ToolShape::kSphere;
+  tools[0].tool.radius_mm = 3.0;
+  tools[1].name = "wand";
+  tools[1].tool.shape = collision::ToolShape::kCapsule;
+  tools[1].tool.radius_mm = 1.5;
+  tools[1].tool.half_length_mm = 2.0;
+  tools[2].name = "scalpel";
+  tools[2].tool.shape = collision::ToolShape::kBlade;
+  tools[2].tool.half_extents_mm = {10.0, 10.0, 0.5};
+  return tools;
+}
+
+crms::Backend parse_backend(const std::string& text) {
+  if (text == "cpu") return crms::Backend::kCpu;
+  if (text == "cuda") return crms::Backend::kCuda;
+  if (text == "auto") return crms::Backend::kAuto;
+  throw Error("--backend: expected cpu, cuda or auto, got '" + text + "'");
+}
+
+#ifdef TSF_HAVE_IMPORT
+/// The CT a segmented volume came from: PREFIX-report.json (tsf segment) names its input. Empty
+/// when there is no report or the CT is not where it says (relative paths: from the working
+/// folder, then from the report's folder's parent).
+std::filesystem::path find_source_ct(const std::filesystem::path& density) {
+  const std::string name = density.filename().string();
+  const std::string suffix = "-density.nrrd";
+  if (name.size() <= suffix.size() ||
+      name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return {};
+  const std::filesystem::path report =
+      density.parent_path() / (name.substr(0, name.size() - suffix.size()) + "-report.json");
+  std::ifstream in(report);
+  if (!in) return {};
+  try {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    const std::filesystem::path ct = j.at("input").at("path").get<std::string>();
+    if (ct.is_absolute()) return std::filesystem::exists(ct) ? ct : std::filesystem::path();
+    if (std::filesystem::exists(ct)) return ct;
+    const std::filesystem::path beside = report.parent_path().parent_path() / ct;
+    if (std::filesystem::exists(beside)) return beside;
+  } catch (const std::exception&) {
+  }
+  return {};
+}
+
+/// The CT (HU) as slice planes with `labels`' labels over it. Throws tsf::Error naming the file
+/// when it cannot be read or is not axis-aligned.
+viewer::SliceVolume ct_slices(const std::filesystem::path& ct, const VoxelVolume& labels) {
+  import::ImportResult r = import::import_volume(ct, import::ImportOptions{});
+  const import::HuImage* image = r.image.GetPointer();
+  const auto dir = image->GetDirection();
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      if (std::abs(dir[a][b] - (a == b ? 1.0 : 0.0)) > 1e-6)
+        throw Error(ct.string() +
+                    ": the CT's axes are not aligned with tissue space (direction "
+                    "cosines not identity); the viewer shows axis-aligned slices");
+  VolumeGeometry g;
+  const auto size = image->GetLargestPossibleRegion().GetSize();
+  const auto spacing = image->GetSpacing();
+  const auto origin = image->GetOrigin();
+  for (int a = 0; a < 3; ++a) {
+    g.dims[a] = static_cast<int>(size[static_cast<unsigned>(a)]);
+    g.spacing[a] = spacing[static_cast<unsigned>(a)];
+    g.origin[a] = origin[static_cast<unsigned>(a)];
+  }
+  const float* hu = image->GetBufferPointer();
+  std::vector<float> values(hu, hu + g.dims.volume());
+  return viewer::slices_from_ct(g, std::move(values), &labels,
+                                "CT " + ct.filename().string() + " (HU)");
+}
+#endif
+
+bool is_yaml(const std::filesystem::path& p) {
+  const std::string e = p.extension().string();
+  return e == ".yaml" || e == ".yml";
+}
+
+void run_view(const ViewArguments& args) {
+  const std::filesystem::path input = args.input;
+  if (args.offscreen && args.frames == 0) throw Error("--frames: expected at least 1 frame, got 0");
+
+  if (!args.ct.empty() && args.ct != "none" && !std::filesystem::exists(args.ct))
+    throw Error("--ct: no such file: " + args.ct);
+  // Cheap checks first (scene, tools, script, display), then the tissue model.
+  std::optional<Scene> scene;
+  std::vector<viewer::NamedTool> tools;
+  const std::string ext = input.extension().string();
+  if (!is_yaml(input) && ext != ".nrrd" && ext != ".nhdr" && ext != ".mha" && ext != ".mhd")
+    throw Error(input.string() +
+                ": expected a scene (.yaml) or a density volume (PREFIX-density.nrrd from `tsf "
+                "segment`)");
+  if (is_yaml(input)) {
+    scene = read_scene(input);
+    if (!args.backend.empty()) scene->solver.backend = parse_backend(args.backend);
+    for (const SceneTool& t : scene->tools) tools.push_back({t.name, t.tool});
+  }
+  if (tools.empty()) tools = default_tools();
+  viewer::ViewOptions defaults;
+  defaults.offscreen = args.offscreen;
+  viewer::ViewScript script;
+  script.options = defaults;
+  if (!args.script.empty()) script = viewer::read_view_script(args.script, tools, defaults);
+  viewer::ViewOptions& o = script.options;
+  if (args.width > 0) o.width = args.width;
+  if (args.height > 0) o.height = args.height;
+  if (args.frame_time > 0) o.frame_s = args.frame_time;
+  if (args.no_slices) o.slices.show = false;
+  o.offscreen = args.offscreen;
+  o.validate();
+  const viewer::DisplayStatus display = viewer::x_display_status();
+  if (!display.available) throw Error("tsf view: " + display.reason);
+
+  std::unique_ptr<interaction::TissueModel> model;
+  Stopwatch setup;
+  if (scene) {
+    interaction::TissueModelOptions mo = scene_model_options(*scene);
+    auto held = std::make_shared<Scene>(*scene);
+    mo.anchor = [held](crms::Lattice& l) { apply_scene_anchors(l, *held); };
+    model = std::make_unique<interaction::TissueModel>(scene_tissue_volume(*scene), mo);
+  } else {
+#ifdef TSF_HAVE_IMPORT
+    interaction::TissueModelOptions mo;
+    if (!args.backend.empty()) mo.solver.backend = parse_backend(args.backend);
+    mo.solver.materials.at(0).youngs_modulus_pa = 30000;
+    mo.solver.materials.at(0).viscosity_pa_s = 5;
+    mo.solver.stability.kinetic_damping = 0.01;
+    // Bone holds still (no gravity: nothing else holds the tissue).
+    mo.anchor = [](crms::Lattice& l) {
+      crms::fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
+    };
+    model = std::make_unique<interaction::TissueModel>(import::read_tissue_volume(input), mo);
+#else
+    throw Error(input.string() +
+                ": reading a volume needs a build with ITK (reconfigure with -DTSF_WITH_ITK=ON); "
+                "give a scene file (.yaml) instead");
+#endif
+  }
+  viewer::SimulationSession session(std::move(model), tools);
+
+  // Slice planes: the CT the tissue came from (--ct, else the one its segmentation report
+  // names) with the labels over it; else the whole tissue volume when the scene is a crop of it;
+  // else the tissue's own volume (the viewer's default).
+  std::optional<viewer::SliceVolume> slice_volume;
+#ifdef TSF_HAVE_IMPORT
+  std::filesystem::path density;
+  if (!scene)
+    density = input;
+  else if (scene->lattice.source == SceneLattice::Source::kVolume)
+    density = scene->lattice.volume;
+  std::optional<VoxelVolume> whole;
+  if (scene && scene->lattice.cropped && !density.empty())
+    whole = import::read_tissue_volume(density);
+  const VoxelVolume& labels = whole ? *whole : session.model().volume();
+  std::filesystem::path ct = args.ct;
+  if (ct.empty() && !density.empty()) ct = find_source_ct(density);
+  if (!ct.empty() && args.ct != "none")
+    slice_volume = ct_slices(ct, labels);
+  else if (whole)
+    slice_volume = viewer::slices_from_tissue(*whole);
+#else
+  if (!args.ct.empty() && args.ct != "none")
+    throw Error("--ct: reading a CT needs a build with ITK (reconfigure with -DTSF_WITH_ITK=ON)");
+#endif
+  if (!args.quiet)
+    std::printf("tsf view: %s on %s, lattice %d x %d x %d, %zu triangles (setup %.2f s)\n",
+                input.string().c_str(), session.stats().backend.c_str(),
+                session.stats().lattice_dims.x, session.stats().lattice_dims.y,
+                session.stats().lattice_dims.z, session.stats().live_triangles, setup.seconds());
+  const viewer::SliceVolume* slices = slice_volume ? &*slice_volume : nullptr;
+
+  if (!args.offscreen) {
+    o.close_after_frames = args.frames;
+    if (!args.quiet) std::printf("%s\n", viewer::kViewerKeyHelp);
+    viewer::Viewer v(session, slices, o);
+    const int frames = v.run_window();
+    if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
+    return;
+  }
+  int frames = args.frames;
+  if (frames < 0)  // default: the script's last keyframe plus a second of settling, else 60
+    frames = script.hand.empty() ? 60
+                                 : static_cast<int>(script.hand.end_time()) + 1 +
+                                       static_cast<int>(std::ceil(0.05 / o.frame_s));
+  Progress progress("view " + input.filename().string(), static_cast<std::uint64_t>(frames),
+                    !args.quiet && Progress::stderr_is_terminal());
+  const viewer::OffscreenResult r =
+      viewer::render_offscreen(session, slices, script, frames, args.out,
+                               [&](int f) { progress.set(static_cast<std::uint64_t>(f + 1)); });
+  progress.finish();
+  const nlohmann::json report = {
+      {"tsf_version", TSF_VERSION_STRING},
+      {"input", input.string()},
+      {"script", args.script},
+      {"frames", r.frames},
+      {"width", o.width},
+      {"height", o.height},
+      {"frame_time_s", o.frame_s},
+      {"backend", r.last.backend},
+      {"lattice_dims", {r.last.lattice_dims.x, r.last.lattice_dims.y, r.last.lattice_dims.z}},
+      {"triangles_end", r.last.live_triangles},
+      {"removed_mm3", r.last.removed_mm3},
+      {"mean_render_s", r.mean_render_s},
+      {"mean_simulate_s", r.mean_simulate_s},
+  };
+  write_text_atomically(std::filesystem::path(args.out) / "view-report.json",
+                        report.dump(2) + "\n");
+  if (!args.quiet)
+    std::printf(
+        "tsf view: wrote %d frames to %s (render %.1f ms/frame, simulate %.1f ms/frame, "
+        "%zu triangles at the end)\n",
+        r.frames, args.out.c_str(), r.mean_render_s * 1e3, r.mean_simulate_s * 1e3,
+        r.last.live_triangles);
+}
+
+}  // namespace
+
+void add_view_command(CLI::App& app) {
+  CLI::App* sub = app.add_subcommand(
+      "view",
+      "Live viewer: the deforming, cuttable tissue of a scene or a density volume, slice planes "
+      "with the label overlay, the tool under the mouse (press / ablate / cut), a heads-up "
+      "display and a live plot; or, with --offscreen, PNG frames of a view script. Needs an X "
+      "display (offscreen: run under `xvfb-run -a`).");
+  auto args = std::make_shared<ViewArguments>();
+  sub->add_option("input", args->input,
+                  "Scene (.yaml, e.g. scenes/view-block.yaml) or density volume "
+                  "(PREFIX-density.nrrd from `tsf segment`)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_flag("--offscreen", args->offscreen,
+                "Render frames to PNG files instead of opening a window");
+  sub->add_option(
+         "--script", args->script,
+         "View script (YAML: camera, slices, overlays, tool keyframes; see docs/viewer.md)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--frames", args->frames,
+                  "Offscreen: frames to render (default: the script's last keyframe + 0.05 s, "
+                  "else 60). Window: close after this many frames")
+      ->check(CLI::Range(0, 1'000'000));
+  sub->add_option("--out,-o", args->out,
+                  "Offscreen: folder for frame-NNNN.png and view-report.json")
+      ->capture_default_str();
+  sub->add_option("--width", args->width, "Window width in pixels (default 1280)")
+      ->check(CLI::Range(64, 8192));
+  sub->add_option("--height", args->height, "Window height in pixels (default 800)")
+      ->check(CLI::Range(64, 8192));
+  sub->add_option("--frame-time", args->frame_time,
+                  "Simulated seconds per frame (default 1/120, or the script's frame_time)")
+      ->check(CLI::Range(1e-6, 1.0));
+  sub->add_option("--backend", args->backend,
+                  "Solver backend: cpu, cuda or auto (default: the "
+                  "scene's; auto = CUDA when a device is present)")
+      ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
+  sub->add_option("--ct", args->ct,
+                  "CT (NRRD, MHA, NIfTI, DICOM folder) for the slice planes, in the tissue's space "
+                  "(default: the CT named by PREFIX-report.json beside the density volume; "
+                  "'none': the tissue density)");
+  sub->add_flag("--no-slices", args->no_slices, "Hide the slice planes");
+  sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
+  sub->footer(std::string("Keys: ") + viewer::kViewerKeyHelp);
+  sub->callback([args] { run_view(*args); });
+}
+
+}  // namespace tsf::app
