@@ -296,29 +296,6 @@ VoxelVolume target_volume(const RigidTarget& t, double stylus_radius) {
       0.5 * t.voxel_mm);
 }
 
-/// TissueModel options from a scene (the same mapping as `tsf simulate`'s interaction run).
-interaction::TissueModelOptions model_options(const Scene& scene) {
-  interaction::TissueModelOptions o;
-  o.surface.iso = static_cast<float>(scene.tissue.iso);
-  o.surface.snap_epsilon = static_cast<float>(scene.tissue.merge_epsilon);
-  const bool box = scene.lattice.source == SceneLattice::Source::kBox;
-  o.lattice.node_spacing_voxels =
-      box ? scene.tissue.voxels_per_node : scene.lattice.node_spacing_voxels;
-  o.lattice.occupancy_threshold =
-      box ? 0.125f : static_cast<float>(scene.lattice.occupancy_threshold);
-  o.lattice.mass_floor = static_cast<float>(scene.lattice.mass_floor);
-  o.lattice.density_g_per_mm3 = scene.solver.materials.at(0).density_g_per_mm3;
-  o.deletion_threshold = static_cast<float>(scene.tissue.deletion_threshold);
-  o.solver = scene.solver;
-  o.dt_s = scene.dt_s;
-  o.dt_safety = scene.dt_safety;
-  o.coupler_mode = scene.tissue.coupler;
-  o.contact_passes_per_advance = scene.tissue.contact_passes;
-  const Scene* sc = &scene;
-  o.anchor = [sc](crms::Lattice& l) { apply_scene_anchors(l, *sc); };
-  return o;
-}
-
 // ---- outputs -------------------------------------------------------------------------------
 
 std::string fmt(double v) {
@@ -477,7 +454,7 @@ void run_haptics(const HapticsArguments& args) {
         *rigid, rigid_mesh ? &*rigid_mesh : nullptr, capture);
   } else {
     tissue = std::make_unique<interaction::TissueModel>(scene_tissue_volume(scene),
-                                                        model_options(scene));
+                                                        tissue_model_options(scene));
     source = std::make_unique<haptics::TissueFrameSource>(*tissue, capture);
   }
   const double setup_s = clock.seconds();

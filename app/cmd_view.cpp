@@ -53,30 +53,6 @@ struct ViewArguments {
   bool quiet = false;
 };
 
-/// The tissue model options of a scene (the same mapping as `tsf simulate`'s interactive run).
-interaction::TissueModelOptions scene_model_options(const Scene& scene) {
-  interaction::TissueModelOptions o;
-  const bool box = scene.lattice.source == SceneLattice::Source::kBox;
-  o.surface.iso = static_cast<float>(scene.tissue.iso);
-  o.surface.snap_epsilon = static_cast<float>(scene.tissue.merge_epsilon);
-  o.lattice.node_spacing_voxels =
-      box ? scene.tissue.voxels_per_node : scene.lattice.node_spacing_voxels;
-  o.lattice.occupancy_threshold =
-      box ? 0.125f : static_cast<float>(scene.lattice.occupancy_threshold);
-  o.lattice.mass_floor = static_cast<float>(scene.lattice.mass_floor);
-  o.lattice.density_g_per_mm3 = scene.solver.materials.at(0).density_g_per_mm3;
-  o.deletion_threshold = static_cast<float>(scene.tissue.deletion_threshold);
-  o.solver = scene.solver;
-  o.dt_s = scene.dt_s;
-  o.dt_safety = scene.dt_safety;
-  o.coupler_mode = scene.tissue.coupler;
-  o.removal.strength = static_cast<float>(scene.tissue.removal_strength);
-  o.removal.falloff_mm = scene.tissue.falloff_mm;
-  o.min_blade_thickness_voxels = scene.tissue.min_blade_thickness_voxels;
-  o.contact_passes_per_advance = scene.tissue.contact_passes;
-  return o;
-}
-
 /// Tools for a bare volume: a ball, an ablation wand and a scalpel (sizes of the shipped scenes).
 std::vector<viewer::NamedTool> default_tools() {
   std::vector<viewer::NamedTool> tools(3);
@@ -197,9 +173,7 @@ void run_view(const ViewArguments& args) {
   std::unique_ptr<interaction::TissueModel> model;
   Stopwatch setup;
   if (scene) {
-    interaction::TissueModelOptions mo = scene_model_options(*scene);
-    auto held = std::make_shared<Scene>(*scene);
-    mo.anchor = [held](crms::Lattice& l) { apply_scene_anchors(l, *held); };
+    const interaction::TissueModelOptions mo = tissue_model_options(*scene);
     model = std::make_unique<interaction::TissueModel>(scene_tissue_volume(*scene), mo);
   } else {
 #ifdef TSF_HAVE_IMPORT

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -117,9 +118,7 @@ VoxelVolume scene_tissue_volume(const Scene& scene) {
 #endif
 }
 
-json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run) {
-  Stopwatch setup_clock;
-  const Scene* sc = &scene;
+interaction::TissueModelOptions tissue_model_options(const Scene& scene) {
   interaction::TissueModelOptions o;
   o.surface.iso = static_cast<float>(scene.tissue.iso);
   o.surface.snap_epsilon = static_cast<float>(scene.tissue.merge_epsilon);
@@ -140,7 +139,15 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
   o.removal.falloff_mm = scene.tissue.falloff_mm;
   o.min_blade_thickness_voxels = scene.tissue.min_blade_thickness_voxels;
   o.contact_passes_per_advance = scene.tissue.contact_passes;
-  o.anchor = [sc](crms::Lattice& l) { apply_scene_anchors(l, *sc); };
+  // The options own a copy of the scene for the anchors: they may outlive the caller's scene.
+  auto held = std::make_shared<const Scene>(scene);
+  o.anchor = [held](crms::Lattice& l) { apply_scene_anchors(l, *held); };
+  return o;
+}
+
+json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run) {
+  Stopwatch setup_clock;
+  const interaction::TissueModelOptions o = tissue_model_options(scene);
 
   VoxelVolume volume = scene_tissue_volume(scene);
   const VolumeGeometry vg = volume.geometry();

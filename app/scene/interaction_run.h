@@ -13,6 +13,7 @@
 
 #include "scene/scene.h"
 #include "tsf/crms/lattice.h"
+#include "tsf/interaction/tissue_model.h"
 #include "tsf/volume/voxel_volume.h"
 
 namespace tsf::app {
@@ -32,6 +33,12 @@ void apply_scene_anchors(crms::Lattice& lattice, const Scene& scene);
 /// tissue.voxels_per_node (density ramp over half a voxel, so the iso-surface is the box), or the
 /// density volume file (needs ITK), cropped to lattice.crop.
 VoxelVolume scene_tissue_volume(const Scene& scene);
+
+/// The tissue model a scene asks for: surface (iso, merging), lattice (spacing, occupancy, mass
+/// floor), solver and materials, time step, coupler, removal by tools, contact passes, and the
+/// scene's anchors (from a copy of the scene the options own). One mapping for `tsf simulate`,
+/// `tsf view` and `tsf haptics`.
+interaction::TissueModelOptions tissue_model_options(const Scene& scene);
 
 /// Plays the script and writes the outputs; returns the report (also written when asked).
 /// Throws tsf::Error on bad input or an unstable simulation (after writing what it has).
