@@ -1,12 +1,18 @@
 // `tsf simulate SCENE --steps N --report OUT.json`: runs a scene's CRMS lattice headless and
 // reports energy over time, step rate, the stable-dt estimate, any instability and the backend.
+// A scene with tissue, tools or a script runs interactively instead (scene/interaction_run.h):
+// the tissue model is built from voxels, the script's tools press, ablate and cut it frame by
+// frame, and the final deformed, cut mesh and a JSON report of the edits are written.
 #include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <memory>
 #include <string>
 
 #include "commands.h"
+#include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
@@ -54,19 +60,7 @@ crms::Lattice build_lattice(const Scene& scene) {
                 "-DTSF_WITH_ITK=ON); this build reads analytic boxes only");
 #endif
   }
-  for (const SceneAnchor& a : scene.anchors) {
-    switch (a.kind) {
-      case SceneAnchor::Kind::kBox:
-        crms::fix_nodes_in_box(lattice, a.min_mm, a.max_mm);
-        break;
-      case SceneAnchor::Kind::kPlane:
-        crms::fix_nodes_behind_plane(lattice, a.point_mm, a.normal);
-        break;
-      case SceneAnchor::Kind::kLabels:
-        crms::fix_nodes_with_labels(lattice, a.labels);
-        break;
-    }
-  }
+  apply_scene_anchors(lattice, scene);
   return lattice;
 }
 
@@ -79,8 +73,21 @@ json stable_json(const crms::StableTimeStep& s) {
           {"critical_node", s.critical_node}};
 }
 
-void run_simulate(const std::string& scene_path, std::int64_t steps_override,
-                  const std::string& report_path, const std::string& backend_override) {
+struct SimulateArguments {
+  std::string scene;
+  std::string report;
+  std::string backend;
+  std::string mesh;
+  std::int64_t steps = -1;
+  double duration_s = -1.0;
+  bool quiet = false;
+};
+
+void run_simulate(const SimulateArguments& args) {
+  const std::string& scene_path = args.scene;
+  const std::int64_t steps_override = args.steps;
+  const std::string& report_path = args.report;
+  const std::string& backend_override = args.backend;
   Scene scene = read_scene(scene_path);
   if (!backend_override.empty()) {
     if (backend_override == "cpu")
@@ -93,6 +100,19 @@ void run_simulate(const std::string& scene_path, std::int64_t steps_override,
       throw Error("--backend: expected cpu, cuda or auto, got '" + backend_override + "'");
     crms::validate_solver_config(scene.solver);
   }
+  if (scene.tissue.present) {
+    if (steps_override >= 0)
+      throw Error("--steps: this scene runs a script (tissue/tools/script); use --duration");
+    InteractionRunOptions run;
+    if (args.duration_s >= 0) run.duration_s = args.duration_s;
+    run.report = report_path;
+    run.mesh = args.mesh;
+    run.quiet = args.quiet;
+    run_interaction_scene(scene, run);
+    return;
+  }
+  if (args.duration_s >= 0 || !args.mesh.empty())
+    throw Error("--duration and --mesh need a scene with a script (tissue, tools, script)");
   const std::int64_t steps = steps_override >= 0 ? steps_override : scene.steps;
 
   Stopwatch setup_clock;
@@ -216,6 +236,10 @@ void run_simulate(const std::string& scene_path, std::int64_t steps_override,
   };
   if (!report_path.empty()) write_text_atomically(report_path, report.dump(2) + "\n");
 
+  if (args.quiet) {
+    if (solver.instability()) throw Error("unstable: " + solver.instability()->describe());
+    return;
+  }
   std::printf(
       "%s: %lld nodes (%lld alive, %lld fixed) on %s, %s, dt %.3g s (%.2f× the stable "
       "%.3g s)\n",
@@ -237,20 +261,31 @@ void run_simulate(const std::string& scene_path, std::int64_t steps_override,
 void add_simulate_command(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "simulate",
-      "Run a scene's mass-spring (CRMS) lattice headless and report energy, step rate, the "
-      "stable time step and any instability");
-  auto scene = std::make_shared<std::string>();
-  auto report = std::make_shared<std::string>();
-  auto backend = std::make_shared<std::string>();
-  auto steps = std::make_shared<std::int64_t>(-1);
-  sub->add_option("scene", *scene, "Scene file (YAML), e.g. scenes/beam.yaml")
+      "Run a scene headless: its mass-spring (CRMS) lattice (energy, step rate, stable time step, "
+      "instability), or, when the scene has tissue, tools or a script, the tools pressing, "
+      "ablating and cutting the tissue frame by frame (final deformed, cut mesh and a report)");
+  auto args = std::make_shared<SimulateArguments>();
+  sub->add_option("scene", args->scene, "Scene file (YAML), e.g. scenes/beam.yaml, scenes/cut-block.yaml")
       ->required()
       ->check(CLI::ExistingFile);
-  sub->add_option("--steps,-n", *steps, "Steps to run (default: the scene's solver.steps)")
+  sub->add_option("--steps,-n", args->steps, "Steps to run (default: the scene's solver.steps)")
       ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000'000}));
-  sub->add_option("--report,-r", *report, "Write a JSON report here (written atomically)");
-  sub->add_option("--backend", *backend, "Override the scene's backend: cpu, cuda or auto");
-  sub->callback([=] { run_simulate(*scene, *steps, *report, *backend); });
+  sub->add_option("--duration", args->duration_s,
+                  "Scripted scenes: seconds of script to play (default: the scene's "
+                  "script.duration)")
+      ->check(CLI::Range(0.0, 1e5));
+  sub->add_option("--report,-r", args->report,
+                  "Write a JSON report here (written atomically; overrides outputs.report)");
+  sub->add_option("--mesh,-o", args->mesh,
+                  "Scripted scenes: write the final deformed, cut mesh here (binary .ply; "
+                  "overrides outputs.mesh)");
+  sub->add_option("--backend", args->backend, "Override the scene's backend: cpu, cuda or auto");
+  sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
+  sub->callback([args] {
+    if (!args->mesh.empty() && std::filesystem::path(args->mesh).extension() != ".ply")
+      throw Error("--mesh: expected a .ply file name, got '" + args->mesh + "'");
+    run_simulate(*args);
+  });
 }
 
 }  // namespace tsf::app

@@ -20,7 +20,7 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev      # app
   libinsighttoolkit5-dev libgdcm-dev libgdcm-tools libdcmtk-dev                 # import, segment
   libvtk9-dev libtbb-dev xvfb xauth                                            # viewer
-  libassimp-dev                                                                # export
+  libassimp-dev zlib1g-dev nodejs                                              # export (nodejs runs the glTF validator in tests)
   gnuplot-nox                                                                  # report plots
 )
 

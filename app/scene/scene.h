@@ -3,7 +3,8 @@
 //
 // Every key is checked: an unknown key, a wrong type or an out-of-range value is an error naming
 // the file and the key path (`beam.yaml: lattice.spacing: expected a number > 0, got -1`).
-// Schema and examples: docs/crms.md ("Scenes"), scenes/*.yaml.
+// Schema and examples: docs/crms.md ("Scenes"), docs/deform-cut.md (tissue, tools, script,
+// outputs), scenes/*.yaml.
 #pragma once
 
 #include <cstdint>
@@ -12,7 +13,11 @@
 #include <vector>
 
 #include "tsf/common/vec3.h"
+#include "tsf/coupler/couple_vertex.h"
 #include "tsf/crms/solver_config.h"
+#include "tsf/interaction/tool.h"
+#include "tsf/interaction/trajectory.h"
+#include "tsf/volume/tool_shapes.h"
 
 namespace tsf::app {
 
@@ -28,6 +33,57 @@ struct SceneLattice {
   int node_spacing_voxels = 2;
   double occupancy_threshold = 0.125;
   double mass_floor = 0.5;
+  /// volume: region of interest, tissue-space mm (the voxels whose centres lie in the box).
+  bool cropped = false;
+  Vec3d crop_min_mm, crop_max_mm;
+};
+
+/// The interactive tissue (R1 voxels, R2 surface, coupler) that tools edit. Present when the
+/// scene has a `tissue`, `tools` or `script` section.
+struct SceneTissue {
+  bool present = false;
+  int voxels_per_node = 2;  ///< box lattices: voxels per node spacing (the voxel size)
+  double iso = 0.5;
+  double merge_epsilon = 0.1;
+  coupler::CouplerMode coupler = coupler::CouplerMode::kTrilinear;
+  double deletion_threshold = 0.125;
+  double min_blade_thickness_voxels = 2.0;
+  double removal_strength = 1.0;
+  double falloff_mm = -1.0;  ///< < 0: one voxel
+  int contact_passes = 2;
+};
+
+struct SceneTool {
+  std::string name;
+  interaction::Tool tool;
+};
+
+/// A tool's keyframed motion (interaction/trajectory.h).
+struct SceneTrajectory {
+  std::string tool;
+  std::vector<interaction::Keyframe> keyframes;
+};
+
+/// A one-off stroke at `time_s`: the tool moves from `from` to `to` in `mode`, then lifts.
+struct SceneEvent {
+  double time_s = 0;
+  std::string tool;
+  interaction::ToolMode mode = interaction::ToolMode::kCut;
+  ToolPose from, to;
+};
+
+struct SceneScript {
+  double frame_rate_hz = 60.0;  ///< display frames per second: one advance() per frame
+  double duration_s = -1.0;     ///< < 0: 0.1 s after the last keyframe or event
+  std::vector<SceneTrajectory> trajectories;
+  std::vector<SceneEvent> events;
+};
+
+/// Files an interaction run writes (relative paths resolve against the scene's folder).
+struct SceneOutputs {
+  std::filesystem::path mesh;       ///< final deformed, cut surface (binary PLY)
+  std::filesystem::path rest_mesh;  ///< the surface before the script (binary PLY)
+  std::filesystem::path report;     ///< JSON report
 };
 
 struct SceneAnchor {
@@ -63,6 +119,16 @@ struct Scene {
   std::vector<SceneAnchor> anchors;
   std::vector<SceneLoad> loads;
   SceneInitialState initial;
+  SceneTissue tissue;
+  std::vector<SceneTool> tools;
+  SceneScript script;
+  SceneOutputs outputs;
+
+  const SceneTool* find_tool(const std::string& tool_name) const {
+    for (const SceneTool& t : tools)
+      if (t.name == tool_name) return &t;
+    return nullptr;
+  }
 };
 
 /// Reads and validates a scene; relative paths inside it are resolved against its folder.

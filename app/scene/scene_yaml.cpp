@@ -9,6 +9,7 @@
 #include "scene/scene.h"
 #include "tsf/common/error.h"
 #include "tsf/volume/tissue_labels.h"
+#include "tsf/volume/tool_shapes.h"
 
 namespace tsf::app {
 namespace {
@@ -30,7 +31,11 @@ class Field {
 
   /// Child of a map; `allowed` lists every key this map may hold (checked once per map).
   Field operator[](const std::string& key) const {
-    return Field(node_[key], path_.empty() ? key : path_ + "." + key, file_);
+    const std::string path = path_.empty() ? key : path_ + "." + key;
+    // A child of an absent (or non-map) node is absent: yaml-cpp throws on lookups into an
+    // invalid node, and expect_keys() reports non-maps where they matter.
+    if (!defined() || !node_.IsMap()) return Field(YAML::Node(), path, file_);
+    return Field(node_[key], path, file_);
   }
   void expect_keys(std::initializer_list<const char*> allowed) const {
     if (!defined()) return;
@@ -131,12 +136,13 @@ std::uint8_t parse_label(const Field& f) {
 void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLattice& l) {
   if (!f.defined()) f.fail("is required");
   f.expect_keys({"source", "size", "spacing", "origin", "volume", "node_spacing_voxels",
-                 "occupancy_threshold", "mass_floor"});
+                 "occupancy_threshold", "mass_floor", "crop"});
   l.source = f["source"].choice(
       SceneLattice::Source::kBox,
       {{"box", SceneLattice::Source::kBox}, {"volume", SceneLattice::Source::kVolume}});
   if (l.source == SceneLattice::Source::kBox) {
-    for (const char* k : {"volume", "node_spacing_voxels", "occupancy_threshold", "mass_floor"})
+    for (const char* k :
+         {"volume", "node_spacing_voxels", "occupancy_threshold", "mass_floor", "crop"})
       if (f[k].defined()) f[k].fail("only for source: volume");
     if (!f["size"].defined()) f["size"].fail("is required for source: box");
     l.size_mm = f["size"].vec3({});
@@ -157,6 +163,16 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
     l.node_spacing_voxels = static_cast<int>(f["node_spacing_voxels"].integer(2, 1, 64));
     l.occupancy_threshold = f["occupancy_threshold"].number(0.125, 0.0, 1.0, true);
     l.mass_floor = f["mass_floor"].number(0.5, 0.0, 1.0);
+    const Field crop = f["crop"];
+    if (crop.defined()) {
+      crop.expect_keys({"min", "max"});
+      if (!crop["min"].defined() || !crop["max"].defined()) crop.fail("needs min and max (mm)");
+      l.cropped = true;
+      l.crop_min_mm = crop["min"].vec3({});
+      l.crop_max_mm = crop["max"].vec3({});
+      for (int a = 0; a < 3; ++a)
+        if (!(l.crop_max_mm[a] > l.crop_min_mm[a])) crop["max"].fail("must exceed min on every axis");
+    }
   }
 }
 
@@ -260,6 +276,194 @@ void read_loads(const Field& f, std::vector<SceneLoad>& loads) {
   }
 }
 
+
+void read_tissue(const Field& f, SceneTissue& t) {
+  if (!f.defined()) return;
+  t.present = true;
+  f.expect_keys({"voxels_per_node", "iso", "merge_epsilon", "coupler", "deletion_threshold",
+                 "min_blade_thickness_voxels", "removal", "contact_passes"});
+  t.voxels_per_node = static_cast<int>(f["voxels_per_node"].integer(2, 1, 16));
+  t.iso = f["iso"].number(0.5, 0.0, 1.0, true);
+  t.merge_epsilon = f["merge_epsilon"].number(0.1, 0.0, 0.49);
+  t.coupler = f["coupler"].choice(coupler::CouplerMode::kTrilinear,
+                                  {{"trilinear", coupler::CouplerMode::kTrilinear},
+                                   {"local-frame", coupler::CouplerMode::kLocalFrame}});
+  t.deletion_threshold = f["deletion_threshold"].number(0.125, 0.0, 1.0, true);
+  t.min_blade_thickness_voxels = f["min_blade_thickness_voxels"].number(2.0, 0.0, 100.0);
+  const Field r = f["removal"];
+  r.expect_keys({"strength", "falloff"});
+  t.removal_strength = r["strength"].number(1.0, 0.0, 1.0);
+  t.falloff_mm = r["falloff"].is_auto() ? -1.0 : r["falloff"].number(-1.0, 0.0, 100.0);
+  t.contact_passes = static_cast<int>(f["contact_passes"].integer(2, 1, 1000));
+}
+
+Rotation read_rotation(const Field& f) {
+  if (!f.defined()) return {};
+  f.expect_keys({"axis", "angle_deg", "quaternion"});
+  if (f["quaternion"].defined()) {
+    if (f["axis"].defined() || f["angle_deg"].defined())
+      f.fail("give either quaternion or axis + angle_deg, not both");
+    const Field q = f["quaternion"];
+    if (q.size() != 4) q.fail("expected a list of 4 numbers [w, x, y, z]");
+    const Rotation r{q.at(0).number(), q.at(1).number(), q.at(2).number(), q.at(3).number()};
+    if (!(r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z > 1e-12)) q.fail("must not be zero");
+    return r.normalized();
+  }
+  if (!f["axis"].defined() || !f["angle_deg"].defined())
+    f.fail("needs axis and angle_deg (or quaternion)");
+  const Vec3d axis = f["axis"].vec3({});
+  if (!(length_squared(axis) > 0)) f["axis"].fail("must not be zero");
+  const double angle = f["angle_deg"].number(0.0, -36000.0, 36000.0);
+  return Rotation::about_axis(axis, angle * 3.14159265358979323846 / 180.0);
+}
+
+ToolPose read_pose(const Field& f) {
+  if (!f.defined()) f.fail("is required (position, optional rotation)");
+  f.expect_keys({"position", "rotation"});
+  if (!f["position"].defined()) f["position"].fail("is required ([x, y, z] mm)");
+  return {f["position"].vec3({}), read_rotation(f["rotation"])};
+}
+
+interaction::ToolMode read_mode(const Field& f) {
+  return f.choice(interaction::ToolMode::kPress, {{"press", interaction::ToolMode::kPress},
+                                                  {"ablate", interaction::ToolMode::kAblate},
+                                                  {"cut", interaction::ToolMode::kCut},
+                                                  {"idle", interaction::ToolMode::kIdle}});
+}
+
+void read_tools(const Field& f, std::vector<SceneTool>& tools) {
+  if (!f.defined()) return;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const Field t = f.at(i);
+    t.expect_keys({"name", "shape", "radius", "length", "size"});
+    SceneTool tool;
+    if (!t["name"].defined()) t["name"].fail("is required");
+    tool.name = t["name"].text();
+    for (const SceneTool& other : tools)
+      if (other.name == tool.name) t["name"].fail("'" + tool.name + "' is used twice");
+    using collision::ToolShape;
+    if (!t["shape"].defined()) t["shape"].fail("is required (sphere, capsule or blade)");
+    tool.tool.shape = t["shape"].choice(ToolShape::kSphere, {{"sphere", ToolShape::kSphere},
+                                                             {"capsule", ToolShape::kCapsule},
+                                                             {"blade", ToolShape::kBlade}});
+    const bool round = tool.tool.shape != ToolShape::kBlade;
+    if (round) {
+      if (!t["radius"].defined()) t["radius"].fail("is required for a sphere or capsule (mm)");
+      if (t["size"].defined()) t["size"].fail("only for a blade");
+      tool.tool.radius_mm = t["radius"].number(1.0, 0.0, 1e3, true);
+    } else {
+      if (t["radius"].defined()) t["radius"].fail("not for a blade (use size)");
+      if (!t["size"].defined()) t["size"].fail("is required for a blade: [length, depth, thickness] mm");
+      const Vec3d size = t["size"].vec3({});
+      for (int a = 0; a < 3; ++a)
+        if (!(size[a] > 0 && size[a] <= 2e3)) t["size"].fail("each must be in (0, 2000] mm");
+      tool.tool.half_extents_mm = size * 0.5;
+    }
+    if (tool.tool.shape == ToolShape::kCapsule) {
+      if (!t["length"].defined()) t["length"].fail("is required for a capsule (its axis, mm)");
+      tool.tool.half_length_mm = 0.5 * t["length"].number(0.0, 0.0, 2e3);
+    } else if (t["length"].defined()) {
+      t["length"].fail("only for a capsule");
+    }
+    tools.push_back(tool);
+  }
+}
+
+void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScript& s) {
+  if (!f.defined()) return;
+  f.expect_keys({"frame_rate", "duration", "trajectories", "events"});
+  s.frame_rate_hz = f["frame_rate"].number(60.0, 0.0, 1e4, true);
+  s.duration_s = f["duration"].defined() ? f["duration"].number(0.0, 0.0, 1e5) : -1.0;
+  auto tool_of = [&](const Field& name) -> const SceneTool& {
+    if (!name.defined()) name.fail("is required (a name from tools)");
+    const std::string n = name.text();
+    for (const SceneTool& t : tools)
+      if (t.name == n) return t;
+    name.fail("no tool named '" + n + "' in tools");
+  };
+  const Field trs = f["trajectories"];
+  if (trs.defined()) {
+    for (std::size_t i = 0; i < trs.size(); ++i) {
+      const Field tr = trs.at(i);
+      tr.expect_keys({"tool", "keyframes"});
+      SceneTrajectory out;
+      const SceneTool& tool = tool_of(tr["tool"]);
+      out.tool = tool.name;
+      const Field keys = tr["keyframes"];
+      if (!keys.defined() || keys.size() == 0) keys.fail("needs at least one keyframe");
+      for (std::size_t k = 0; k < keys.size(); ++k) {
+        const Field key = keys.at(k);
+        key.expect_keys({"time", "position", "rotation", "mode"});
+        interaction::Keyframe kf;
+        if (!key["time"].defined()) key["time"].fail("is required (s)");
+        kf.time_s = key["time"].number(0.0, 0.0, 1e5);
+        if (!out.keyframes.empty() && !(kf.time_s > out.keyframes.back().time_s))
+          key["time"].fail("must be later than the previous keyframe's");
+        if (!key["position"].defined()) key["position"].fail("is required ([x, y, z] mm)");
+        kf.pose.position = key["position"].vec3({});
+        kf.pose.orientation = read_rotation(key["rotation"]);
+        if (!key["mode"].defined()) key["mode"].fail("is required (press, ablate, cut or idle)");
+        kf.mode = read_mode(key["mode"]);
+        if (!tool.tool.supports(kf.mode))
+          key["mode"].fail(std::string("tool '") + tool.name + "' (a " +
+                           interaction::to_string(tool.tool.shape) + ") cannot " +
+                           interaction::to_string(kf.mode) + " (ablate: sphere or capsule; cut: blade)");
+        out.keyframes.push_back(kf);
+      }
+      // One tool at a time: trajectories may not overlap in time.
+      for (std::size_t j = 0; j < s.trajectories.size(); ++j) {
+        const auto& o = s.trajectories[j].keyframes;
+        if (out.keyframes.front().time_s <= o.back().time_s &&
+            o.front().time_s <= out.keyframes.back().time_s)
+          tr.fail("overlaps trajectories[" + std::to_string(j) +
+                  "] in time: one tool moves at a time");
+      }
+      s.trajectories.push_back(out);
+    }
+  }
+  const Field evs = f["events"];
+  if (evs.defined()) {
+    for (std::size_t i = 0; i < evs.size(); ++i) {
+      const Field ev = evs.at(i);
+      ev.expect_keys({"time", "tool", "mode", "from", "to"});
+      SceneEvent e;
+      if (!ev["time"].defined()) ev["time"].fail("is required (s)");
+      e.time_s = ev["time"].number(0.0, 0.0, 1e5);
+      const SceneTool& tool = tool_of(ev["tool"]);
+      e.tool = tool.name;
+      if (!ev["mode"].defined()) ev["mode"].fail("is required (ablate or cut)");
+      e.mode = read_mode(ev["mode"]);
+      if (e.mode != interaction::ToolMode::kAblate && e.mode != interaction::ToolMode::kCut)
+        ev["mode"].fail("an event ablates or cuts");
+      if (!tool.tool.supports(e.mode))
+        ev["mode"].fail(std::string("tool '") + tool.name + "' cannot " +
+                        interaction::to_string(e.mode));
+      e.from = read_pose(ev["from"]);
+      e.to = ev["to"].defined() ? read_pose(ev["to"]) : e.from;
+      s.events.push_back(e);
+    }
+  }
+}
+
+void read_outputs(const Field& f, const std::filesystem::path& folder, SceneOutputs& o) {
+  if (!f.defined()) return;
+  f.expect_keys({"mesh", "rest_mesh", "report"});
+  auto path = [&](const Field& p) -> std::filesystem::path {
+    if (!p.defined()) return {};
+    std::filesystem::path out = p.text();
+    if (out.is_relative()) out = folder / out;
+    return out;
+  };
+  o.mesh = path(f["mesh"]);
+  o.rest_mesh = path(f["rest_mesh"]);
+  o.report = path(f["report"]);
+  for (const char* k : {"mesh", "rest_mesh"})
+    if (f[k].defined() && std::filesystem::path(f[k].text()).extension() != ".ply")
+      f[k].fail("expected a .ply file name");
+  if (f["report"].defined() && std::filesystem::path(f["report"].text()).extension() != ".json")
+    f["report"].fail("expected a .json file name");
+}
+
 }  // namespace
 
 Scene read_scene(const std::filesystem::path& file) {
@@ -275,7 +479,7 @@ Scene read_scene(const std::filesystem::path& file) {
   const Field top(root, "", &name);
   if (!top.defined()) top.fail("the scene is empty");
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
-                   "loads", "initial"});
+                   "loads", "initial", "tissue", "tools", "script", "outputs"});
   Scene s;
   s.file = file;
   s.name = top["name"].defined() ? top["name"].text() : file.stem().string();
@@ -298,6 +502,12 @@ Scene read_scene(const std::filesystem::path& file) {
         init["scale"].fail("each factor must be in (0.01, 100]");
     s.initial.about_mm = init["about"].vec3({0, 0, 0});
   }
+  read_tissue(top["tissue"], s.tissue);
+  read_tools(top["tools"], s.tools);
+  read_script(top["script"], s.tools, s.script);
+  read_outputs(top["outputs"], file.parent_path(), s.outputs);
+  if (!s.tools.empty() || top["script"].defined()) s.tissue.present = true;
+  if (top["script"].defined() && s.tools.empty()) top["script"].fail("needs tools");
   // Cross-field checks with the library's own messages (they name material.* fields).
   try {
     crms::validate_solver_config(s.solver);

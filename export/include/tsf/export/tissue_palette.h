@@ -1,0 +1,31 @@
+// Colours and material names of tissue labels in exported files.
+//
+// Colours are the display colours of tsf's own PLY writer (imt::label_colour, 8-bit sRGB):
+//   1 soft-tissue (214,150,140)  2 mucosa (232,120,130)  3 fat (240,215,130)
+//   4 cartilage (170,200,230)    5 cancellous-bone (225,215,190)  6 cortical-bone (245,240,225)
+//   7 tumour (150,90,160)        64 vessel (200,40,40)   65 nerve (240,220,60)
+//   any other label: a stable hash colour with channels in [80, 240)
+// glTF stores colours linearly (COLOR_0, baseColorFactor), so they go through the sRGB transfer
+// function inverse there; OBJ, PLY and FBX get the 8-bit sRGB values (scaled to [0,1]).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+namespace tsf::exporter {
+
+/// 8-bit sRGB display colour of `label`.
+std::array<std::uint8_t, 3> tissue_colour_srgb(std::uint8_t label);
+
+/// The same colour as linear RGB in [0,1] (IEC 61966-2-1 inverse transfer function).
+std::array<float, 3> tissue_colour_linear(std::uint8_t label);
+
+/// sRGB-encoded 8-bit channel -> linear [0,1].
+float srgb_to_linear(std::uint8_t channel);
+
+/// Material / node name of a tissue: tissue_label_name for named labels ("mucosa",
+/// "cortical-bone"), "<range>-<number>" for the others ("overlay-66", "user-130", "tissue-9").
+std::string tissue_material_name(std::uint8_t label);
+
+}  // namespace tsf::exporter

@@ -1,0 +1,142 @@
+// `tsf simulate` on the shipped cutting scenes, end to end: the scripted tools run, the final
+// deformed, cut mesh is a closed manifold PLY, the report counts what happened, and a typo in a
+// scene's tools or script names its key path.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "support/test_data.h"
+#include "tsf/imt/mesh_topology.h"
+#include "tsf/imt/surface_ply.h"
+
+namespace tsf {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path tsf_executable() {
+  char buf[4096];
+  const ssize_t n = readlink("/proc/self/exe", buf, sizeof(buf) - 1);
+  if (n <= 0) return {};
+  buf[n] = 0;
+  return fs::path(buf).parent_path().parent_path() / "bin" / "tsf";
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream f(p);
+  return nlohmann::json::parse(f);
+}
+
+void expect_closed_mesh(const fs::path& ply, std::size_t min_triangles) {
+  ASSERT_TRUE(fs::exists(ply)) << ply;
+  const imt::SurfaceMesh m = imt::read_surface_ply(ply);
+  EXPECT_GT(m.triangle_count(), min_triangles);
+  EXPECT_TRUE(imt::analyse_topology(m).closed_oriented_manifold()) << ply;
+}
+
+TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
+  const fs::path exe = tsf_executable();
+  if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
+  const fs::path dir = test::scratch_dir("cut-block-scene");
+  const fs::path scene = test::source_dir() / "scenes" / "cut-block.yaml";
+  const std::string cmd = exe.string() + " simulate " + scene.string() +
+                          " --backend cpu -q --mesh " + (dir / "final.ply").string() +
+                          " --report " + (dir / "report.json").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  expect_closed_mesh(dir / "final.ply", 10000);
+  const nlohmann::json r = read_json(dir / "report.json");
+  EXPECT_EQ(r.at("lattice").at("components_start").get<int>(), 1);
+  // The blade cut the end off: two big pieces. The block sags, so the world-vertical cut is
+  // slanted in rest space and may strand a few nodes of nearly emptied cells in the kerf
+  // (debris that falls); they carry no surface of their own.
+  const auto sizes = r.at("lattice").at("component_sizes_end").get<std::vector<int>>();
+  ASSERT_GE(sizes.size(), 2u);
+  const int alive = r.at("lattice").at("alive_nodes_end").get<int>();
+  EXPECT_GT(sizes[1], alive / 10) << "the free end";
+  EXPECT_GT(sizes[0] + sizes[1], alive * 95 / 100) << "debris must stay a few nodes";
+  EXPECT_GE(r.at("lattice").at("free_components_end").get<int>(), 1);
+  EXPECT_EQ(r.at("surface").at("components_end").get<int>(), 2);
+  EXPECT_TRUE(r.at("surface").at("closed_manifold_end").get<bool>());
+  EXPECT_GT(r.at("totals").at("removed_mm3").get<double>(), 50.0) << "the wand ablated";
+  EXPECT_GT(r.at("totals").at("springs_broken").get<int>(), 0);
+  EXPECT_GT(r.at("max_tool_force_un").get<double>(), 0.0) << "the ball pressed";
+  EXPECT_FALSE(r.at("edits").empty());
+  EXPECT_TRUE(r.at("instability").is_null());
+}
+
+TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
+  const fs::path exe = tsf_executable();
+  if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
+  const fs::path dir = test::scratch_dir("cut-cranium-scene");
+  const std::string segment = exe.string() + " segment " +
+                              (test::samples_dir() / "ct-head-cranium" / "cranium.nrrd").string() +
+                              " --preset sinus --no-preview -q -o " + (dir / "cranium").string();
+  ASSERT_EQ(std::system(segment.c_str()), 0) << segment;
+  // The shipped scene, pointed at this segmentation.
+  std::string text = read_text(test::source_dir() / "scenes" / "cut-cranium.yaml");
+  text = std::regex_replace(text, std::regex("volume: \\.\\./out/cranium-density\\.nrrd"),
+                            "volume: " + (dir / "cranium-density.nrrd").string());
+  text = std::regex_replace(text, std::regex("\\.\\./out/"), dir.string() + "/");
+  const fs::path scene = dir / "cut-cranium.yaml";
+  std::ofstream(scene) << text;
+  // Long enough for the press, the ablation and the cut (at 11 ms).
+  const std::string cmd = exe.string() + " simulate " + scene.string() +
+                          " --backend cpu -q --duration 0.012";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  expect_closed_mesh(dir / "cut-cranium.ply", 100000);
+  expect_closed_mesh(dir / "cut-cranium-rest.ply", 100000);
+  const nlohmann::json r = read_json(dir / "cut-cranium.json");
+  EXPECT_GT(r.at("lattice").at("free_components_end").get<int>(), 0) << "the nose tip is free";
+  EXPECT_GT(r.at("totals").at("nodes_deleted").get<int>(), 0);
+  EXPECT_GT(r.at("totals").at("removed_mm3").get<double>(), 100.0);
+  EXPECT_TRUE(r.at("surface").at("closed_manifold_end").get<bool>());
+}
+
+TEST(CutScenes, SceneTyposNameTheirKeyPath) {
+  const fs::path exe = tsf_executable();
+  if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
+  const fs::path dir = test::scratch_dir("cut-scene-errors");
+  const std::string base = read_text(test::source_dir() / "scenes" / "cut-block.yaml");
+  struct Case {
+    std::string from, to, expect;
+  };
+  for (const Case& c :
+       {Case{"    radius: 3\n", "    radius: 3\n    radios: 2\n", "tools[0].radios: unknown key"},
+        Case{"mode: press}", "mode: slice}", "script.trajectories[0].keyframes[0].mode"},
+        Case{"      mode: cut\n", "      mode: ablate\n", "script.events[0].mode"},
+        Case{"  - tool: wand ", "  - tool: knife ", "script.trajectories[1].tool"},
+        Case{"{time: 0.02, position", "{time: 0.0, position",
+             "script.trajectories[0].keyframes[1].time"}}) {
+    std::string text = base;
+    const auto at = text.find(c.from);
+    ASSERT_NE(at, std::string::npos) << c.from;
+    text.replace(at, c.from.size(), c.to);
+    const fs::path scene = dir / "bad.yaml";
+    std::ofstream(scene) << text;
+    const fs::path err = dir / "err.txt";
+    const std::string cmd = exe.string() + " simulate " + scene.string() + " -q 2> " + err.string();
+    EXPECT_NE(std::system(cmd.c_str()), 0) << c.to;
+    const std::string message = read_text(err);
+    EXPECT_NE(message.find(c.expect), std::string::npos) << "expected '" << c.expect
+                                                           << "' in: " << message;
+  }
+}
+
+}  // namespace
+}  // namespace tsf

@@ -1,0 +1,193 @@
+// The interactive tissue: the four representations of DESIGN.md as one object, and the tools that
+// press, ablate and cut it.
+//
+//   R1 VoxelVolume      what edits change (rest space)
+//   R2 ImtSurface       its render surface, re-meshed where R1 changed (rest space)
+//   R3 crms::Solver     the mass-spring lattice, one node per k³ voxels
+//   Coupler             R2's vertices through R3's deformation: the deformed render buffer
+//
+//   TissueModel model(std::move(volume), options);
+//   model.apply_tool(tool, pose, ToolMode::kPress);   // pose in the deformed world
+//   model.advance(1.0 / 60);                          // one display frame of simulation
+//   model.coupler().positions();                      // deformed vertices, by IMT slot
+//   model.contact().force_un;                         // what the tool feels
+//
+// An edit (ablate, cut) runs through every layer at once: the tool pose is mapped into rest
+// space through the lattice (rest_space_map.h); the voxels change (volume_edits.h,
+// swept_ablation.h); the IMT surface re-meshes the changed cubes; lattice nodes whose cells fell
+// below the deletion threshold are deleted and springs whose voxels were cut through are broken
+// (lattice_topology_edit.h); the coupler re-binds the vertices that changed and those of cubes
+// whose nodes changed, and couples them, so the render buffer is current when apply_tool returns.
+// Pieces that no longer connect to an anchor fall under gravity.
+//
+// Threading: one thread owns the model (the simulation thread) and calls everything that is not
+// marked otherwise. latest_contact() may be called from any thread (haptics) and never blocks the
+// owner for longer than a copy of ContactForce; solver().snapshots() serves node positions to
+// other threads (crms/snapshot_buffer.h). Render buffers are read by the owner between calls, or
+// copied by it for a render thread (coupler's block versions say what changed).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tsf/collision/node_gatherer.h"
+#include "tsf/collision/tool_contact.h"
+#include "tsf/coupler/coupler.h"
+#include "tsf/coupler/vertex_binder.h"
+#include "tsf/crms/lattice_builders.h"
+#include "tsf/crms/solver.h"
+#include "tsf/imt/imt_surface.h"
+#include "tsf/interaction/rest_space_map.h"
+#include "tsf/interaction/tool.h"
+#include "tsf/interaction/tool_stroke.h"
+#include "tsf/volume/volume_edits.h"
+#include "tsf/volume/voxel_volume.h"
+
+namespace tsf::interaction {
+
+struct TissueModelOptions {
+  imt::SurfaceOptions surface;
+  double surface_headroom = 0.5;  ///< spare IMT slots (ImtSurface)
+  /// Lattice from the volume: node spacing k voxels, creation threshold, mass floor, density,
+  /// labels to anchor.
+  crms::VolumeLatticeOptions lattice;
+  /// A node is deleted when its cell's occupancy drops below this, in (0, 1].
+  float deletion_threshold = 0.125f;
+  crms::SolverConfig solver;
+  double dt_s = 0.0;      ///< solver step, s; 0 = dt_safety × the stable estimate
+  double dt_safety = 0.9;
+  coupler::CouplerMode coupler_mode = coupler::CouplerMode::kTrilinear;
+  RemovalOptions removal;  ///< strength, fall-off and per-label rates of ablation and cuts
+  /// A blade thinner than this many voxels cuts this wide, ≥ 0. A one-voxel slab is not enough:
+  /// its voxel keeps ~0.16 density, the BCC body centres beside it average to the iso-level and
+  /// IMT reconnects the two sides through them; two voxels clear the slab.
+  double min_blade_thickness_voxels = 2.0;
+  /// Contact passes per advance() while pressing (the steps are split between them), ≥ 1.
+  int contact_passes_per_advance = 2;
+  collision::ContactOptions contact;
+  /// Extra anchors applied to the lattice before the solver is made (scene anchors).
+  std::function<void(crms::Lattice&)> anchor;
+
+  /// Throws tsf::Error naming the field when a value is out of range.
+  void validate() const;
+};
+
+/// One apply_tool call: what changed and what each layer cost.
+struct EditReport {
+  ToolMode mode = ToolMode::kIdle;
+  bool edited = false;          ///< voxels changed
+  bool tissue_near = false;     ///< nodes were found near the tool (else nothing to edit)
+  VoxelBox changed_voxels{};
+  double removed_mm3 = 0;       ///< tissue removed (Σ density drop × voxel volume)
+  std::size_t nodes_deleted = 0;
+  std::size_t springs_broken = 0;
+  std::size_t vertices_rebound = 0;
+  std::size_t vertices_rebound_for_topology = 0;  ///< of which only because their cube's nodes changed
+  std::size_t vertices_added = 0, vertices_freed = 0, triangles_changed = 0;
+  double map_us = 0;       ///< tool pose → rest space (gather + Newton)
+  double edit_us = 0;      ///< voxel edit (with the density snapshot)
+  double remesh_us = 0;    ///< IMT update + change list
+  double topology_us = 0;  ///< lattice deletions and broken springs
+  double rebind_us = 0;    ///< coupler re-binding
+  double couple_us = 0;    ///< coupling the re-bound vertices
+  double total_us = 0;     ///< apply_tool end to end: edit → render buffer
+  collision::ContactForce contact;  ///< press mode: the contact resolved at the new pose
+};
+
+struct AdvanceReport {
+  std::int64_t steps = 0;
+  double simulated_s = 0;
+  double step_us = 0, contact_us = 0, couple_us = 0;
+  std::optional<crms::Instability> instability;
+};
+
+/// Running totals since construction.
+struct InteractionTotals {
+  std::size_t edits = 0;
+  double removed_mm3 = 0;
+  std::size_t nodes_deleted = 0;
+  std::size_t springs_broken = 0;
+  std::size_t vertices_rebound = 0;
+  std::int64_t steps = 0;
+  double simulated_s = 0;
+};
+
+class TissueModel {
+ public:
+  /// Builds R2 (full surfacing), R3 (lattice from the volume, anchors, solver) and binds the
+  /// coupler. Throws tsf::Error naming the option or the problem.
+  TissueModel(VoxelVolume volume, TissueModelOptions options);
+  ~TissueModel();
+  TissueModel(const TissueModel&) = delete;
+  TissueModel& operator=(const TissueModel&) = delete;
+
+  const TissueModelOptions& options() const { return options_; }
+  const VoxelVolume& volume() const { return volume_; }
+  const imt::ImtSurface& surface() const { return surface_; }
+  const crms::Solver& solver() const { return *solver_; }
+  crms::Solver& solver() { return *solver_; }
+  const coupler::Coupler& coupler() const { return *coupler_; }
+  double dt() const { return dt_; }
+  /// Per lattice node: 1 when anchored by the scene (labels, shapes).
+  const std::vector<std::uint8_t>& anchored() const { return anchored_; }
+
+  /// Moves `tool` to `pose` (deformed world) in `mode`. Ablate and cut sweep from the tool's
+  /// previous pose when the previous call used the same mode, else act at `pose` alone; press
+  /// resolves contacts at once. Throws tsf::Error when the tool cannot run the mode.
+  EditReport apply_tool(const Tool& tool, const ToolPose& pose, ToolMode mode);
+  /// Lifts the tool: releases what it holds and forgets its previous pose.
+  void release_tool();
+
+  /// Simulates `dt_display` seconds (whole solver steps, at least one), resolving contacts of a
+  /// pressing tool between step batches, then couples the render buffer.
+  AdvanceReport advance(double dt_display);
+  /// Couples every vertex from the current lattice state (advance() does it).
+  void couple();
+
+  /// The contact of the pressing tool after the last apply_tool/advance (zero when none).
+  const collision::ContactForce& contact() const { return contact_; }
+  /// Copy of the latest contact, safe from any thread.
+  collision::ContactForce latest_contact() const;
+
+  /// Maps a deformed-world point to rest space (nodes within `search_mm` are considered).
+  RestPoint map_to_rest(const Vec3d& world, double search_mm);
+
+  /// The surface as it looks now: IMT topology with the coupled positions and normals.
+  imt::SurfaceMesh deformed_mesh() const;
+  /// Number of lattice components (alive nodes joined by intact springs). O(nodes).
+  std::size_t lattice_components() const;
+  const InteractionTotals& totals() const { return totals_; }
+  std::int64_t alive_nodes() const { return solver_->lattice().alive_count(); }
+
+ private:
+  EditReport edit(const Tool& tool, const collision::WorldTool& from,
+                  const collision::WorldTool& to, ToolMode mode);
+  void publish_contact(const collision::ContactForce& c);
+
+  TissueModelOptions options_;
+  VoxelVolume volume_;
+  imt::ImtSurface surface_;
+  std::unique_ptr<crms::Solver> solver_;
+  std::unique_ptr<coupler::Coupler> coupler_;
+  std::unique_ptr<collision::NodeGatherer> gatherer_;
+  std::unique_ptr<collision::ToolContact> contact_resolver_;
+  std::vector<std::uint8_t> anchored_;
+  double dt_ = 0;
+  // The tool in use: its pose and mode of the last apply_tool.
+  std::optional<collision::WorldTool> last_tool_;
+  ToolMode last_mode_ = ToolMode::kIdle;
+  Tool last_tool_spec_;
+  ToolStroke stroke_;
+  collision::ContactForce contact_;
+  mutable std::mutex contact_mutex_;
+  collision::ContactForce shared_contact_;
+  InteractionTotals totals_;
+  collision::NodeNeighbourhood nb_;
+};
+
+}  // namespace tsf::interaction

@@ -1,0 +1,200 @@
+// Collision queries on the GPU (collision_device.h). The gather kernel runs node_in_tool() — the
+// same TSF_HD test the CPU path runs on its broad-phase candidates — on every alive node inside
+// the query box and appends hits with an atomic counter; the host sorts them by node so both
+// backends return the same order. The force kernel calls crms::spring_force<F> on listed nodes.
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "collision_device.h"
+#include "tsf/common/cuda_check.h"
+#include "tsf/common/cuda_support.h"
+#include "tsf/common/error.h"
+#include "tsf/crms/effects.h"
+#include "tsf/crms/node_force.h"
+#include "tsf/crms/stencil.h"
+
+namespace tsf::collision {
+namespace {
+
+template <typename T>
+class DeviceArray {
+ public:
+  DeviceArray() = default;
+  DeviceArray(const DeviceArray&) = delete;
+  DeviceArray& operator=(const DeviceArray&) = delete;
+  ~DeviceArray() {
+    if (data_) cudaFree(data_);
+  }
+  void allocate(std::size_t count) {
+    if (count <= capacity_ && data_) return;
+    if (data_) cudaFree(data_);
+    data_ = nullptr;
+    capacity_ = 0;
+    TSF_CUDA_CHECK(
+        cudaMalloc(reinterpret_cast<void**>(&data_), std::max<std::size_t>(count, 1) * sizeof(T)));
+    capacity_ = count;
+  }
+  T* get() const { return data_; }
+  std::size_t capacity() const { return capacity_; }
+
+ private:
+  T* data_ = nullptr;
+  std::size_t capacity_ = 0;
+};
+
+struct GatherHit {
+  long long node;
+  Vec3f u;
+  Vec3f target;
+  Vec3f normal;
+  int inside;
+};
+
+__global__ void gather_kernel(coupler::DeformedLatticeView lat, Vec3f lo, Vec3f hi, WorldTool tool,
+                              int has_tool, GatherHit* hits, unsigned long long capacity,
+                              unsigned long long* counter) {
+  const long long n = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const long long count = lat.dims.volume();
+  if (n >= count) return;
+  if (!lat.alive(n)) return;
+  const int i = static_cast<int>(n % lat.dims.x);
+  const int j = static_cast<int>((n / lat.dims.x) % lat.dims.y);
+  const int k = static_cast<int>(n / (static_cast<long long>(lat.dims.x) * lat.dims.y));
+  const Vec3f u = lat.displacement(n);
+  const Vec3f p = lat.rest(i, j, k) + u;
+  if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z) return;
+  GatherHit h;
+  h.node = n;
+  h.u = u;
+  h.target = Vec3f{0, 0, 0};
+  h.normal = Vec3f{0, 0, 0};
+  h.inside = has_tool ? (node_in_tool(tool, p, h.target, h.normal) ? 1 : 0) : 0;
+  const unsigned long long slot = atomicAdd(counter, 1ull);
+  if (slot < capacity) hits[slot] = h;
+}
+
+template <unsigned F>
+__global__ void spring_force_kernel(crms::LatticeView lat, crms::ConstStateView st,
+                                    crms::MaterialPalette palette, const long long* nodes,
+                                    int count, Vec3f* forces) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const long long n = nodes[t];
+  if (n < 0 || n >= lat.count || !(lat.flags[n] & crms::kAliveBit)) {
+    forces[t] = Vec3f{0, 0, 0};
+    return;
+  }
+  const int i = static_cast<int>(n % lat.dims.x);
+  const int j = static_cast<int>((n / lat.dims.x) % lat.dims.y);
+  const int k = static_cast<int>(n / (static_cast<long long>(lat.dims.x) * lat.dims.y));
+  const crms::IndexedStencil s{lat, st, n, i, j, k};
+  forces[t] = crms::spring_force<F>(s, lat.rest_length, palette);
+}
+
+class CudaCollisionDevice final : public CollisionDevice {
+ public:
+  CudaCollisionDevice() {
+    require(cuda_status().available,
+            "collision: the CUDA path is not available: " + cuda_status().reason);
+    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    counter_.allocate(1);
+    hits_.allocate(4096);
+  }
+  ~CudaCollisionDevice() override {
+    if (stream_) {
+      cudaStreamSynchronize(stream_);
+      cudaStreamDestroy(stream_);
+    }
+  }
+
+  void gather(const coupler::DeformedLatticeView& lattice, const Vec3f& lo, const Vec3f& hi,
+              const WorldTool* tool, NodeNeighbourhood& out) override {
+    const long long count = lattice.dims.volume();
+    out.clear();
+    out.lo = lo;
+    out.hi = hi;
+    if (count <= 0) return;
+    const unsigned blocks = static_cast<unsigned>((count + 255) / 256);
+    const WorldTool t = tool ? *tool : WorldTool{};
+    unsigned long long found = 0;
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      TSF_CUDA_CHECK(cudaMemsetAsync(counter_.get(), 0, sizeof(unsigned long long), stream_));
+      gather_kernel<<<blocks, 256, 0, stream_>>>(lattice, lo, hi, t, tool ? 1 : 0, hits_.get(),
+                                                 hits_.capacity(), counter_.get());
+      TSF_CUDA_CHECK_LAUNCH();
+      TSF_CUDA_CHECK(cudaMemcpyAsync(&found, counter_.get(), sizeof(found),
+                                     cudaMemcpyDeviceToHost, stream_));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      if (found <= hits_.capacity()) break;
+      hits_.allocate(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
+    }
+    require(found <= hits_.capacity(), "collision: gather overflowed its buffer twice");
+    host_hits_.resize(static_cast<std::size_t>(found));
+    if (found > 0)
+      TSF_CUDA_CHECK(cudaMemcpyAsync(host_hits_.data(), hits_.get(), found * sizeof(GatherHit),
+                                     cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    std::sort(host_hits_.begin(), host_hits_.end(),
+              [](const GatherHit& a, const GatherHit& b) { return a.node < b.node; });
+    const std::size_t n = host_hits_.size();
+    out.nodes.resize(n);
+    out.displacement.resize(n);
+    out.inside.resize(n);
+    out.target.resize(n);
+    out.normal.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      out.nodes[i] = host_hits_[i].node;
+      out.displacement[i] = host_hits_[i].u;
+      out.inside[i] = static_cast<std::uint8_t>(host_hits_[i].inside);
+      out.target[i] = host_hits_[i].target;
+      out.normal[i] = host_hits_[i].normal;
+    }
+  }
+
+  void spring_forces_at(const crms::LatticeView& lattice, const crms::StateView& state,
+                        const crms::MaterialPalette& palette, unsigned features,
+                        const std::vector<std::int64_t>& nodes,
+                        std::vector<Vec3f>& forces) override {
+    forces.assign(nodes.size(), Vec3f{0, 0, 0});
+    if (nodes.empty()) return;
+    const int count = static_cast<int>(nodes.size());
+    nodes_.allocate(nodes.size());
+    forces_.allocate(nodes.size());
+    std::vector<long long> ids(nodes.begin(), nodes.end());
+    TSF_CUDA_CHECK(cudaMemcpyAsync(nodes_.get(), ids.data(), ids.size() * sizeof(long long),
+                                   cudaMemcpyHostToDevice, stream_));
+    const unsigned blocks = static_cast<unsigned>((count + 127) / 128);
+    require(features <= crms::features::kAll,
+            "collision: unknown CRMS feature set " + std::to_string(features));
+    crms::dispatch_features(features, [&](auto f) {
+      constexpr unsigned F = decltype(f)::value;
+      spring_force_kernel<F><<<blocks, 128, 0, stream_>>>(lattice, crms::ConstStateView(state),
+                                                          palette, nodes_.get(), count,
+                                                          forces_.get());
+    });
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), forces_.get(), nodes.size() * sizeof(Vec3f),
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+ private:
+  cudaStream_t stream_ = nullptr;
+  DeviceArray<unsigned long long> counter_;
+  DeviceArray<GatherHit> hits_;
+  DeviceArray<long long> nodes_;
+  DeviceArray<Vec3f> forces_;
+  std::vector<GatherHit> host_hits_;
+};
+
+}  // namespace
+
+std::unique_ptr<CollisionDevice> make_collision_device() {
+  return std::make_unique<CudaCollisionDevice>();
+}
+
+}  // namespace tsf::collision

@@ -1,0 +1,333 @@
+// The coupler on the GPU, two thin kernels over the functions of couple_vertex.h: one thread per
+// frame resolves its corners (resolve_frame), then one thread per vertex slot interpolates
+// (couple_from_frame), in blocks of kDirtyBlockSlots threads that vote whether their outputs
+// changed (the host then copies only those blocks). Frames, vertex bindings and rest normals are
+// mirrored and patched by scatter kernels from what an edit changed. Every call is checked and
+// synchronises its own stream before returning, so the solver's stream never sees a half-written
+// buffer.
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "coupler_device.h"
+#include "tsf/common/cuda_check.h"
+#include "tsf/common/cuda_support.h"
+#include "tsf/common/error.h"
+#include "tsf/coupler/coupler.h"
+
+namespace tsf::coupler {
+namespace {
+
+static_assert(sizeof(Vec3f) == 12, "Vec3f arrays are copied as float triples");
+static_assert(kDirtyBlockSlots == 256, "the kernels vote per block of 256 threads");
+
+/// An owning device array (freed on destruction; never copied).
+template <typename T>
+class DeviceArray {
+ public:
+  DeviceArray() = default;
+  DeviceArray(const DeviceArray&) = delete;
+  DeviceArray& operator=(const DeviceArray&) = delete;
+  ~DeviceArray() { release(); }
+  void allocate(std::size_t count) {
+    if (data_ && count <= capacity_) return;
+    release();
+    TSF_CUDA_CHECK(cudaMalloc(reinterpret_cast<void**>(&data_), std::max<std::size_t>(count, 1) * sizeof(T)));
+    capacity_ = count;
+  }
+  void release() {
+    if (data_) cudaFree(data_);
+    data_ = nullptr;
+    capacity_ = 0;
+  }
+  T* get() const { return data_; }
+  std::size_t capacity() const { return capacity_; }
+
+ private:
+  T* data_ = nullptr;
+  std::size_t capacity_ = 0;
+};
+
+__global__ void resolve_frames_kernel(DeformedLatticeView lattice, const CubeFrame* frames,
+                                      std::uint32_t frame_count, int mode,
+                                      FrameCorners* corners) {
+  const std::uint32_t f = blockIdx.x * blockDim.x + threadIdx.x;
+  if (f >= frame_count) return;
+  const CubeFrame frame = frames[f];
+  if (frame.cell < 0) return;  // a free frame slot
+  corners[f] = resolve_frame(LatticeReader{lattice}, lattice, frame, static_cast<CouplerMode>(mode));
+}
+
+__global__ void resolve_listed_frames_kernel(DeformedLatticeView lattice, const CubeFrame* frames,
+                                             const std::uint32_t* list, std::uint32_t count,
+                                             std::uint32_t frame_capacity, int mode,
+                                             FrameCorners* corners) {
+  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const std::uint32_t f = list[t];
+  if (f >= frame_capacity) return;
+  const CubeFrame frame = frames[f];
+  if (frame.cell < 0) return;
+  corners[f] = resolve_frame(LatticeReader{lattice}, lattice, frame, static_cast<CouplerMode>(mode));
+}
+
+__global__ void couple_all_kernel(DeformedLatticeView lattice, const VertexFrameBinding* bindings,
+                                  const FrameCorners* corners, std::uint32_t frame_capacity,
+                                  const Vec3f* rest_normals, Vec3f* positions, Vec3f* normals,
+                                  std::uint32_t slot_count, int mode, std::uint8_t* dirty) {
+  const std::uint32_t s = blockIdx.x * blockDim.x + threadIdx.x;
+  int changed = 0;
+  if (s < slot_count) {
+    const VertexFrameBinding b = bindings[s];
+    if (b.frame < frame_capacity) {
+      const CoupledVertex v = couple_from_frame(corners[b.frame], b.w, lattice.spacing,
+                                                rest_normals[s], static_cast<CouplerMode>(mode));
+      const Vec3f old_p = positions[s], old_n = normals[s];
+      if (!(v.position == old_p) || !(v.normal == old_n)) {
+        positions[s] = v.position;
+        normals[s] = v.normal;
+        changed = 1;
+      }
+    }
+  }
+  const int any = __syncthreads_or(changed);
+  if (threadIdx.x == 0) dirty[blockIdx.x] = any ? 1 : 0;
+}
+
+__global__ void couple_slots_kernel(DeformedLatticeView lattice, const VertexFrameBinding* bindings,
+                                    const FrameCorners* corners, std::uint32_t frame_capacity,
+                                    const Vec3f* rest_normals, Vec3f* positions, Vec3f* normals,
+                                    const std::uint32_t* slots, std::uint32_t count,
+                                    std::uint32_t capacity, int mode, Vec3f* out_positions,
+                                    Vec3f* out_normals) {
+  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const std::uint32_t s = slots[t];
+  if (s >= capacity) return;
+  const VertexFrameBinding b = bindings[s];
+  if (b.frame < frame_capacity) {
+    const CoupledVertex v = couple_from_frame(corners[b.frame], b.w, lattice.spacing,
+                                              rest_normals[s], static_cast<CouplerMode>(mode));
+    positions[s] = v.position;
+    normals[s] = v.normal;
+  }
+  out_positions[t] = positions[s];
+  out_normals[t] = normals[s];
+}
+
+template <typename T>
+__global__ void scatter_kernel(const std::uint32_t* index, std::uint32_t count,
+                               std::uint32_t capacity, const T* values, T* target) {
+  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= count) return;
+  const std::uint32_t i = index[t];
+  if (i < capacity) target[i] = values[t];
+}
+
+std::uint32_t blocks_for(std::size_t count, std::uint32_t threads) {
+  return static_cast<std::uint32_t>((count + threads - 1) / threads);
+}
+
+class CudaCouplerDevice final : public CouplerDevice {
+ public:
+  CudaCouplerDevice() {
+    require(cuda_status().available,
+            "coupler: the CUDA path is not available: " + cuda_status().reason);
+    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+  }
+  ~CudaCouplerDevice() override {
+    if (stream_) {
+      cudaStreamSynchronize(stream_);
+      cudaStreamDestroy(stream_);
+    }
+  }
+
+  void reserve(std::uint32_t slots, std::uint32_t frames) override {
+    release_all();
+    bindings_.allocate(slots);
+    rest_normals_.allocate(slots);
+    positions_.allocate(slots);
+    normals_.allocate(slots);
+    dirty_.allocate(blocks_for(slots, kDirtyBlockSlots));
+    frames_.allocate(frames);
+    corners_.allocate(frames);
+    const std::size_t n = std::max<std::uint32_t>(slots, 1);
+    const std::size_t m = std::max<std::uint32_t>(frames, 1);
+    // All bytes 0xff: frame = kNoFrame (unbound vertices), cell = −1 (free frames).
+    TSF_CUDA_CHECK(cudaMemsetAsync(bindings_.get(), 0xff, n * sizeof(VertexFrameBinding), stream_));
+    TSF_CUDA_CHECK(cudaMemsetAsync(frames_.get(), 0xff, m * sizeof(CubeFrame), stream_));
+    TSF_CUDA_CHECK(cudaMemsetAsync(corners_.get(), 0, m * sizeof(FrameCorners), stream_));
+    TSF_CUDA_CHECK(cudaMemsetAsync(rest_normals_.get(), 0, n * sizeof(Vec3f), stream_));
+    TSF_CUDA_CHECK(cudaMemsetAsync(positions_.get(), 0, n * sizeof(Vec3f), stream_));
+    TSF_CUDA_CHECK(cudaMemsetAsync(normals_.get(), 0, n * sizeof(Vec3f), stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    capacity_ = slots;
+    frame_capacity_ = frames;
+  }
+
+  void upload_vertices(const std::uint32_t* slots, std::size_t count,
+                       const VertexFrameBinding* bindings, const Vec3f* rest_normals) override {
+    if (count == 0) return;
+    packed_bindings_.resize(count);
+    packed_normals_.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      if (slots[i] >= capacity_)
+        throw Error("coupler: upload of slot " + std::to_string(slots[i]) +
+                    " beyond the device capacity " + std::to_string(capacity_));
+      packed_bindings_[i] = bindings[slots[i]];
+      packed_normals_[i] = rest_normals[slots[i]];
+    }
+    stage_index_.allocate(count);
+    stage_bindings_.allocate(count);
+    stage_normals_.allocate(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.get(), slots, count * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_bindings_.get(), packed_bindings_.data(),
+                                   count * sizeof(VertexFrameBinding), cudaMemcpyHostToDevice,
+                                   stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_normals_.get(), packed_normals_.data(),
+                                   count * sizeof(Vec3f), cudaMemcpyHostToDevice, stream_));
+    const auto n = static_cast<std::uint32_t>(count);
+    scatter_kernel<VertexFrameBinding><<<blocks_for(count, 256), 256, 0, stream_>>>(
+        stage_index_.get(), n, capacity_, stage_bindings_.get(), bindings_.get());
+    TSF_CUDA_CHECK_LAUNCH();
+    scatter_kernel<Vec3f><<<blocks_for(count, 256), 256, 0, stream_>>>(
+        stage_index_.get(), n, capacity_, stage_normals_.get(), rest_normals_.get());
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void upload_frames(const std::uint32_t* frames, std::size_t count,
+                     const CubeFrame* table) override {
+    if (count == 0) return;
+    packed_frames_.resize(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      if (frames[i] >= frame_capacity_)
+        throw Error("coupler: upload of frame " + std::to_string(frames[i]) +
+                    " beyond the device capacity " + std::to_string(frame_capacity_));
+      packed_frames_[i] = table[frames[i]];
+    }
+    stage_index_.allocate(count);
+    stage_frames_.allocate(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.get(), frames, count * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_frames_.get(), packed_frames_.data(),
+                                   count * sizeof(CubeFrame), cudaMemcpyHostToDevice, stream_));
+    scatter_kernel<CubeFrame><<<blocks_for(count, 256), 256, 0, stream_>>>(
+        stage_index_.get(), static_cast<std::uint32_t>(count), frame_capacity_,
+        stage_frames_.get(), frames_.get());
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void couple_all(const DeformedLatticeView& lattice, std::uint32_t frame_count,
+                  std::uint32_t slot_count, CouplerMode mode,
+                  std::vector<std::uint8_t>& dirty_blocks) override {
+    require(slot_count <= capacity_ && frame_count <= frame_capacity_,
+            "coupler: more slots or frames than the device holds");
+    const std::uint32_t blocks = blocks_for(slot_count, kDirtyBlockSlots);
+    dirty_blocks.assign(blocks, 0);
+    if (frame_count > 0) {
+      resolve_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_>>>(
+          lattice, frames_.get(), frame_count, static_cast<int>(mode), corners_.get());
+      TSF_CUDA_CHECK_LAUNCH();
+    }
+    if (blocks == 0) {
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      return;
+    }
+    couple_all_kernel<<<blocks, kDirtyBlockSlots, 0, stream_>>>(
+        lattice, bindings_.get(), corners_.get(), frame_capacity_, rest_normals_.get(),
+        positions_.get(), normals_.get(), slot_count, static_cast<int>(mode), dirty_.get());
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaMemcpyAsync(dirty_blocks.data(), dirty_.get(), blocks,
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* frames,
+                    std::size_t frame_count, const std::uint32_t* slots, std::size_t count,
+                    CouplerMode mode, Vec3f* positions, Vec3f* normals) override {
+    if (count == 0) return;
+    if (frame_count > 0) {
+      stage_list_.allocate(frame_count);
+      TSF_CUDA_CHECK(cudaMemcpyAsync(stage_list_.get(), frames,
+                                     frame_count * sizeof(std::uint32_t), cudaMemcpyHostToDevice,
+                                     stream_));
+      resolve_listed_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_>>>(
+          lattice, frames_.get(), stage_list_.get(), static_cast<std::uint32_t>(frame_count),
+          frame_capacity_, static_cast<int>(mode), corners_.get());
+      TSF_CUDA_CHECK_LAUNCH();
+    }
+    stage_index_.allocate(count);
+    out_positions_.allocate(count);
+    out_normals_.allocate(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.get(), slots, count * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_));
+    couple_slots_kernel<<<blocks_for(count, 256), 256, 0, stream_>>>(
+        lattice, bindings_.get(), corners_.get(), frame_capacity_, rest_normals_.get(),
+        positions_.get(), normals_.get(), stage_index_.get(), static_cast<std::uint32_t>(count),
+        capacity_, static_cast<int>(mode), out_positions_.get(), out_normals_.get());
+    TSF_CUDA_CHECK_LAUNCH();
+    packed_positions_.resize(count);
+    packed_out_normals_.resize(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_positions_.data(), out_positions_.get(),
+                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_out_normals_.data(), out_normals_.get(),
+                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    for (std::size_t i = 0; i < count; ++i) {
+      if (slots[i] >= capacity_) continue;
+      positions[slots[i]] = packed_positions_[i];
+      normals[slots[i]] = packed_out_normals_[i];
+    }
+  }
+
+  void download(std::uint32_t first, std::uint32_t count, Vec3f* positions,
+                Vec3f* normals) override {
+    if (count == 0) return;
+    require(first + count <= capacity_, "coupler: download beyond the device capacity");
+    TSF_CUDA_CHECK(cudaMemcpyAsync(positions + first, positions_.get() + first,
+                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(normals + first, normals_.get() + first, count * sizeof(Vec3f),
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+ private:
+  void release_all() {
+    bindings_.release();
+    rest_normals_.release();
+    positions_.release();
+    normals_.release();
+    dirty_.release();
+    frames_.release();
+    corners_.release();
+    capacity_ = frame_capacity_ = 0;
+  }
+
+  cudaStream_t stream_ = nullptr;
+  std::uint32_t capacity_ = 0, frame_capacity_ = 0;
+  DeviceArray<VertexFrameBinding> bindings_;
+  DeviceArray<Vec3f> rest_normals_, positions_, normals_;
+  DeviceArray<std::uint8_t> dirty_;
+  DeviceArray<CubeFrame> frames_;
+  DeviceArray<FrameCorners> corners_;
+  DeviceArray<std::uint32_t> stage_index_, stage_list_;
+  DeviceArray<VertexFrameBinding> stage_bindings_;
+  DeviceArray<CubeFrame> stage_frames_;
+  DeviceArray<Vec3f> stage_normals_, out_positions_, out_normals_;
+  std::vector<VertexFrameBinding> packed_bindings_;
+  std::vector<CubeFrame> packed_frames_;
+  std::vector<Vec3f> packed_normals_, packed_positions_, packed_out_normals_;
+};
+
+}  // namespace
+
+std::unique_ptr<CouplerDevice> make_coupler_device() {
+  return std::make_unique<CudaCouplerDevice>();
+}
+
+}  // namespace tsf::coupler
