@@ -193,8 +193,7 @@ StudyResult run_optimisation(const RunOptions& options) {
       ramp_weld.cells[4] + " → " + ramp_def.cells[4] +
       "). Taubin smoothing removes the remaining slivers (minimum angle " + ramp_def.cells[7] +
       " → " + ramp_t20.cells[7] + " with 20 pairs) and halves the distance on a CT-like ramp (" +
-      ramp_t20.cells[4] +
-      "). On a binary mask the surface is a staircase (" + bin_def.cells[4] +
+      ramp_t20.cells[4] + "). On a binary mask the surface is a staircase (" + bin_def.cells[4] +
       " mean distance); 20 Taubin pairs bring it to " + bin_t20.cells[4] + " for " +
       bin_t20.cells[8] + " instead of " + bin_def.cells[8] +
       ", with the enclosed volume kept (Taubin's λ|μ pair does not shrink): a soft density ramp "
