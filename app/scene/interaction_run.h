@@ -5,6 +5,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -12,6 +13,7 @@
 
 #include "scene/scene.h"
 #include "tsf/crms/lattice.h"
+#include "tsf/interaction/tissue_model.h"
 #include "tsf/volume/voxel_volume.h"
 
 namespace tsf::app {
@@ -21,6 +23,8 @@ struct InteractionRunOptions {
   std::filesystem::path report;          ///< overrides outputs.report
   std::filesystem::path mesh;            ///< overrides outputs.mesh
   bool quiet = false;
+  /// Called after every frame's advance with the time at its end (tsf run records energy here).
+  std::function<void(double time_s, const interaction::TissueModel& model)> on_frame;
 };
 
 /// Anchors of the scene on a lattice (box, plane, labels).
