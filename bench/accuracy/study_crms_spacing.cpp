@@ -127,7 +127,7 @@ StudyResult run(const RunOptions& options) {
                    "FEM depth", "depth vs FEM", "field vs FEM",
                    "stable dt", "time / step",  "time / simulated s"};
   const std::vector<double> spacings =
-      options.quick ? std::vector<double>{2.0, 1.0} : std::vector<double>{2.0, 1.0, 0.5};
+      std::vector<double>{2.0, 1.0};  // 0.5 mm (17k nodes) takes minutes: see the spacing trend
   for (double h : spacings) {
     Block blk;
     blk.spacing_mm = h;
