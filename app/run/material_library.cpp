@@ -63,7 +63,8 @@ MaterialLibrary read_material_library(const fs::path& file) {
     LibraryMaterial m;
     m.id = id;
     m.name = f["name"].required().text();
-    m.label = f["label"].defined() ? parse_label(f["label"]) : kLabelSoftTissue;
+    m.label = f["label"].defined() ? parse_label(f["label"])
+                                   : static_cast<std::uint8_t>(kLabelSoftTissue);
     m.youngs_modulus_pa = f["youngs_modulus_pa"].required().number(0, 1, 1e11);
     m.shear_modulus_pa =
         f["shear_modulus_pa"].number(0.0, 0.0, 10.0 * m.youngs_modulus_pa, /*lo_open=*/true);
