@@ -18,6 +18,11 @@
 #include "tsf/crms/effects.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/version.h"
+#ifdef TSF_HAVE_EXPORT
+#include "tsf/export/mesh_export.h"
+#include "tsf/import/tissue_volume_io.h"
+#include "tsf/imt/surface_ply.h"
+#endif
 #ifdef TSF_HAVE_SEGMENT
 #include "tsf/segment/segment_job.h"
 #include "tsf/segment/segment_preset.h"
@@ -214,6 +219,35 @@ json run_pipeline(const RunOptions& options) {
                     std::max(0.0, interaction_wall - setup_s - timings.value("script", 0.0)),
                     run.mesh.empty() ? "none" : run.mesh.filename().string()});
 
+  // Export formats (glTF binary) of the final surface when the export module is built.
+  json exported = json::array();
+#ifdef TSF_HAVE_EXPORT
+  if (!run.mesh.empty() && fs::exists(run.mesh)) {
+    clock.restart();
+    // The surface is in the tissue space of the (uncropped) volume: its geometry maps it to the
+    // patient frame. Box scenes have an axis-aligned volume at the origin.
+    VolumeGeometry geometry;
+    if (scene.lattice.source == SceneLattice::Source::kVolume) {
+      geometry = import::read_tissue_volume(scene.lattice.volume).geometry();
+    } else {
+      const json& v = interaction["volume"];
+      for (int a = 0; a < 3; ++a) {
+        geometry.dims[a] = v["dims"][a].get<int>();
+        geometry.spacing[a] = v["spacing_mm"][a].get<double>();
+        geometry.origin[a] = v["origin_mm"][a].get<double>();
+      }
+    }
+    exporter::ExportOptions eo;
+    eo.format = exporter::ExportFormat::glb;
+    eo.name = scene.name;
+    eo.source = "tsf run " + scene.file.string();
+    const fs::path glb = folder / (scene.name + "-final.glb");
+    const exporter::ExportReport er =
+        exporter::export_surface(imt::read_surface_ply(run.mesh), geometry, glb, eo);
+    for (const auto& f : er.files) exported.push_back(f.path.filename().string());
+    stages.push_back({"export (glTF)", clock.seconds(), glb.filename().string()});
+  }
+#endif
   const double stepping = timings.value("stepping", 0.0);
   const double steps = interaction.value("steps", 0.0);
   const double simulated = interaction.value("simulated_s", 0.0);
@@ -240,6 +274,7 @@ json run_pipeline(const RunOptions& options) {
       {"segmentation", segmentation},
       {"interaction", interaction},
       {"energy", energy},
+      {"exported", exported},
       {"failure", failure.empty() ? json(nullptr) : json(failure)},
   };
   report["total_seconds"] = total_clock.seconds();

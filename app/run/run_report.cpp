@@ -215,6 +215,13 @@ fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
   if (r["segmentation"].is_object())
     md << "- segmented volume: `" << name << "-density.nrrd`, `" << name << "-labels.nrrd`, `"
        << name << "-weights.nrrd`, segmentation report `" << name << "-report.json`\n";
+  for (const json& e : r.value("exported", json::array()))
+    md << "- exported: `" << e.get<std::string>()
+       << "` (glTF binary, metres, y-up; docs/export.md)\n";
+  if (r.value("exported", json::array()).empty())
+    md << "- glTF/FBX/OBJ export: not in this build (TSF_WITH_ASSIMP off); `tsf export` writes "
+          "them "
+          "from the segmented density volume\n";
   md << "- this report: `run-report.md`, `run-report.json`, `interaction.json`\n";
   if (!plots) md << "\nPlots were switched off (pipeline.outputs.plots: false).\n";
   const fs::path path = folder / "run-report.md";

@@ -89,6 +89,12 @@ void expect_valid_run_folder(const fs::path& dir, const std::string& name) {
     EXPECT_GT(m.triangle_count(), 100u) << ply;
     EXPECT_TRUE(imt::analyse_topology(m).closed_oriented_manifold()) << ply;
   }
+  // glTF binary export when the export module is built: a GLB container (magic "glTF").
+  for (const auto& e : r["exported"]) {
+    const fs::path glb = dir / e.get<std::string>();
+    ASSERT_TRUE(fs::exists(glb)) << glb;
+    EXPECT_EQ(read_text(glb).substr(0, 4), "glTF") << glb;
+  }
   // The segmented volume and the report with its plots.
   EXPECT_TRUE(fs::exists(dir / (name + "-density.nrrd")));
   const std::string md = read_text(dir / "run-report.md");
