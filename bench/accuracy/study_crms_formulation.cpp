@@ -142,9 +142,9 @@ StudyResult run(const RunOptions& options) {
       "order); the cosine form saves " +
       format_percent(1.0 - per_node[1], 2) +
       " of the step. The gather reactions (the thesis form, kθ = G·V/2) are " + t.rows[2].cells[7] +
-      " of the symmetric step, but their static answer against the FEM is: " + t.rows[2].cells[1] +
-      " (small sag), " + t.rows[2].cells[2] +
-      " (large sag). The vertex-only forces are not the gradient of a potential, the "
+      " of the symmetric step, but their static answers are unusable: exact/gather " +
+      t.rows[2].cells[1] + " at small sag, cosine/gather " + t.rows[3].cells[1] +
+      " against the FEM. The vertex-only forces are not the gradient of a potential, the "
       "stiffness matrix is not symmetric and bending is almost unresisted at equilibrium — the "
       "finding of docs/crms.md (\"two orders of magnitude off\"), reproduced here by an "
       "independent Newton solve. Hence symmetric reactions are the default; gather is only a "
