@@ -269,6 +269,7 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
     contact_s += a.contact_us * 1e-6;
     couple_s += a.couple_us * 1e-6;
     if (a.instability) instability = a.instability;
+    if (run.on_frame) run.on_frame(t + frame, model);
     const collision::ContactForce& c = model.contact();
     max_force = std::max(max_force, length(c.force_un));
     if (c.nodes_held > 0 || !contact_series.empty())

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -24,6 +25,8 @@ struct InteractionRunOptions {
   std::filesystem::path mesh;        ///< overrides outputs.mesh
   std::filesystem::path states;      ///< overrides outputs.states
   bool quiet = false;
+  /// Called after every frame's advance with the time at its end (tsf run records energy here).
+  std::function<void(double time_s, const interaction::TissueModel& model)> on_frame;
 };
 
 /// Anchors of the scene on a lattice (box, plane, labels).

@@ -133,7 +133,10 @@ std::uint8_t parse_label(const Field& f) {
   return static_cast<std::uint8_t>(v);
 }
 
-void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLattice& l) {
+// `volume_from_pipeline`: the scene has a `pipeline:` section (tsf run, app/run/run_spec.h),
+// which writes the volume and fills lattice.volume in.
+void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLattice& l,
+                  bool volume_from_pipeline) {
   if (!f.defined()) f.fail("is required");
   f.expect_keys({"source", "size", "spacing", "origin", "volume", "node_spacing_voxels",
                  "occupancy_threshold", "mass_floor", "crop"});
@@ -157,9 +160,14 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
   } else {
     for (const char* k : {"size", "spacing", "origin"})
       if (f[k].defined()) f[k].fail("only for source: box");
-    if (!f["volume"].defined()) f["volume"].fail("is required for source: volume");
-    l.volume = f["volume"].text();
-    if (l.volume.is_relative()) l.volume = folder / l.volume;
+    if (volume_from_pipeline && f["volume"].defined())
+      f["volume"].fail("comes from the pipeline section's segmentation: leave it out");
+    if (!volume_from_pipeline && !f["volume"].defined())
+      f["volume"].fail("is required for source: volume");
+    if (f["volume"].defined()) {
+      l.volume = f["volume"].text();
+      if (l.volume.is_relative()) l.volume = folder / l.volume;
+    }
     l.node_spacing_voxels = static_cast<int>(f["node_spacing_voxels"].integer(2, 1, 64));
     l.occupancy_threshold = f["occupancy_threshold"].number(0.125, 0.0, 1.0, true);
     l.mass_floor = f["mass_floor"].number(0.5, 0.0, 1.0);
@@ -484,13 +492,16 @@ Scene read_scene(const std::filesystem::path& file) {
   }
   const Field top(root, "", &name);
   if (!top.defined()) top.fail("the scene is empty");
+  // `pipeline` is read by `tsf run` (app/run/run_spec.h).
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
-                   "loads", "initial", "tissue", "tools", "script", "outputs"});
+                   "loads", "initial", "tissue", "tools", "script", "outputs", "pipeline"});
   Scene s;
   s.file = file;
   s.name = top["name"].defined() ? top["name"].text() : file.stem().string();
-  read_lattice(top["lattice"], file.parent_path(), s.lattice);
-  read_material(top["material"], s.solver.materials.at(0));
+  read_lattice(top["lattice"], file.parent_path(), s.lattice, top["pipeline"].defined());
+  // A scene whose pipeline names a library material (tsf run) may leave `material` out.
+  if (top["material"].defined() || !top["pipeline"]["material"].defined())
+    read_material(top["material"], s.solver.materials.at(0));
   read_solver(top["solver"], s);
   s.solver.gravity = top["gravity"].vec3({0, 0, 0});
   if (std::sqrt(length_squared(s.solver.gravity)) > 1e7)

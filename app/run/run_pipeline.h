@@ -1,0 +1,36 @@
+// `tsf run SCENE`: the main job. import → segment → surface → lattice → scripted interaction →
+// outputs, each stage timed, then a report (Markdown with PNG plots, and JSON) of what happened
+// and what it cost: time per stage, simulation rate, energy over time, tool force, the kernel
+// features (effects) that were active.
+//
+// The scene is an interaction scene (app/scene/scene.h, tools and a script) plus an optional
+// `pipeline:` section (run_spec.h) naming the CT, the segmentation preset, the library material
+// and the outputs. Without `pipeline:` the scene's own lattice source is used (box or a
+// segmented volume file).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace tsf::app {
+
+struct RunOptions {
+  std::filesystem::path scene;          ///< scene file
+  std::filesystem::path output_folder;  ///< overrides pipeline.outputs.folder
+  std::optional<double> duration_s;     ///< overrides script.duration (short CI runs)
+  std::optional<double> voxel_mm;       ///< overrides pipeline.segmentation.voxel_mm
+  std::string backend;                  ///< cpu | cuda | auto (empty: the scene's)
+  bool quiet = false;
+};
+
+/// Runs the pipeline and writes the outputs; returns the JSON report (also written). Throws
+/// tsf::Error naming the stage, file or key on bad input or failure.
+nlohmann::json run_pipeline(const RunOptions& options);
+
+/// The bundled default scene: scenes/sinus.yaml (repo_paths.h).
+std::filesystem::path default_scene_path();
+
+}  // namespace tsf::app

@@ -1,0 +1,149 @@
+// A YAML node with its key path, for strict reading of human-edited files (materials, scene
+// extensions): every accessor checks type and range and names the file and key path on error,
+//   tissues.yaml: materials.fat.youngs_modulus_pa: expected a number in [1, 1e+11], got -3 (line 9)
+// yaml-cpp stays in app/: tissue/ never sees it.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdint>
+#include <initializer_list>
+#include <set>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tsf/common/error.h"
+
+namespace tsf::app {
+
+class YamlField {
+ public:
+  YamlField(YAML::Node node, std::string path, std::string file)
+      : node_(std::move(node)), path_(std::move(path)), file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const std::string& what) const {
+    std::ostringstream s;
+    s << file_ << ": " << (path_.empty() ? "(top level)" : path_) << ": " << what;
+    if (node_.IsDefined() && node_.Mark().line >= 0) s << " (line " << node_.Mark().line + 1 << ")";
+    throw Error(s.str());
+  }
+  bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+  const YAML::Node& node() const { return node_; }
+
+  /// Child of a map (absent when this node is absent or not a map).
+  YamlField operator[](const std::string& key) const {
+    const std::string path = path_.empty() ? key : path_ + "." + key;
+    if (!defined() || !node_.IsMap()) return YamlField(YAML::Node(), path, file_);
+    return YamlField(node_[key], path, file_);
+  }
+  /// Fails on any key not in `allowed` (or when the node is not a map).
+  void expect_keys(const std::vector<std::string>& allowed) const {
+    if (!defined()) return;
+    if (!node_.IsMap()) fail("expected a mapping of keys");
+    const std::set<std::string> ok(allowed.begin(), allowed.end());
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (ok.count(key)) continue;
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      YamlField(kv.first, path_.empty() ? key : path_ + "." + key, file_)
+          .fail("unknown key (expected one of: " + list + ")");
+    }
+  }
+  /// Keys of a map in file order.
+  std::vector<std::string> keys() const {
+    if (!defined() || !node_.IsMap()) fail("expected a mapping of keys");
+    std::vector<std::string> out;
+    for (const auto& kv : node_) out.push_back(kv.first.as<std::string>());
+    return out;
+  }
+  YamlField required() const {
+    if (!defined()) fail("is required");
+    return *this;
+  }
+  std::string text() const {
+    if (!node_.IsScalar()) fail("expected a text value");
+    return node_.Scalar();
+  }
+  std::string text(const std::string& fallback) const { return defined() ? text() : fallback; }
+  double number() const {
+    if (!node_.IsScalar()) fail("expected a number");
+    double v = 0;
+    try {
+      v = node_.as<double>();
+    } catch (const YAML::Exception&) {
+      fail("expected a number, got '" + node_.Scalar() + "'");
+    }
+    if (!std::isfinite(v)) fail("expected a finite number, got '" + node_.Scalar() + "'");
+    return v;
+  }
+  /// A number in [lo, hi] (or (lo, hi] with lo_open); `fallback` when absent.
+  double number(double fallback, double lo, double hi, bool lo_open = false) const {
+    if (!defined()) return fallback;
+    const double v = number();
+    if ((lo_open ? !(v > lo) : !(v >= lo)) || !(v <= hi)) {
+      std::ostringstream s;
+      s << "expected a number in " << (lo_open ? "(" : "[") << lo << ", " << hi << "], got " << v;
+      fail(s.str());
+    }
+    return v;
+  }
+  std::int64_t integer(std::int64_t fallback, std::int64_t lo, std::int64_t hi) const {
+    if (!defined()) return fallback;
+    const double v = number();
+    if (v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi))
+      fail("expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+           "], got " + node_.Scalar());
+    return static_cast<std::int64_t>(v);
+  }
+  bool boolean(bool fallback) const {
+    if (!defined()) return fallback;
+    if (!node_.IsScalar()) fail("expected true or false");
+    bool b = false;
+    if (!YAML::convert<bool>::decode(node_, b))
+      fail("expected true or false, got '" + node_.Scalar() + "'");
+    return b;
+  }
+  template <typename T>
+  T choice(T fallback, std::initializer_list<std::pair<const char*, T>> options) const {
+    if (!defined()) return fallback;
+    const std::string t = text();
+    std::string list;
+    for (const auto& o : options) {
+      if (t == o.first) return o.second;
+      list += std::string(list.empty() ? "" : ", ") + o.first;
+    }
+    fail("expected one of " + list + ", got '" + t + "'");
+  }
+  std::size_t size() const {
+    if (!defined() || !node_.IsSequence()) fail("expected a list");
+    return node_.size();
+  }
+  YamlField at(std::size_t i) const {
+    return YamlField(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
+  }
+
+ private:
+  YAML::Node node_;
+  std::string path_;
+  std::string file_;
+};
+
+/// Loads a YAML file; a missing file or a syntax error names the file (and line).
+inline YAML::Node load_yaml_file(const std::string& file) {
+  try {
+    return YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw Error(file + ": cannot read the file");
+  } catch (const YAML::ParserException& e) {
+    throw Error(file + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " +
+                e.msg);
+  }
+}
+
+}  // namespace tsf::app
