@@ -42,6 +42,7 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   for (int m = 0; m < palette_.count; ++m)
     palette_.entry[m] = calibrate_springs(config_.materials[m], g.spacing, symmetric);
   stable_ = estimate_stable_time_step(lattice_, palette_, symmetric);
+  require_compiled_feature_set(features());
 
   Backend backend = config_.backend;
   if (config_.integrator == Integrator::kImplicitEuler) backend = Backend::kCpu;
@@ -49,10 +50,10 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   if (backend == Backend::kCuda) {
     require(cuda_status().available,
             "backend cuda requested but CUDA is not usable here: " + cuda_status().reason);
-    backend_ = make_cuda_backend(g, config_.cuda_steps_per_graph);
+    backend_ = make_cuda_backend(g, backend_options(config_));
     on_cuda_ = true;
   } else {
-    backend_ = make_cpu_backend(g);
+    backend_ = make_cpu_backend(g, backend_options(config_));
   }
 
   std::vector<float> inv_mass(static_cast<std::size_t>(lattice_.node_count()), 0.0f);
@@ -64,6 +65,17 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
     for (std::int64_t n = 0; n < lattice_.node_count(); ++n) material[n] = lattice_.material(n);
   }
   backend_->upload_lattice(lattice_.packed_flags(), inv_mass, material);
+}
+
+BackendOptions backend_options(const SolverConfig& config) {
+  BackendOptions o;
+  o.evaluation = config.force_evaluation;
+  o.cpu_instruction_set = config.cpu_instruction_set;
+  o.cpu_tile_rows = config.cpu_tile_rows;
+  o.cuda_steps_per_graph = config.cuda_steps_per_graph;
+  o.cuda_planes_per_block = config.cuda_planes_per_block;
+  o.cuda_tile_rows = config.cuda_tile_rows;
+  return o;
 }
 
 Solver::~Solver() = default;
@@ -194,6 +206,7 @@ void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
             "set_external_forces: force on node " + std::to_string(nodes[i]) + " is not finite");
   }
   if (!external_forces_) {
+    require_compiled_feature_set(features() | features::kExternalForces);
     backend_->enable_external_forces();
     external_forces_ = true;
   }
