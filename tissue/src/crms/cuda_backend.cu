@@ -642,6 +642,8 @@ class CudaBackend final : public SolverBackend {
   }
   const SnapshotBuffer& snapshots() const override { return *snapshots_; }
 
+  void* native_stream() const override { return stream_; }
+
   double bytes_per_node() const override {
     double b = 2 * 6 * sizeof(float) + sizeof(std::uint8_t) + sizeof(float);
     if (material_) b += 1;

@@ -72,6 +72,8 @@ class SolverBackend {
   virtual const SnapshotBuffer& snapshots() const = 0;
 
   virtual double bytes_per_node() const = 0;
+  /// The stream the backend's work is ordered on (cudaStream_t; null on the CPU).
+  virtual void* native_stream() const { return nullptr; }
 };
 
 /// The SolverConfig fields a backend needs (validated by validate_solver_config).

@@ -93,6 +93,10 @@ void validate_solver_config(const SolverConfig& c) {
       std::isfinite(c.implicit_tolerance) && c.implicit_tolerance >= 0.0 &&
           c.implicit_tolerance < 1.0,
       "implicit_tolerance = " + std::to_string(c.implicit_tolerance) + " is out of range [0, 1)");
+  validate_effects_config(c.effects);
+  require(!(c.integrator == Integrator::kImplicitEuler && c.effects.any()),
+          "effects (plasticity, anisotropy, fluid, tearing) run with the explicit integrators "
+          "only: use integrator symplectic-euler or explicit-euler");
   require(!(c.integrator == Integrator::kImplicitEuler && c.backend == Backend::kCuda),
           "integrator implicit-euler runs on the CPU only: use backend cpu or auto");
 }

@@ -8,6 +8,7 @@
 
 #include "tsf/common/vec3.h"
 #include "tsf/crms/calibration.h"
+#include "tsf/crms/effects_config.h"
 #include "tsf/crms/spring_constants.h"
 
 namespace tsf::crms {
@@ -79,6 +80,8 @@ struct SolverConfig {
   /// 3 planes × 84 bytes × (rows + 2) × nx, stays in its core's cache; else 1..65536). A tuning
   /// and testing knob; results do not depend on it.
   int cpu_tile_rows = 0;
+  /// Optional effects (effects_config.h); all off by default. Explicit integrators only.
+  EffectsConfig effects;
   /// CUDA: steps captured per CUDA graph launch (even, 2..4096).
   int cuda_steps_per_graph = 64;
   /// CUDA, shared evaluation: lattice planes each thread block marches through (0 = chosen from
