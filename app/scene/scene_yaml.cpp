@@ -260,6 +260,37 @@ void read_loads(const Field& f, std::vector<SceneLoad>& loads) {
   }
 }
 
+/// `effects:` (tsf/crms/effects_config.h): a listed effect is on unless it says `enabled: false`.
+void read_effects(const Field& f, crms::EffectsConfig& e) {
+  if (!f.defined()) return;
+  f.expect_keys({"plasticity", "anisotropy", "fluid", "tearing"});
+  if (const Field p = f["plasticity"]; p.defined()) {
+    p.expect_keys({"enabled", "yield_strain", "creep_rate", "recovery_rate"});
+    e.plasticity.enabled = p["enabled"].boolean(true);
+    e.plasticity.yield_strain = p["yield_strain"].number(0.05, 0.0, 10.0, true);
+    e.plasticity.creep_rate = p["creep_rate"].number(200, 0.0, 1e6);
+    e.plasticity.recovery_rate = p["recovery_rate"].number(0.0, 0.0, 1e6);
+  }
+  if (const Field a = f["anisotropy"]; a.defined()) {
+    a.expect_keys({"enabled", "axis", "stiffness_factor"});
+    e.anisotropy.enabled = a["enabled"].boolean(true);
+    e.anisotropy.axis = a["axis"].vec3({1, 0, 0});
+    if (!(length_squared(e.anisotropy.axis) > 0)) a["axis"].fail("must not be zero");
+    e.anisotropy.stiffness_factor = a["stiffness_factor"].number(2.0, 0.01, 100.0);
+  }
+  if (const Field fl = f["fluid"]; fl.defined()) {
+    fl.expect_keys({"enabled", "bulk_modulus", "diffusion_rate"});
+    e.fluid.enabled = fl["enabled"].boolean(true);
+    e.fluid.bulk_modulus_pa = fl["bulk_modulus"].number(5e3, 1.0, 1e11);
+    e.fluid.diffusion_rate = fl["diffusion_rate"].number(0.0, 0.0, 1e6);
+  }
+  if (const Field t = f["tearing"]; t.defined()) {
+    t.expect_keys({"enabled", "strain_threshold"});
+    e.tearing.enabled = t["enabled"].boolean(true);
+    e.tearing.strain_threshold = t["strain_threshold"].number(0.5, 0.0, 100.0, true);
+  }
+}
+
 }  // namespace
 
 Scene read_scene(const std::filesystem::path& file) {
@@ -275,7 +306,7 @@ Scene read_scene(const std::filesystem::path& file) {
   const Field top(root, "", &name);
   if (!top.defined()) top.fail("the scene is empty");
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
-                   "loads", "initial"});
+                   "loads", "initial", "effects"});
   Scene s;
   s.file = file;
   s.name = top["name"].defined() ? top["name"].text() : file.stem().string();
@@ -288,6 +319,7 @@ Scene read_scene(const std::filesystem::path& file) {
   read_stability(top["stability"], s.solver.stability);
   read_anchors(top["anchors"], s.anchors);
   read_loads(top["loads"], s.loads);
+  read_effects(top["effects"], s.solver.effects);
   const Field init = top["initial"];
   init.expect_keys({"scale", "about"});
   if (init.defined()) {
