@@ -49,95 +49,14 @@
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/version.h"
 #include "tsf/volume/analytic_volumes.h"
+#include "yaml_field.h"
 
 namespace tsf::app {
 namespace {
 
 using nlohmann::json;
 
-// ---- strict YAML fields (the same rules as scene files: unknown key or bad value = error) ----
-
-class Field {
- public:
-  Field(YAML::Node node, std::string path, const std::string* file)
-      : node_(std::move(node)), path_(std::move(path)), file_(file) {}
-  [[noreturn]] void fail(const std::string& what) const {
-    std::ostringstream s;
-    s << *file_ << ": " << (path_.empty() ? "(top level)" : path_) << ": " << what;
-    if (node_.IsDefined() && node_.Mark().line >= 0) s << " (line " << node_.Mark().line + 1 << ")";
-    throw Error(s.str());
-  }
-  bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
-  Field operator[](const std::string& key) const {
-    const std::string path = path_.empty() ? key : path_ + "." + key;
-    if (!defined() || !node_.IsMap()) return Field(YAML::Node(), path, file_);
-    return Field(node_[key], path, file_);
-  }
-  void expect_keys(std::initializer_list<const char*> allowed) const {
-    if (!defined()) return;
-    if (!node_.IsMap()) fail("expected a mapping of keys");
-    const std::set<std::string> ok(allowed.begin(), allowed.end());
-    for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
-      if (ok.count(key)) continue;
-      std::string list;
-      for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-      Field(kv.first, path_.empty() ? key : path_ + "." + key, file_)
-          .fail("unknown key (expected one of: " + list + ")");
-    }
-  }
-  std::string text(const std::string& fallback) const {
-    if (!defined()) return fallback;
-    if (!node_.IsScalar()) fail("expected a text value");
-    return node_.Scalar();
-  }
-  double number(double fallback, double lo, double hi, bool lo_open = false) const {
-    if (!defined()) return fallback;
-    if (!node_.IsScalar()) fail("expected a number");
-    double v = 0;
-    try {
-      v = node_.as<double>();
-    } catch (const YAML::Exception&) {
-      fail("expected a number, got '" + node_.Scalar() + "'");
-    }
-    if (!std::isfinite(v) || (lo_open ? !(v > lo) : !(v >= lo)) || !(v <= hi)) {
-      std::ostringstream s;
-      s << "expected a number in " << (lo_open ? "(" : "[") << lo << ", " << hi << "], got "
-        << node_.Scalar();
-      fail(s.str());
-    }
-    return v;
-  }
-  double required_number(double lo, double hi, bool lo_open = false) const {
-    if (!defined()) fail("is required");
-    return number(0, lo, hi, lo_open);
-  }
-  int integer(int fallback, int lo, int hi) const {
-    const double v = number(fallback, lo, hi);
-    if (v != std::floor(v)) fail("expected a whole number, got " + node_.Scalar());
-    return static_cast<int>(v);
-  }
-  Vec3d vec3() const {
-    if (!defined()) fail("is required");
-    if (!node_.IsSequence() || node_.size() != 3) fail("expected a list of 3 numbers [x, y, z]");
-    Vec3d v;
-    for (int a = 0; a < 3; ++a)
-      v[a] = Field(node_[a], path_ + "[" + std::to_string(a) + "]", file_).number(0, -1e6, 1e6);
-    return v;
-  }
-  std::size_t size() const {
-    if (!defined() || !node_.IsSequence()) fail("expected a list");
-    return node_.size();
-  }
-  Field at(std::size_t i) const {
-    return Field(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
-  }
-
- private:
-  YAML::Node node_;
-  std::string path_;
-  const std::string* file_;
-};
+using Field = YamlField;
 
 // ---- the trajectory file -------------------------------------------------------------------
 
@@ -167,7 +86,7 @@ HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
   } catch (const YAML::Exception& e) {
     throw Error(run.file + ": not valid YAML: " + e.what());
   }
-  const Field top(root, "", &run.file);
+  const Field top(root, "", run.file);
   if (!top.defined()) top.fail("the trajectory file is empty");
   top.expect_keys({"stylus", "force_law", "lattice_gain", "loop", "target", "path"});
   const Field st = top["stylus"];

@@ -211,6 +211,7 @@ void run_simulate(const SimulateArguments& args) {
       {"integrator", crms::to_string(scene.solver.integrator)},
       {"angular_form", crms::to_string(scene.solver.angular_form)},
       {"angular_reactions", crms::to_string(scene.solver.angular_reactions)},
+      {"effects", solver.active_effects()},
       {"lattice",
        {{"dims", json::array({l.geometry().dims.x, l.geometry().dims.y, l.geometry().dims.z})},
         {"spacing_mm", to_json(l.geometry().spacing)},
@@ -250,6 +251,9 @@ void run_simulate(const SimulateArguments& args) {
       static_cast<long long>(l.alive_count()), static_cast<long long>(fixed),
       solver.backend_name().c_str(), crms::to_string(scene.solver.integrator), dt,
       stable > 0 ? dt / stable : 0.0, stable);
+  std::string effects;
+  for (const std::string& e : solver.active_effects()) effects += (effects.empty() ? "" : ", ") + e;
+  std::printf("effects: %s\n", effects.empty() ? "none" : effects.c_str());
   std::printf(
       "%lld steps in %.3f s: %.4g steps/s, %.4g node-steps/s; energy %.6g -> %.6g nJ; max "
       "displacement %.4g mm\n",

@@ -2,11 +2,11 @@
 #include "run/material_library.h"
 
 #include "run/repo_paths.h"
-#include "run/yaml_field.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/solver.h"
 #include "tsf/volume/tissue_labels.h"
+#include "yaml_field.h"
 
 namespace tsf::app {
 namespace fs = std::filesystem;

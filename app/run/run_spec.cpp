@@ -1,7 +1,7 @@
 // Strict reading of a scene's `pipeline:` section (run_spec.h).
 #include "run/run_spec.h"
 
-#include "run/yaml_field.h"
+#include "yaml_field.h"
 
 namespace tsf::app {
 namespace fs = std::filesystem;

@@ -10,120 +10,12 @@
 #include "tsf/common/error.h"
 #include "tsf/volume/tissue_labels.h"
 #include "tsf/volume/tool_shapes.h"
+#include "yaml_field.h"
 
 namespace tsf::app {
 namespace {
 
-/// A YAML node with its key path, whose accessors check type and range and name the path.
-class Field {
- public:
-  Field(YAML::Node node, std::string path, const std::string* file)
-      : node_(std::move(node)), path_(std::move(path)), file_(file) {}
-
-  [[noreturn]] void fail(const std::string& what) const {
-    std::ostringstream s;
-    s << *file_ << ": " << (path_.empty() ? "(top level)" : path_) << ": " << what;
-    if (node_.IsDefined() && node_.Mark().line >= 0) s << " (line " << node_.Mark().line + 1 << ")";
-    throw Error(s.str());
-  }
-  bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
-  const std::string& path() const { return path_; }
-
-  /// Child of a map; `allowed` lists every key this map may hold (checked once per map).
-  Field operator[](const std::string& key) const {
-    const std::string path = path_.empty() ? key : path_ + "." + key;
-    // A child of an absent (or non-map) node is absent: yaml-cpp throws on lookups into an
-    // invalid node, and expect_keys() reports non-maps where they matter.
-    if (!defined() || !node_.IsMap()) return Field(YAML::Node(), path, file_);
-    return Field(node_[key], path, file_);
-  }
-  void expect_keys(std::initializer_list<const char*> allowed) const {
-    if (!defined()) return;
-    if (!node_.IsMap()) fail("expected a mapping of keys");
-    std::set<std::string> ok(allowed.begin(), allowed.end());
-    for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
-      if (!ok.count(key)) {
-        std::string list;
-        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-        Field(kv.first, path_.empty() ? key : path_ + "." + key, file_)
-            .fail("unknown key (expected one of: " + list + ")");
-      }
-    }
-  }
-  std::string text() const {
-    if (!node_.IsScalar()) fail("expected a text value");
-    return node_.Scalar();
-  }
-  double number() const {
-    if (!node_.IsScalar()) fail("expected a number");
-    try {
-      const double v = node_.as<double>();
-      if (!std::isfinite(v)) fail("expected a finite number, got '" + node_.Scalar() + "'");
-      return v;
-    } catch (const YAML::Exception&) {
-      fail("expected a number, got '" + node_.Scalar() + "'");
-    }
-  }
-  double number(double fallback, double lo, double hi, bool lo_open = false) const {
-    if (!defined()) return fallback;
-    const double v = number();
-    if ((lo_open ? !(v > lo) : !(v >= lo)) || !(v <= hi)) {
-      std::ostringstream s;
-      s << "expected a number in " << (lo_open ? "(" : "[") << lo << ", " << hi << "], got " << v;
-      fail(s.str());
-    }
-    return v;
-  }
-  std::int64_t integer(std::int64_t fallback, std::int64_t lo, std::int64_t hi) const {
-    if (!defined()) return fallback;
-    const double v = number();
-    if (v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi))
-      fail("expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
-           "], got " + node_.Scalar());
-    return static_cast<std::int64_t>(v);
-  }
-  bool boolean(bool fallback) const {
-    if (!defined()) return fallback;
-    try {
-      return node_.as<bool>();
-    } catch (const YAML::Exception&) {
-      fail("expected true or false, got '" + node_.Scalar() + "'");
-    }
-  }
-  Vec3d vec3(Vec3d fallback) const {
-    if (!defined()) return fallback;
-    if (!node_.IsSequence() || node_.size() != 3) fail("expected a list of 3 numbers [x, y, z]");
-    Vec3d v;
-    for (int a = 0; a < 3; ++a)
-      v[a] = Field(node_[a], path_ + "[" + std::to_string(a) + "]", file_).number();
-    return v;
-  }
-  template <typename T>
-  T choice(T fallback, std::initializer_list<std::pair<const char*, T>> options) const {
-    if (!defined()) return fallback;
-    const std::string t = text();
-    std::string list;
-    for (const auto& o : options) {
-      if (t == o.first) return o.second;
-      list += std::string(list.empty() ? "" : ", ") + o.first;
-    }
-    fail("expected one of " + list + ", got '" + t + "'");
-  }
-  std::size_t size() const {
-    if (!node_.IsSequence()) fail("expected a list");
-    return node_.size();
-  }
-  Field at(std::size_t i) const {
-    return Field(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
-  }
-  bool is_auto() const { return defined() && node_.IsScalar() && node_.Scalar() == "auto"; }
-
- private:
-  YAML::Node node_;
-  std::string path_;
-  const std::string* file_;
-};
+using Field = YamlField;
 
 std::uint8_t parse_label(const Field& f) {
   const std::string t = f.text();
@@ -478,6 +370,37 @@ void read_outputs(const Field& f, const std::filesystem::path& folder, SceneOutp
     f["report"].fail("expected a .json file name");
 }
 
+/// `effects:` (tsf/crms/effects_config.h): a listed effect is on unless it says `enabled: false`.
+void read_effects(const Field& f, crms::EffectsConfig& e) {
+  if (!f.defined()) return;
+  f.expect_keys({"plasticity", "anisotropy", "fluid", "tearing"});
+  if (const Field p = f["plasticity"]; p.defined()) {
+    p.expect_keys({"enabled", "yield_strain", "creep_rate", "recovery_rate"});
+    e.plasticity.enabled = p["enabled"].boolean(true);
+    e.plasticity.yield_strain = p["yield_strain"].number(0.05, 0.0, 10.0, true);
+    e.plasticity.creep_rate = p["creep_rate"].number(200, 0.0, 1e6);
+    e.plasticity.recovery_rate = p["recovery_rate"].number(0.0, 0.0, 1e6);
+  }
+  if (const Field a = f["anisotropy"]; a.defined()) {
+    a.expect_keys({"enabled", "axis", "stiffness_factor"});
+    e.anisotropy.enabled = a["enabled"].boolean(true);
+    e.anisotropy.axis = a["axis"].vec3({1, 0, 0});
+    if (!(length_squared(e.anisotropy.axis) > 0)) a["axis"].fail("must not be zero");
+    e.anisotropy.stiffness_factor = a["stiffness_factor"].number(2.0, 0.01, 100.0);
+  }
+  if (const Field fl = f["fluid"]; fl.defined()) {
+    fl.expect_keys({"enabled", "bulk_modulus", "diffusion_rate"});
+    e.fluid.enabled = fl["enabled"].boolean(true);
+    e.fluid.bulk_modulus_pa = fl["bulk_modulus"].number(5e3, 1.0, 1e11);
+    e.fluid.diffusion_rate = fl["diffusion_rate"].number(0.0, 0.0, 1e6);
+  }
+  if (const Field t = f["tearing"]; t.defined()) {
+    t.expect_keys({"enabled", "strain_threshold"});
+    e.tearing.enabled = t["enabled"].boolean(true);
+    e.tearing.strain_threshold = t["strain_threshold"].number(0.5, 0.0, 100.0, true);
+  }
+}
+
 }  // namespace
 
 Scene read_scene(const std::filesystem::path& file) {
@@ -490,11 +413,12 @@ Scene read_scene(const std::filesystem::path& file) {
   } catch (const YAML::Exception& e) {
     throw Error(name + ": not valid YAML: " + e.what());
   }
-  const Field top(root, "", &name);
+  const Field top(root, "", name);
   if (!top.defined()) top.fail("the scene is empty");
   // `pipeline` is read by `tsf run` (app/run/run_spec.h).
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
-                   "loads", "initial", "tissue", "tools", "script", "outputs", "pipeline"});
+                   "loads", "initial", "effects", "tissue", "tools", "script", "outputs",
+                   "pipeline"});
   Scene s;
   s.file = file;
   s.name = top["name"].defined() ? top["name"].text() : file.stem().string();
@@ -509,6 +433,7 @@ Scene read_scene(const std::filesystem::path& file) {
   read_stability(top["stability"], s.solver.stability);
   read_anchors(top["anchors"], s.anchors);
   read_loads(top["loads"], s.loads);
+  read_effects(top["effects"], s.solver.effects);
   const Field init = top["initial"];
   init.expect_keys({"scale", "about"});
   if (init.defined()) {

@@ -2,9 +2,13 @@
 // displacement) after 1,000 steps, for every formulation and effect combination.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "physics_assertions.h"
+#include "tsf/common/error.h"
 
 namespace tsf::crms {
 namespace {
@@ -52,6 +56,106 @@ TEST(CrmsBackendParity, CpuAndCudaAgreeAfter1000Steps) {
       EXPECT_LE(diff, 1e-4 * scale) << "combo " << combo << " " << to_string(integrator)
                                     << ": max difference " << diff << " mm of " << scale << " mm";
     }
+}
+
+/// A scene that exercises every part of the shared evaluation: tile and slab borders (odd sizes,
+/// small tiles), dead nodes, a broken spring, anchors, two materials, external forces, gravity.
+struct SharedScene {
+  Int3 size{13, 11, 17};
+  std::vector<Vec3f> run(SolverConfig c, int steps, unsigned features_combo) const {
+    Lattice l = test::box({double(size.x), double(size.y), double(size.z)}, 1);
+    fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
+    const bool hetero = features_combo & 1, external = features_combo & 2;
+    if (hetero)
+      for (std::int64_t n = 0; n < l.node_count(); ++n)
+        if (l.geometry().rest_position(n).z > 8) l.set_material(n, 1);
+    l.set_alive(l.geometry().index(6, 5, 8), false);
+    l.set_alive(l.geometry().index(12, 0, 16), false);
+    c.angular_form = (features_combo & 4) ? AngularForm::kCosine : AngularForm::kExact;
+    c.angular_reactions = AngularReactions::kSymmetric;
+    c.materials = {test::soft_material(10e3, 2e-4)};
+    if (hetero) c.materials.push_back(test::soft_material(40e3, 1e-4));
+    c.gravity = {0, -3000, -9810};
+    Solver s(std::move(l), c);
+    s.break_springs({{s.lattice().geometry().index(7, 7, 7), 5}});
+    if (external) {
+      const auto tip = test::nodes_where(s.lattice(), [](Vec3d p) { return p.x > 11; });
+      s.set_external_forces(tip, std::vector<Vec3f>(tip.size(), Vec3f{0, 50, -20}));
+    }
+    const double dt = 0.5 * s.stable_dt();
+    s.step(steps - 3, dt);
+    s.step(3, dt);
+    EXPECT_FALSE(s.instability().has_value());
+    return s.positions();
+  }
+};
+
+double max_difference_relative(const std::vector<Vec3f>& a, const std::vector<Vec3f>& b,
+                               const Lattice& rest) {
+  double diff = 0, scale = 0;
+  for (std::size_t n = 0; n < a.size(); ++n) {
+    diff = std::max(diff, static_cast<double>(length(a[n] - b[n])));
+    scale = std::max(scale, length(to_double(a[n]) - rest.geometry().rest_position(n)));
+  }
+  return diff / scale;
+}
+
+TEST(CrmsBackendParity, SharedEvaluationMatchesPerNodeOnEveryInstructionSetAndTiling) {
+  const SharedScene scene;
+  const Lattice rest = test::box({13, 11, 17}, 1);
+  for (unsigned combo : {0u, 3u, 4u, 7u}) {
+    SolverConfig reference;
+    reference.backend = Backend::kCpu;
+    reference.force_evaluation = ForceEvaluation::kPerNode;
+    reference.cpu_instruction_set = CpuInstructionSet::kBaseline;
+    const auto expected = scene.run(reference, 300, combo);
+    int instruction_sets_run = 0;
+    for (CpuInstructionSet isa :
+         {CpuInstructionSet::kBaseline, CpuInstructionSet::kAvx2, CpuInstructionSet::kAvx512}) {
+      for (int tile_rows : {0, 1, 4}) {
+        SolverConfig c = reference;
+        c.force_evaluation = ForceEvaluation::kShared;
+        c.cpu_instruction_set = isa;
+        c.cpu_tile_rows = tile_rows;
+        std::vector<Vec3f> got;
+        try {
+          got = scene.run(c, 300, combo);
+        } catch (const Error& e) {
+          // This processor lacks the instruction set: nothing to compare (counted below).
+          EXPECT_NE(std::string(e.what()).find("not supported"), std::string::npos) << e.what();
+          break;
+        }
+        if (tile_rows == 0) ++instruction_sets_run;
+        EXPECT_LE(max_difference_relative(got, expected, rest), 1e-5)
+            << "combo " << combo << ", " << to_string(isa) << ", tile rows " << tile_rows;
+      }
+      // The per-node kernels of every instruction set agree as well.
+      SolverConfig c = reference;
+      c.cpu_instruction_set = isa;
+      try {
+        EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-5)
+            << "per-node, combo " << combo << ", " << to_string(isa);
+      } catch (const Error&) {
+      }
+    }
+    EXPECT_GE(instruction_sets_run, 1);
+    if (cuda_status().available) {
+      for (int rows : {4, 8})
+        for (int planes : {0, 1, 3}) {
+          SolverConfig c = reference;
+          c.backend = Backend::kCuda;
+          c.force_evaluation = ForceEvaluation::kShared;
+          c.cuda_tile_rows = rows;
+          c.cuda_planes_per_block = planes;
+          EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
+              << "CUDA shared, combo " << combo << ", rows " << rows << ", planes " << planes;
+        }
+      SolverConfig c = reference;
+      c.backend = Backend::kCuda;
+      EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
+          << "CUDA per-node, combo " << combo;
+    }
+  }
 }
 
 }  // namespace

@@ -5,8 +5,10 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
+#include "tsf/common/error.h"
 #include "tsf/crms/calibration.h"
 #include "tsf/crms/dual.h"
 #include "tsf/crms/effects.h"
@@ -193,6 +195,113 @@ TEST(CrmsNodeForce, GatherFormDoesNotConserveMomentumOfAngles) {
   for (int j = 0; j < 3; ++j)
     for (int i = 0; i < 3; ++i) total += to_double(l.force<0>(i, j, 0, p));
   EXPECT_GT(std::sqrt(dot(total, total)), 1e-3);
+}
+
+/// The shared evaluation's decomposition: self(n) + the reactions its neighbours' angles put on
+/// it equals the per-node force of the whole 19-node stencil, and reaction_towards() is exactly
+/// node_spring_terms()'s reaction, on a deformed, moving lattice with a dead node, a broken link
+/// and two materials.
+template <unsigned F>
+void expect_shared_terms_match_per_node_force(unsigned seed) {
+  HostLattice l({5, 4, 4}, 1.25f);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> jitter(-0.2f, 0.2f);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t n = 0; n < l.u[a].size(); ++n) {
+      l.u[a][n] = jitter(rng);
+      l.v[a][n] = 20.0f * jitter(rng);
+    }
+  // Node (2,2,2) dead: no links on either side; the +y spring of (1,1,1) broken on both ends.
+  const std::int64_t dead = l.index(2, 2, 2);
+  l.flags[dead] = 0;
+  for (int d = 0; d < 6; ++d) {
+    const Int3 o = direction_offset(d);
+    l.flags[l.index(2 + o.x, 2 + o.y, 2 + o.z)] &=
+        static_cast<std::uint8_t>(~(1u << opposite_direction(d)));
+  }
+  l.flags[l.index(1, 1, 1)] &= static_cast<std::uint8_t>(~(1u << 3));
+  l.flags[l.index(1, 2, 1)] &= static_cast<std::uint8_t>(~(1u << 2));
+  MaterialPalette p = palette_of(unit_springs());
+  p.entry[1] = unit_springs();
+  for (int a = 0; a < 3; ++a) {
+    p.entry[1].ks_linear[a] *= 3.0f;
+    p.entry[1].k_angular[a] *= 5.0f;
+    p.entry[1].c_angular[a] *= 0.5f;
+  }
+  p.count = 2;
+  for (std::size_t n = 0; n < l.material.size(); ++n) l.material[n] = (n % 3 == 0) ? 1 : 0;
+
+  const LatticeView view = l.view();
+  const ConstStateView state = l.state();
+  auto stencil = [&](int i, int j, int k) {
+    return IndexedStencil{view, state, l.index(i, j, k), i, j, k};
+  };
+  double worst = 0, scale = 0;
+  for (int k = 0; k < l.dims.z; ++k)
+    for (int j = 0; j < l.dims.y; ++j)
+      for (int i = 0; i < l.dims.x; ++i) {
+        NodeSpringTerms<float> own;
+        node_spring_terms<F>(stencil(i, j, k), l.rest, p, own);
+        for (int d = 0; d < 6; ++d)
+          EXPECT_EQ(reaction_towards<F>(stencil(i, j, k), d, l.rest, p), own.reaction[d])
+              << "node (" << i << "," << j << "," << k << ") direction " << d;
+        Vec3f shared = own.self;
+        const unsigned links = l.flags[l.index(i, j, k)] & kLinkBits;
+        for (int d = 0; d < 6; ++d) {
+          if (!((links >> d) & 1u)) continue;
+          const Int3 o = direction_offset(d);
+          NodeSpringTerms<float> nb;
+          node_spring_terms<F>(stencil(i + o.x, j + o.y, k + o.z), l.rest, p, nb);
+          shared += nb.reaction[opposite_direction(d)];
+        }
+        const Vec3f per_node = spring_force<F>(stencil(i, j, k), l.rest, p);
+        worst = std::max(worst, static_cast<double>(length(shared - per_node)));
+        scale = std::max(scale, static_cast<double>(length(per_node)));
+      }
+  EXPECT_GT(scale, 0.1);
+  EXPECT_LE(worst, 2e-6 * scale) << "features " << F;
+}
+
+TEST(CrmsNodeForce, SharedTermsEqualThePerNodeForce) {
+  using namespace features;
+  expect_shared_terms_match_per_node_force<kSymmetricReactions>(3);
+  expect_shared_terms_match_per_node_force<kSymmetricReactions | kCosineAngular>(4);
+  expect_shared_terms_match_per_node_force<kSymmetricReactions | kHeterogeneous>(5);
+  expect_shared_terms_match_per_node_force<kSymmetricReactions | kHeterogeneous | kCosineAngular>(
+      6);
+}
+
+TEST(CrmsNodeForce, GatherFormSelfIsTheWholeForce) {
+  // Without symmetric reactions a node's own terms are its whole spring force.
+  HostLattice l({3, 3, 3}, 1.0f);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> jitter(-0.2f, 0.2f);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t n = 0; n < l.u[a].size(); ++n) l.u[a][n] = jitter(rng);
+  const MaterialPalette p = palette_of(unit_springs());
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) {
+        const IndexedStencil st{l.view(), l.state(), l.index(i, j, k), i, j, k};
+        NodeSpringTerms<float> t;
+        node_spring_terms<0>(st, l.rest, p, t);
+        EXPECT_EQ(t.self, spring_force<0>(st, l.rest, p));
+      }
+}
+
+TEST(CrmsEffects, UncompiledFeatureSetIsRejectedNamingItsBits) {
+  const unsigned unknown = 1u << 9;
+  EXPECT_FALSE(is_compiled_feature_set(unknown));
+  for (unsigned set = 0; set <= features::kAll; ++set) EXPECT_TRUE(is_compiled_feature_set(set));
+  try {
+    dispatch_features(unknown | features::kSymmetricReactions, [](auto) {});
+    ADD_FAILURE() << "an uncompiled feature set was dispatched";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("0x202"), std::string::npos) << what;
+    EXPECT_NE(what.find("symmetric-reactions"), std::string::npos) << what;
+    EXPECT_NE(what.find("CompiledFeatureSets"), std::string::npos) << what;
+  }
 }
 
 /// Dual-number stencil over a HostLattice (double copies), seeding one node.

@@ -127,6 +127,15 @@ TEST(CrmsRobustness, OutOfRangeParametersAreRejectedNamingTheField) {
     c.cuda_steps_per_graph = 63;
     expect_rejected(c, "cuda_steps_per_graph");
     c = good;
+    c.cpu_tile_rows = -1;
+    expect_rejected(c, "cpu_tile_rows");
+    c = good;
+    c.cuda_tile_rows = 5;
+    expect_rejected(c, "cuda_tile_rows");
+    c = good;
+    c.cuda_planes_per_block = 5000;
+    expect_rejected(c, "cuda_planes_per_block");
+    c = good;
     c.materials.clear();
     expect_rejected(c, "materials");
   }

@@ -1,20 +1,13 @@
-// CPU backend: the per-node step of node_update.h in an OpenMP loop over lattice rows.
+// CPU backend: the row loops of cpu_kernels.h in OpenMP over lattice rows or tiles.
 //
-// Rows (fixed j, k) are distributed over threads; within a row the interior nodes run in a SIMD
-// loop (`omp simd`) over x, reading neighbours through nine row pointers (rows outside the lattice
-// alias the centre row; link bits zero their contribution), and the two row ends go through the
-// bounds-checked IndexedStencil. The row function is flattened so that the whole per-node
-// physics is inlined into the SIMD loop (a per-function `target("avx2")` clone was tried: GCC
-// then refuses to inline the default-target physics into it and calls it per node, 2× slower).
+// Per-node evaluation (the gather form, and ForceEvaluation::kPerNode): rows (fixed j, k) are
+// distributed over threads, each row one SIMD loop. Shared evaluation of the symmetric form: the
+// lattice is cut into tiles of rows × z-slabs (one z-slab per thread, rows sized so that a
+// thread's ring of terms stays in its core's cache) and each thread marches its tiles
+// (cpu_kernels.h).
 //
-// No errno from sqrt: this translation unit is compiled as if with -fno-math-errno (the pragma
-// must precede every include so that all functions defined here agree), which lets sqrtf become a
-// vector instruction. The physics never takes the square root of a negative number (arguments
-// are squared lengths and clamped 1 − c²).
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("no-math-errno")
-#endif
-
+// The kernels are compiled for several instruction sets (cpu_kernels_<isa>.cpp); the backend takes
+// the widest the processor supports, or the one SolverConfig::cpu_instruction_set names.
 #include <omp.h>
 
 #include <algorithm>
@@ -24,17 +17,12 @@
 #include <optional>
 #include <string>
 
+#include "cpu_kernels.h"
 #include "solver_backend.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/effects.h"
-#include "tsf/crms/node_update.h"
+#include "tsf/crms/node_force.h"
 #include "tsf/crms/stencil.h"
-
-#if defined(__GNUC__)
-#define TSF_FLATTEN __attribute__((flatten))
-#else
-#define TSF_FLATTEN
-#endif
 
 namespace tsf::crms {
 namespace {
@@ -43,85 +31,73 @@ namespace {
 /// far more when the cores are shared with other work).
 constexpr std::int64_t kParallelNodes = 8192;
 
-/// Row pointers of the 3×3 block of rows around (j, k): index (dy+1) + 3·(dz+1).
-struct RowBlock {
-  const float* u[3][9];
-  const float* v[3][9];
-  const std::uint8_t* flags[9];
-  const std::uint8_t* material[9];
-  const float* inv_mass;
-  const float* external_force[3];
-};
+/// Floats of one thread's term ring the tile rows are sized for: 3 planes × 21 floats × rows ×
+/// nx ≈ 1.5 MB, the core's L2 and a slice of L3 (the ring is streamed, so L3 hits are cheap).
+constexpr std::size_t kRingBudgetFloats = std::size_t{384} << 10;
 
-/// Stencil accessor for interior x positions of a row (x ± 1 always inside).
-struct RowStencil {
-  using Scalar = float;
-  const RowBlock& b;
-  int i;
-
-  static constexpr int row(int slot) {
-    return (slot_offset(slot, 1) + 1) + 3 * (slot_offset(slot, 2) + 1);
+bool processor_has(CpuInstructionSet isa) {
+#if defined(__x86_64__) && defined(__GNUC__)
+  switch (isa) {
+    case CpuInstructionSet::kAuto:
+    case CpuInstructionSet::kBaseline:
+      return true;
+    case CpuInstructionSet::kAvx2:
+      return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    case CpuInstructionSet::kAvx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
+             __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   }
-  Vec3f u(int slot) const {
-    const int r = row(slot), x = i + slot_offset(slot, 0);
-    return {b.u[0][r][x], b.u[1][r][x], b.u[2][r][x]};
-  }
-  Vec3f v(int slot) const {
-    const int r = row(slot), x = i + slot_offset(slot, 0);
-    return {b.v[0][r][x], b.v[1][r][x], b.v[2][r][x]};
-  }
-  unsigned flags(int slot) const { return b.flags[row(slot)][i + slot_offset(slot, 0)]; }
-  int material(int slot) const { return b.material[row(slot)][i + slot_offset(slot, 0)]; }
-  float inv_mass() const { return b.inv_mass[i]; }
-  Vec3f external_force() const {
-    return {b.external_force[0][i], b.external_force[1][i], b.external_force[2][i]};
-  }
-};
-
-struct RowOutput {
-  float* u[3];
-  float* v[3];
-};
-
-template <unsigned F>
-inline __attribute__((always_inline)) bool step_row_interior(const RowBlock& b,
-                                                             const RowOutput& out,
-                                                             const float* rest_length,
-                                                             const StepParameters& p, int i0,
-                                                             int i1) {
-  int bad = 0;
-#pragma omp simd reduction(| : bad)
-  for (int i = i0; i < i1; ++i) {
-    const RowStencil st{b, i};
-    const NodeStepResult r = step_node<F>(st, rest_length, p);
-    out.u[0][i] = r.u.x;
-    out.u[1][i] = r.u.y;
-    out.u[2][i] = r.u.z;
-    out.v[0][i] = r.v.x;
-    out.v[1][i] = r.v.y;
-    out.v[2][i] = r.v.z;
-    bad |= r.finite ? 0 : 1;
-  }
-  return bad != 0;
+  return false;
+#else
+  return isa == CpuInstructionSet::kAuto || isa == CpuInstructionSet::kBaseline;
+#endif
 }
 
-template <unsigned F>
-TSF_FLATTEN bool step_row_simd(const RowBlock& b, const RowOutput& out, const float* rest_length,
-                               const StepParameters& p, int i0, int i1) {
-  return step_row_interior<F>(b, out, rest_length, p, i0, i1);
+cpu::RowKernels row_kernels(CpuInstructionSet isa, unsigned set) {
+  switch (isa) {
+    case CpuInstructionSet::kAvx512:
+      return cpu::row_kernels_avx512(set);
+    case CpuInstructionSet::kAvx2:
+      return cpu::row_kernels_avx2(set);
+    default:
+      return cpu::row_kernels_baseline(set);
+  }
+}
+
+/// The instruction set the kernels run with: the requested one (an error when the processor or
+/// this build lacks it) or, for kAuto, the widest available.
+CpuInstructionSet resolve_instruction_set(CpuInstructionSet requested) {
+  auto usable = [](CpuInstructionSet isa) {
+    return processor_has(isa) && row_kernels(isa, 0).step_row_per_node != nullptr;
+  };
+  if (requested == CpuInstructionSet::kAuto) {
+    for (CpuInstructionSet isa : {CpuInstructionSet::kAvx512, CpuInstructionSet::kAvx2})
+      if (usable(isa)) return isa;
+    return CpuInstructionSet::kBaseline;
+  }
+  require(usable(requested), std::string("cpu_instruction_set ") + to_string(requested) +
+                                 " is not supported by this processor or build");
+  return requested;
 }
 
 class CpuBackend final : public SolverBackend {
  public:
-  explicit CpuBackend(const LatticeGeometry& g) : geometry_(g), count_(g.node_count()) {
+  CpuBackend(const LatticeGeometry& g, const BackendOptions& options)
+      : geometry_(g),
+        count_(g.node_count()),
+        evaluation_(options.evaluation),
+        isa_(resolve_instruction_set(options.cpu_instruction_set)) {
     for (auto& buffer : state_)
       for (auto& component : buffer) component.assign(static_cast<std::size_t>(count_), 0.0f);
     // Snapshot storage is allocated on the first request (most runs never ask).
     snapshots_ = std::make_unique<SnapshotBuffer>(nullptr, nullptr, count_);
+    plan_tiles(options.cpu_tile_rows);
   }
 
   std::string name() const override {
-    return "cpu (OpenMP, " + std::to_string(omp_get_max_threads()) + " threads)";
+    return "cpu (OpenMP, " + std::to_string(omp_get_max_threads()) + " threads, " +
+           to_string(isa_) + ")";
   }
 
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
@@ -175,19 +151,19 @@ class CpuBackend final : public SolverBackend {
   }
 
   void step(int n, const StepParameters& p, unsigned features) override {
-    dispatch_features(features, [&](auto f) {
-      constexpr unsigned F = decltype(f)::value;
-      for (int s = 0; s < n; ++s) {
-        if (hit_) {  // halted: the state stays as it was after the failing step
-          ++steps_started_;
-          continue;
-        }
-        const std::int64_t bad = run_step<F>(p);
-        if (bad != LLONG_MAX) hit_ = GuardHit{bad, steps_started_};
-        current_ = 1 - current_;
+    require_compiled_feature_set(features);
+    const cpu::RowKernels kernels = row_kernels(isa_, features);
+    const bool shared = evaluation_ == ForceEvaluation::kShared && kernels.march_tile != nullptr;
+    for (int s = 0; s < n; ++s) {
+      if (hit_) {  // halted: the state stays as it was after the failing step
         ++steps_started_;
+        continue;
       }
-    });
+      const std::int64_t bad = shared ? run_step_shared(kernels, p) : run_step_per_node(kernels, p);
+      if (bad != LLONG_MAX) hit_ = GuardHit{bad, steps_started_};
+      current_ = 1 - current_;
+      ++steps_started_;
+    }
   }
   std::optional<GuardHit> synchronize() override { return hit_; }
   void reset_guard() override { hit_.reset(); }
@@ -291,73 +267,113 @@ class CpuBackend final : public SolverBackend {
     return v;
   }
 
-  /// One step from state_[current_] into the other buffer; returns the first non-finite node or
-  /// LLONG_MAX.
-  template <unsigned F>
-  std::int64_t run_step(const StepParameters& p) {
-    const LatticeView lat = lattice_view();
-    const ConstStateView in = buffer_view(current_);
-    const StateView out = buffer_view(1 - current_);
-    const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
-    const std::int64_t rows = static_cast<std::int64_t>(ny) * nz;
-    const float rest[3] = {lat.rest_length[0], lat.rest_length[1], lat.rest_length[2]};
+  cpu::StepContext context(const StepParameters& p) const {
+    cpu::StepContext c;
+    c.lattice = lattice_view();
+    c.in = buffer_view(current_);
+    c.out = buffer_view(1 - current_);
+    c.parameters = p;
+    return c;
+  }
+
+  int threads_for_step() const {
+    return count_ >= kParallelNodes ? omp_get_max_threads() : 1;
+  }
+
+  /// One step from state_[current_] into the other buffer, every node from its whole stencil;
+  /// returns the first non-finite node or LLONG_MAX.
+  std::int64_t run_step_per_node(const cpu::RowKernels& kernels, const StepParameters& p) {
+    const cpu::StepContext c = context(p);
+    prepare_scratch(threads_for_step(), false);
+    const int ny = geometry_.dims.y;
+    const std::int64_t rows = static_cast<std::int64_t>(ny) * geometry_.dims.z;
     std::int64_t first_bad = LLONG_MAX;
-#pragma omp parallel for schedule(static) reduction(min : first_bad) if (count_ >= kParallelNodes)
+#pragma omp parallel for schedule(static) reduction(min : first_bad) num_threads(threads_for_step())
     for (std::int64_t row = 0; row < rows; ++row) {
       const int j = static_cast<int>(row % ny), k = static_cast<int>(row / ny);
-      const std::int64_t base = row * nx;
-      RowBlock b;
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy) {
-          const bool inside = j + dy >= 0 && j + dy < ny && k + dz >= 0 && k + dz < nz;
-          const std::int64_t rb = inside ? base + dy * lat.stride_y + dz * lat.stride_z : base;
-          const int r = (dy + 1) + 3 * (dz + 1);
-          for (int a = 0; a < 3; ++a) {
-            b.u[a][r] = in.u[a] + rb;
-            b.v[a][r] = in.v[a] + rb;
-          }
-          b.flags[r] = lat.flags + rb;
-          b.material[r] = lat.material ? lat.material + rb : nullptr;
-        }
-      b.inv_mass = lat.inv_mass + base;
-      for (int a = 0; a < 3; ++a)
-        b.external_force[a] = lat.external_force[a] ? lat.external_force[a] + base : nullptr;
-      RowOutput o;
-      for (int a = 0; a < 3; ++a) {
-        o.u[a] = out.u[a] + base;
-        o.v[a] = out.v[a] + base;
-      }
+      first_bad =
+          std::min(first_bad, kernels.step_row_per_node(c, j, k, scratch_[omp_get_thread_num()]));
+    }
+    return first_bad;
+  }
 
-      bool row_bad = false;
-      // Row ends through the bounds-checked accessor.
-      const int ends[2] = {0, nx - 1};
-      for (int e = 0; e < (nx > 1 ? 2 : 1); ++e) {
-        const int i = ends[e];
-        const IndexedStencil st{lat, in, base + i, i, j, k};
-        const NodeStepResult r = step_node<F>(st, rest, p);
-        for (int a = 0; a < 3; ++a) {
-          o.u[a][i] = r.u[a];
-          o.v[a][i] = r.v[a];
-        }
-        row_bad |= !r.finite;
+  /// Per-thread scratch (row scratch always, term rings for the shared evaluation), allocated
+  /// and zeroed on first use.
+  void prepare_scratch(int threads, bool rings) {
+    const int nx = geometry_.dims.x;
+    if (static_cast<int>(scratch_.size()) < threads) {
+      scratch_storage_.resize(static_cast<std::size_t>(threads));
+      scratch_.resize(static_cast<std::size_t>(threads));
+      rings_.resize(static_cast<std::size_t>(threads));
+    }
+    for (int t = 0; t < threads; ++t) {
+      if (scratch_storage_[t].empty()) {
+        scratch_storage_[t].assign(cpu::RowScratch::ints(nx), 0);
+        scratch_[t] = cpu::RowScratch::over(scratch_storage_[t].data(), nx);
       }
-      if (nx > 2) row_bad |= step_row_simd<F>(b, o, rest, p, 1, nx - 1);
-      if (row_bad) {
-        // Rare: find the first failing node of the row by recomputing it.
-        for (int i = 0; i < nx; ++i) {
-          const IndexedStencil st{lat, in, base + i, i, j, k};
-          if (!step_node<F>(st, rest, p).finite) {
-            first_bad = std::min(first_bad, base + i);
-            break;
-          }
-        }
+      if (rings && rings_[t].empty())
+        rings_[t].assign(cpu::TermRing::floats(tile_rows_ + 2, nx), 0.0f);
+    }
+  }
+
+  /// Tiles of the shared evaluation: y-tiles of `rows` rows (0: sized for the cache) × one z-slab
+  /// per thread (slabs of at least 4 planes: the slab ends cost 2/3 of a plane each).
+  void plan_tiles(int rows) {
+    const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
+    if (rows == 0) {
+      const std::size_t per_row = cpu::TermRing::floats(1, nx);
+      rows = static_cast<int>(std::max<std::size_t>(kRingBudgetFloats / per_row, 3)) - 2;
+    }
+    rows = std::clamp(rows, 1, ny);
+    const int y_tiles = (ny + rows - 1) / rows;
+    rows = (ny + y_tiles - 1) / y_tiles;
+    const int slabs = std::clamp(nz / 4, 1, std::max(1, omp_get_max_threads()));
+    tiles_.clear();
+    for (int s = 0; s < slabs; ++s) {
+      const int k0 = static_cast<int>(static_cast<std::int64_t>(nz) * s / slabs);
+      const int k1 = static_cast<int>(static_cast<std::int64_t>(nz) * (s + 1) / slabs);
+      for (int t = 0; t < y_tiles; ++t) {
+        cpu::Tile tile;
+        tile.j0 = t * rows;
+        tile.j1 = std::min(ny, (t + 1) * rows);
+        tile.k0 = k0;
+        tile.k1 = k1;
+        if (tile.j0 < tile.j1 && k0 < k1) tiles_.push_back(tile);
       }
+    }
+    tile_rows_ = rows;
+  }
+
+  /// One step with the shared evaluation (symmetric form); returns the first non-finite node or
+  /// LLONG_MAX.
+  std::int64_t run_step_shared(const cpu::RowKernels& kernels, const StepParameters& p) {
+    const cpu::StepContext c = context(p);
+    const int threads = threads_for_step();
+    const int nx = geometry_.dims.x;
+    prepare_scratch(threads, true);
+    const auto tiles = static_cast<std::int64_t>(tiles_.size());
+    std::int64_t first_bad = LLONG_MAX;
+#pragma omp parallel for schedule(static) reduction(min : first_bad) num_threads(threads)
+    for (std::int64_t t = 0; t < tiles; ++t) {
+      const int me = omp_get_thread_num();
+      cpu::TermRing ring;
+      ring.data = rings_[me].data();
+      ring.rows = tile_rows_ + 2;
+      ring.stride = nx + 2;
+      first_bad = std::min(first_bad, kernels.march_tile(c, ring, tiles_[t], scratch_[me]));
     }
     return first_bad;
   }
 
   LatticeGeometry geometry_;
   std::int64_t count_;
+  ForceEvaluation evaluation_;
+  CpuInstructionSet isa_;
+  std::vector<cpu::Tile> tiles_;
+  int tile_rows_ = 1;
+  std::vector<std::vector<float>> rings_;  // per thread, zeroed once
+  std::vector<std::vector<std::int32_t>> scratch_storage_;
+  std::vector<cpu::RowScratch> scratch_;
   std::array<std::array<std::vector<float>, 6>, 2> state_;  // [buffer][ux,uy,uz,vx,vy,vz]
   int current_ = 0;
   std::vector<std::uint8_t> flags_, material_;
@@ -371,8 +387,9 @@ class CpuBackend final : public SolverBackend {
 
 }  // namespace
 
-std::unique_ptr<SolverBackend> make_cpu_backend(const LatticeGeometry& geometry) {
-  return std::make_unique<CpuBackend>(geometry);
+std::unique_ptr<SolverBackend> make_cpu_backend(const LatticeGeometry& geometry,
+                                                const BackendOptions& options) {
+  return std::make_unique<CpuBackend>(geometry, options);
 }
 
 }  // namespace tsf::crms

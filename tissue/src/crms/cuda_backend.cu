@@ -1,4 +1,17 @@
-// CUDA backend: the per-node step of node_update.h in a thin kernel, one thread per node.
+// CUDA backend: the per-node physics of node_force.h / node_update.h in thin kernels.
+//
+// Kernels of one step:
+// * per node (gather form, ForceEvaluation::kPerNode): one thread per node evaluates the node's
+//   whole stencil and integrates it.
+// * shared (symmetric form, the default): each angle is evaluated once (node_force.h). A thread
+//   block owns a tile of 32 × kRows columns and marches through `planes` z-planes: for plane t
+//   every thread evaluates its node's terms (self + 6 reactions, 7-node stencil); the in-plane
+//   reactions go through shared memory (double-buffered by plane parity, one barrier per plane),
+//   the z-reactions stay in the thread's registers (the z-neighbours are the same thread's
+//   previous and next planes). Halo work: the 2·(32 + kRows) nodes around the tile and the planes
+//   just below and above the block's z-range evaluate only their reaction towards it (4 angles
+//   instead of 12). Plane t − 1 is finished (force, integration, store) while plane t is
+//   evaluated. Global memory traffic: the state once per step plus the tile borders (L1/L2).
 //
 // The lattice and both state buffers live on the device for the solver's lifetime; the host sees
 // them only through explicit queries. Steps are launched as CUDA graphs of `steps_per_graph`
@@ -79,6 +92,162 @@ __global__ void __launch_bounds__(256)
   if (!r.finite) {
     guard->bad_step = step;  // every failing thread of this step writes the same value
     atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
+  }
+}
+
+constexpr int kTileX = 32;
+
+__device__ __forceinline__ Vec3f select_if(bool on, const Vec3f& a) {
+  return {on ? a.x : 0.0f, on ? a.y : 0.0f, on ? a.z : 0.0f};
+}
+
+/// The shared evaluation of the symmetric form (see header). Block (32, kRows); grid
+/// (⌈nx/32⌉, ⌈ny/kRows⌉, ⌈nz/planes⌉).
+template <unsigned F, int kRows>
+__global__ void __launch_bounds__(kTileX* kRows, 2048 / (kTileX * kRows) / 4)
+    shared_step_kernel(LatticeView lat, ConstStateView in, StateView out, StepParameters p,
+                       Guard* guard, int local_step, int planes) {
+  static_assert((F & features::kSymmetricReactions) != 0, "shared evaluation is symmetric only");
+  constexpr int kW = kTileX + 2, kH = kRows + 2;
+  // In-plane reactions of the tile and its halo, by plane parity:
+  // [parity][0: reaction +x, 1: −x, 2: +y, 3: −y][component][row][column].
+  __shared__ float in_plane[2][4][3][kH][kW];
+
+  const int nx = lat.dims.x, ny = lat.dims.y, nz = lat.dims.z;
+  const int tx = threadIdx.x, ty = threadIdx.y;
+  const int i0 = blockIdx.x * kTileX, j0 = blockIdx.y * kRows;
+  const int i = i0 + tx, j = j0 + ty;
+  const int k0 = blockIdx.z * planes;
+  const int k1 = min(k0 + planes, nz);
+  const bool inside = i < nx && j < ny;
+  const std::int64_t column = i + j * lat.stride_y;
+  const long long step = guard->step_base + local_step;
+  if (guard->bad_step < step) {  // halted by an earlier step (uniform): keep the state
+    if (inside)
+      for (int k = k0; k < k1; ++k) {
+        const std::int64_t n = column + k * lat.stride_z;
+        for (int a = 0; a < 3; ++a) {
+          out.u[a][n] = in.u[a][n];
+          out.v[a][n] = in.v[a][n];
+        }
+      }
+    return;
+  }
+
+  // This thread's halo node, if any: the rows below/above the tile, then the columns left/right.
+  const int tid = tx + kTileX * ty;
+  int hi = -1, hj = -1, hd = 0, hq = 0, hr = 0, hc = 0;
+  if (tid < kTileX) {
+    hi = i0 + tid, hj = j0 - 1, hd = 3, hq = 2, hr = 0, hc = tid + 1;
+  } else if (tid < 2 * kTileX) {
+    hi = i0 + tid - kTileX, hj = j0 + kRows, hd = 2, hq = 3, hr = kRows + 1, hc = tid - kTileX + 1;
+  } else if (tid < 2 * kTileX + kRows) {
+    hi = i0 - 1, hj = j0 + tid - 2 * kTileX, hd = 1, hq = 0, hr = tid - 2 * kTileX + 1, hc = 0;
+  } else if (tid < 2 * kTileX + 2 * kRows) {
+    hi = i0 + kTileX, hj = j0 + tid - 2 * kTileX - kRows, hd = 0, hq = 1;
+    hr = tid - 2 * kTileX - kRows + 1, hc = kTileX + 1;
+  }
+  const bool has_halo_slot = tid < 2 * kTileX + 2 * kRows;
+  const bool halo_inside = has_halo_slot && hi >= 0 && hi < nx && hj >= 0 && hj < ny;
+
+  const Vec3f zero{0.0f, 0.0f, 0.0f};
+  Vec3f up_two = zero, up_one = zero;  // reaction[+z] of planes t − 2 and t − 1 (this column)
+  Vec3f partial = zero;                // plane t − 1: self + in-plane reactions received
+  for (int t = k0 - 1; t <= k1; ++t) {
+    const int parity = t & 1;
+    const bool plane_inside = t >= 0 && t < nz;
+    const std::int64_t n = column + static_cast<std::int64_t>(t) * lat.stride_z;
+    Vec3f up = zero, down = zero, self = zero;  // reaction[+z], reaction[−z], self of plane t
+    if (t == k0 - 1 || t == k1) {
+      // A plane just outside the block: only its reaction towards the block.
+      if (inside && plane_inside) {
+        const IndexedStencil st{lat, in, n, i, j, t};
+        if (t == k0 - 1)
+          up = reaction_towards<F>(st, 5, lat.rest_length, p.palette);
+        else
+          down = reaction_towards<F>(st, 4, lat.rest_length, p.palette);
+      }
+    } else {
+      NodeSpringTerms<float> terms;
+      if (inside) {
+        const IndexedStencil st{lat, in, n, i, j, t};
+        node_spring_terms<F>(st, lat.rest_length, p.palette, terms);
+      } else {
+        terms.self = zero;
+        for (int d = 0; d < 6; ++d) terms.reaction[d] = zero;
+      }
+      const int sends[4] = {1, 0, 3, 2};  // reaction towards +x, −x, +y, −y
+#pragma unroll
+      for (int q = 0; q < 4; ++q) {
+        in_plane[parity][q][0][ty + 1][tx + 1] = terms.reaction[sends[q]].x;
+        in_plane[parity][q][1][ty + 1][tx + 1] = terms.reaction[sends[q]].y;
+        in_plane[parity][q][2][ty + 1][tx + 1] = terms.reaction[sends[q]].z;
+      }
+      up = terms.reaction[5];
+      down = terms.reaction[4];
+      self = terms.self;
+      if (has_halo_slot) {
+        Vec3f r = zero;
+        if (halo_inside) {
+          const std::int64_t nh =
+              hi + hj * lat.stride_y + static_cast<std::int64_t>(t) * lat.stride_z;
+          const IndexedStencil st{lat, in, nh, hi, hj, t};
+          r = reaction_towards<F>(st, hd, lat.rest_length, p.palette);
+        }
+        in_plane[parity][hq][0][hr][hc] = r.x;
+        in_plane[parity][hq][1][hr][hc] = r.y;
+        in_plane[parity][hq][2][hr][hc] = r.z;
+      }
+    }
+
+    // Finish plane t − 1: its z-neighbours' reactions are in this thread's registers.
+    const int kf = t - 1;
+    if (kf >= k0 && kf < k1 && inside) {
+      const std::int64_t nf = column + static_cast<std::int64_t>(kf) * lat.stride_z;
+      const unsigned fl = lat.flags[nf];
+      Vec3f f = partial;
+      f += select_if(((fl >> 4) & 1u) != 0, up_two);
+      f += select_if(((fl >> 5) & 1u) != 0, down);
+      Vec3f external = zero;
+      if constexpr ((F & features::kExternalForces) != 0)
+        external = {lat.external_force[0][nf], lat.external_force[1][nf],
+                    lat.external_force[2][nf]};
+      const Vec3f u{in.u[0][nf], in.u[1][nf], in.u[2][nf]};
+      const Vec3f v{in.v[0][nf], in.v[1][nf], in.v[2][nf]};
+      const NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[nf], external, f, p);
+      out.u[0][nf] = r.u.x;
+      out.u[1][nf] = r.u.y;
+      out.u[2][nf] = r.u.z;
+      out.v[0][nf] = r.v.x;
+      out.v[1][nf] = r.v.y;
+      out.v[2][nf] = r.v.z;
+      if (!r.finite) {
+        guard->bad_step = step;
+        atomicMin(&guard->bad_node, static_cast<unsigned long long>(nf));
+      }
+    }
+    __syncthreads();  // in_plane[parity] complete (and the other parity free for plane t + 1)
+    if (t >= k0 && t < k1 && inside) {
+      const unsigned fl = lat.flags[n];
+      const int r = ty + 1, c = tx + 1;
+      Vec3f f = self;
+      // Neighbour −x sent its +x reaction (q 0), +x its −x (q 1), −y its +y (q 2), +y its −y (q 3).
+      f += select_if((fl & 1u) != 0,
+                     Vec3f{in_plane[parity][0][0][r][c - 1], in_plane[parity][0][1][r][c - 1],
+                           in_plane[parity][0][2][r][c - 1]});
+      f += select_if((fl & 2u) != 0,
+                     Vec3f{in_plane[parity][1][0][r][c + 1], in_plane[parity][1][1][r][c + 1],
+                           in_plane[parity][1][2][r][c + 1]});
+      f += select_if((fl & 4u) != 0,
+                     Vec3f{in_plane[parity][2][0][r - 1][c], in_plane[parity][2][1][r - 1][c],
+                           in_plane[parity][2][2][r - 1][c]});
+      f += select_if((fl & 8u) != 0,
+                     Vec3f{in_plane[parity][3][0][r + 1][c], in_plane[parity][3][1][r + 1][c],
+                           in_plane[parity][3][2][r + 1][c]});
+      partial = f;
+    }
+    up_two = up_one;
+    up_one = up;
   }
 }
 
@@ -188,8 +357,11 @@ T* device_alloc(std::size_t count) {
 
 class CudaBackend final : public SolverBackend {
  public:
-  CudaBackend(const LatticeGeometry& g, int steps_per_graph)
-      : geometry_(g), count_(g.node_count()), steps_per_graph_(steps_per_graph) {
+  CudaBackend(const LatticeGeometry& g, const BackendOptions& options)
+      : geometry_(g),
+        count_(g.node_count()),
+        steps_per_graph_(options.cuda_steps_per_graph),
+        evaluation_(options.evaluation) {
     const auto n = static_cast<std::size_t>(count_);
     TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
     TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&copy_stream_, cudaStreamNonBlocking));
@@ -217,6 +389,7 @@ class CudaBackend final : public SolverBackend {
     cudaDeviceProp prop{};
     TSF_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
     device_name_ = prop.name;
+    plan_shared_launch(options, prop.multiProcessorCount);
   }
 
   ~CudaBackend() override {
@@ -246,7 +419,10 @@ class CudaBackend final : public SolverBackend {
     cudaStreamDestroy(copy_stream_);
   }
 
-  std::string name() const override { return "cuda (" + device_name_ + ")"; }
+  std::string name() const override {
+    return "cuda (" + device_name_ + ", shared tiles 32x" + std::to_string(tile_rows_) + "x" +
+           std::to_string(planes_per_block_) + ")";
+  }
 
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
                       const std::vector<std::uint8_t>& material) override {
@@ -343,6 +519,7 @@ class CudaBackend final : public SolverBackend {
   }
 
   void step(int n, const StepParameters& p, unsigned features) override {
+    require_compiled_feature_set(features);
     const LatticeView lat = lattice_view();
     int done = 0;
     while (n - done >= steps_per_graph_) {
@@ -465,6 +642,8 @@ class CudaBackend final : public SolverBackend {
   }
   const SnapshotBuffer& snapshots() const override { return *snapshots_; }
 
+  void* native_stream() const override { return stream_; }
+
   double bytes_per_node() const override {
     double b = 2 * 6 * sizeof(float) + sizeof(std::uint8_t) + sizeof(float);
     if (material_) b += 1;
@@ -495,10 +674,46 @@ class CudaBackend final : public SolverBackend {
     return v;
   }
 
+  /// Tile rows and planes per block of the shared kernel: rows 8 for large lattices (fewer halo
+  /// nodes per node), 4 for small ones (more blocks); planes so that the grid has about eight
+  /// blocks per multiprocessor (the halo planes cost 2/3 of a plane per block).
+  void plan_shared_launch(const BackendOptions& options, int multiprocessors) {
+    const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
+    tile_rows_ = options.cuda_tile_rows;
+    if (tile_rows_ == 0) tile_rows_ = count_ >= (std::int64_t{1} << 20) ? 8 : 4;
+    const std::int64_t columns = static_cast<std::int64_t>((nx + kTileX - 1) / kTileX) *
+                                 ((ny + tile_rows_ - 1) / tile_rows_);
+    planes_per_block_ = options.cuda_planes_per_block;
+    if (planes_per_block_ == 0) {
+      const std::int64_t wanted_blocks = 8 * static_cast<std::int64_t>(multiprocessors);
+      const std::int64_t chunks =
+          std::clamp<std::int64_t>((wanted_blocks + columns - 1) / columns, 1, nz);
+      planes_per_block_ = static_cast<int>((nz + chunks - 1) / chunks);
+    }
+    planes_per_block_ = std::clamp(planes_per_block_, 1, std::max(1, nz));
+  }
+
   template <unsigned F>
   void launch_step(const LatticeView& lat, const StepParameters& p, int local_step) {
-    step_kernel<F><<<grid(), kBlock, 0, stream_>>>(
-        lat, buffer_view(current_), buffer_view(1 - current_), p, guard_, local_step);
+    const ConstStateView in = buffer_view(current_);
+    const StateView out = buffer_view(1 - current_);
+    if constexpr ((F & features::kSymmetricReactions) != 0) {
+      if (evaluation_ == ForceEvaluation::kShared) {
+        const dim3 grid((geometry_.dims.x + kTileX - 1) / kTileX,
+                        (geometry_.dims.y + tile_rows_ - 1) / tile_rows_,
+                        (geometry_.dims.z + planes_per_block_ - 1) / planes_per_block_);
+        if (tile_rows_ == 8)
+          shared_step_kernel<F, 8><<<grid, dim3(kTileX, 8), 0, stream_>>>(
+              lat, in, out, p, guard_, local_step, planes_per_block_);
+        else
+          shared_step_kernel<F, 4><<<grid, dim3(kTileX, 4), 0, stream_>>>(
+              lat, in, out, p, guard_, local_step, planes_per_block_);
+        TSF_CUDA_CHECK_LAUNCH();
+        current_ = 1 - current_;
+        return;
+      }
+    }
+    step_kernel<F><<<grid(), kBlock, 0, stream_>>>(lat, in, out, p, guard_, local_step);
     TSF_CUDA_CHECK_LAUNCH();
     current_ = 1 - current_;
   }
@@ -554,6 +769,9 @@ class CudaBackend final : public SolverBackend {
   LatticeGeometry geometry_;
   std::int64_t count_;
   int steps_per_graph_;
+  ForceEvaluation evaluation_;
+  int tile_rows_ = 4;
+  int planes_per_block_ = 1;
   std::string device_name_;
   cudaStream_t stream_ = nullptr, copy_stream_ = nullptr;
   cudaEvent_t staged_ = nullptr, copied_ = nullptr;
@@ -582,9 +800,9 @@ class CudaBackend final : public SolverBackend {
 }  // namespace
 
 std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry& geometry,
-                                                 int steps_per_graph) {
+                                                 const BackendOptions& options) {
   require(cuda_status().available, "the CUDA backend cannot run here: " + cuda_status().reason);
-  return std::make_unique<CudaBackend>(geometry, steps_per_graph);
+  return std::make_unique<CudaBackend>(geometry, options);
 }
 
 double measure_device_copy_bandwidth(std::size_t buffer_bytes, int repetitions) {

@@ -6,7 +6,7 @@
 
 namespace tsf::crms {
 
-std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry&, int) {
+std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry&, const BackendOptions&) {
   throw Error("the CUDA backend is not available: " + cuda_status().reason);
 }
 

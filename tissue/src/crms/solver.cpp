@@ -6,12 +6,14 @@
 #include <set>
 #include <string>
 
+#include "effects_engine.h"
 #include "solver_backend.h"
 #include "tsf/common/cuda_support.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/crms_math.h"
 #include "tsf/crms/effects.h"
 #include "tsf/crms/implicit_euler.h"
+#include "tsf/crms/stencil.h"
 
 namespace tsf::crms {
 
@@ -42,6 +44,25 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   for (int m = 0; m < palette_.count; ++m)
     palette_.entry[m] = calibrate_springs(config_.materials[m], g.spacing, symmetric);
   stable_ = estimate_stable_time_step(lattice_, palette_, symmetric);
+  // Effects that add stiffness lower the stable step: anisotropy scales the linear springs by up
+  // to the factor; the fluid adds at most 3K/E to the top mode's stiffness (checkerboard along
+  // all three axes: 12·K·h against the linear springs' 4·E·h per axis, effect_physics.h).
+  double stiffening = 1.0;
+  if (config_.effects.anisotropy.enabled)
+    stiffening *= std::max(1.0, config_.effects.anisotropy.stiffness_factor);
+  if (config_.effects.fluid.enabled) {
+    double youngs_min = config_.materials.front().youngs_modulus_pa;
+    for (const Material& m : config_.materials)
+      youngs_min = std::min(youngs_min, m.youngs_modulus_pa);
+    stiffening *= 1.0 + 3.0 * config_.effects.fluid.bulk_modulus_pa / youngs_min;
+  }
+  if (stiffening > 1.0) {
+    const double f = std::sqrt(stiffening);
+    stable_.symplectic_euler_s /= f;
+    stable_.explicit_euler_s /= f;
+    stable_.omega_max *= f;
+  }
+  require_compiled_feature_set(features());
 
   Backend backend = config_.backend;
   if (config_.integrator == Integrator::kImplicitEuler) backend = Backend::kCpu;
@@ -49,10 +70,10 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   if (backend == Backend::kCuda) {
     require(cuda_status().available,
             "backend cuda requested but CUDA is not usable here: " + cuda_status().reason);
-    backend_ = make_cuda_backend(g, config_.cuda_steps_per_graph);
+    backend_ = make_cuda_backend(g, backend_options(config_));
     on_cuda_ = true;
   } else {
-    backend_ = make_cpu_backend(g);
+    backend_ = make_cpu_backend(g, backend_options(config_));
   }
 
   std::vector<float> inv_mass(static_cast<std::size_t>(lattice_.node_count()), 0.0f);
@@ -64,6 +85,25 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
     for (std::int64_t n = 0; n < lattice_.node_count(); ++n) material[n] = lattice_.material(n);
   }
   backend_->upload_lattice(lattice_.packed_flags(), inv_mass, material);
+
+  if (config_.effects.plasticity.enabled) effect_bits_ |= effect_bits::kPlasticity;
+  if (config_.effects.anisotropy.enabled) effect_bits_ |= effect_bits::kAnisotropy;
+  if (config_.effects.fluid.enabled) effect_bits_ |= effect_bits::kFluid;
+  if (config_.effects.tearing.enabled) effect_bits_ |= effect_bits::kTearing;
+  if (effect_bits_ != 0)
+    effects_ = on_cuda_ ? make_cuda_effects(g, effect_bits_, backend_->native_stream())
+                        : make_cpu_effects(g, effect_bits_);
+}
+
+BackendOptions backend_options(const SolverConfig& config) {
+  BackendOptions o;
+  o.evaluation = config.force_evaluation;
+  o.cpu_instruction_set = config.cpu_instruction_set;
+  o.cpu_tile_rows = config.cpu_tile_rows;
+  o.cuda_steps_per_graph = config.cuda_steps_per_graph;
+  o.cuda_planes_per_block = config.cuda_planes_per_block;
+  o.cuda_tile_rows = config.cuda_tile_rows;
+  return o;
 }
 
 Solver::~Solver() = default;
@@ -125,9 +165,151 @@ void Solver::step_async(int n, double dt) {
   require(config_.integrator != Integrator::kImplicitEuler,
           "step_async: implicit Euler steps synchronously, use step()");
   if (instability_ || n == 0) return;
-  backend_->step(n, step_parameters(dt), features());
+  if (effects_) {
+    step_with_effects(n, dt);
+  } else {
+    backend_->step(n, step_parameters(dt), features());
+  }
   steps_done_ += n;
   backend_->poll_snapshot();
+}
+
+EffectParameters Solver::effect_parameters(double dt) const {
+  const EffectsConfig& e = config_.effects;
+  EffectParameters p;
+  p.enabled = effect_bits_;
+  p.dt = static_cast<float>(dt);
+  p.heterogeneous = palette_.count > 1;
+  p.palette = palette_;
+  p.yield_strain = static_cast<float>(e.plasticity.yield_strain);
+  p.creep_step = static_cast<float>(std::min(e.plasticity.creep_rate * dt, 1.0));
+  p.recovery_decay = static_cast<float>(std::exp(-e.plasticity.recovery_rate * dt));
+  const Vec3d a = e.anisotropy.axis;
+  const double a2 = a.x * a.x + a.y * a.y + a.z * a.z;
+  for (int ax = 0; ax < 3; ++ax)
+    p.aniso_extra[ax] =
+        static_cast<float>((e.anisotropy.stiffness_factor - 1.0) * a[ax] * a[ax] / a2);
+  p.bulk_modulus = static_cast<float>(e.fluid.bulk_modulus_pa);
+  p.diffusion_step = static_cast<float>(-std::expm1(-6.0 * e.fluid.diffusion_rate * dt) / 6.0);
+  p.tear_strain = static_cast<float>(e.tearing.strain_threshold);
+  return p;
+}
+
+void Solver::step_with_effects(int n, double dt) {
+  // One core step at a time between the effect passes. The guard is checked every step on the
+  // CPU (free) and every 64 steps on CUDA (a host wait): after a hit the effect passes stop and
+  // the backend, halted, leaves the state as it was.
+  const StepParameters p = step_parameters(dt);
+  const EffectParameters e = effect_parameters(dt);
+  const int check_every = on_cuda_ ? 64 : 1;
+  int s = 0;
+  for (; s < n; ++s) {
+    effects_->before_step(backend_->lattice_view(), backend_->state_view(), e);
+    backend_->step(1, p, features());
+    effects_->after_step(backend_->lattice_view(), backend_->state_view(), e);
+    if ((s + 1) % check_every == 0 && backend_->synchronize()) {
+      ++s;
+      break;
+    }
+  }
+  if (s < n) backend_->step(n - s, p, features());  // halted: advances the count only
+}
+
+EffectsState Solver::effects_state() const {
+  if (!effects_) return {};
+  return effects_->read();
+}
+
+std::int64_t Solver::torn_springs() const {
+  if ((effect_bits_ & effect_bits::kTearing) == 0) return 0;
+  const std::vector<std::uint8_t> flags = effects_->read_flags(backend_->lattice_view());
+  std::int64_t torn = torn_synced_;
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+    for (int ax = 0; ax < 3; ++ax) {
+      const int d = make_direction(ax, 1);
+      if (lattice_.link(n, d) && ((flags[n] >> d) & 1u) == 0) ++torn;
+    }
+  return torn;
+}
+
+void Solver::sync_torn_links() {
+  const std::vector<std::uint8_t> flags = effects_->read_flags(backend_->lattice_view());
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+    for (int ax = 0; ax < 3; ++ax) {
+      const int d = make_direction(ax, 1);
+      if (lattice_.link(n, d) && ((flags[n] >> d) & 1u) == 0) {
+        lattice_.break_spring(n, d);
+        ++torn_synced_;
+      }
+    }
+}
+
+double Solver::effects_energy_nj() const {
+  if ((effect_bits_ &
+       (effect_bits::kPlasticity | effect_bits::kAnisotropy | effect_bits::kFluid)) == 0)
+    return 0.0;
+  // Host copies of what the effect energies read.
+  std::vector<Vec3f> u;
+  backend_->read_state(&u, nullptr);
+  const auto count = static_cast<std::size_t>(lattice_.node_count());
+  std::vector<float> soa[3], zero(count, 0.0f);
+  for (int a = 0; a < 3; ++a) {
+    soa[a].resize(count);
+    for (std::size_t n = 0; n < count; ++n) soa[a][n] = u[n][a];
+  }
+  const std::vector<std::uint8_t> flags = (effect_bits_ & effect_bits::kTearing)
+                                              ? effects_->read_flags(backend_->lattice_view())
+                                              : lattice_.packed_flags();
+  std::vector<std::uint8_t> material(count);
+  for (std::size_t n = 0; n < count; ++n)
+    material[n] = lattice_.material(static_cast<std::int64_t>(n));
+  LatticeView lat = backend_->lattice_view();
+  lat.flags = flags.data();
+  lat.material = material.data();
+  lat.inv_mass = nullptr;
+  for (auto& f : lat.external_force) f = nullptr;
+  ConstStateView st;
+  for (int a = 0; a < 3; ++a) {
+    st.u[a] = soa[a].data();
+    st.v[a] = zero.data();
+  }
+  const EffectsState effects = effects_->read();
+  const EffectParameters p = effect_parameters(1.0);
+  const LatticeGeometry& g = lattice_.geometry();
+  double energy = 0.0;
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n) {
+    if ((flags[n] & kAliveBit) == 0) continue;
+    const Int3 c = g.coordinates(n);
+    const IndexedStencil s{lat, st, n, c.x, c.y, c.z};
+    const unsigned links = flags[n] & kLinkBits;
+    if (p.enabled & (effect_bits::kPlasticity | effect_bits::kAnisotropy))
+      for (int ax = 0; ax < 3; ++ax) {
+        const int d = make_direction(ax, 1);
+        if (((links >> d) & 1u) == 0) continue;
+        const Arm<float> arm = arm_of(s, links, s.u(0), s.v(0), lat.rest_length, d);
+        float ks = 0, kd = 0;
+        linear_constants(s, p, d, ks, kd);
+        const double stretch = static_cast<double>(arm.stretch);
+        const double delta = effects.plastic_offset.empty()
+                                 ? 0.0
+                                 : static_cast<double>(effects.plastic_offset[n][ax]);
+        const double extra =
+            (p.enabled & effect_bits::kAnisotropy) ? static_cast<double>(p.aniso_extra[ax]) : 0.0;
+        const double k_per_l = static_cast<double>(ks) / static_cast<double>(lat.rest_length[ax]);
+        energy += 0.5 * k_per_l *
+                  ((1.0 + extra) * (stretch - delta) * (stretch - delta) - stretch * stretch);
+      }
+    if ((p.enabled & effect_bits::kFluid) && cube_exists(lat, c.x, c.y, c.z)) {
+      const double v0 = static_cast<double>(lat.rest_length[0]) *
+                        static_cast<double>(lat.rest_length[1]) *
+                        static_cast<double>(lat.rest_length[2]);
+      const double strain =
+          (static_cast<double>(cube_edges(lat, st, c.x, c.y, c.z).volume()) - v0) / v0;
+      const double excess = strain - static_cast<double>(effects.fluid_content[n]);
+      energy += 0.5 * config_.effects.fluid.bulk_modulus_pa * excess * excess * v0;
+    }
+  }
+  return energy;
 }
 
 StepReport Solver::synchronize() {
@@ -194,6 +376,7 @@ void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
             "set_external_forces: force on node " + std::to_string(nodes[i]) + " is not finite");
   }
   if (!external_forces_) {
+    require_compiled_feature_set(features() | features::kExternalForces);
     backend_->enable_external_forces();
     external_forces_ = true;
   }
@@ -278,6 +461,9 @@ void Solver::break_springs(const std::vector<SpringRef>& springs) {
 }
 
 void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {
+  // Tearing cleared links on the backend only: bring them to the host lattice first so that
+  // the flags uploaded below do not restore them.
+  if (effect_bits_ & effect_bits::kTearing) sync_torn_links();
   std::set<std::int64_t> affected;
   for (std::int64_t n : nodes) {
     affected.insert(n);
@@ -317,7 +503,7 @@ EnergyReport Solver::energy() const {
   const EnergySums s = backend_->energy(step_parameters(1.0), features());
   EnergyReport r;
   r.kinetic_nj = s.kinetic;
-  r.elastic_nj = s.elastic;
+  r.elastic_nj = s.elastic + effects_energy_nj();
   r.gravitational_nj = s.gravitational;
   return r;
 }
@@ -346,7 +532,7 @@ const SnapshotBuffer& Solver::snapshots() const {
 }
 
 double Solver::bytes_per_node() const {
-  return backend_->bytes_per_node();
+  return backend_->bytes_per_node() + (effects_ ? effects_->bytes_per_node() : 0.0);
 }
 
 }  // namespace tsf::crms

@@ -13,6 +13,7 @@
 #include "tsf/crms/lattice_geometry.h"
 #include "tsf/crms/node_state_view.h"
 #include "tsf/crms/snapshot_buffer.h"
+#include "tsf/crms/solver_config.h"
 
 namespace tsf::crms {
 
@@ -71,11 +72,26 @@ class SolverBackend {
   virtual const SnapshotBuffer& snapshots() const = 0;
 
   virtual double bytes_per_node() const = 0;
+  /// The stream the backend's work is ordered on (cudaStream_t; null on the CPU).
+  virtual void* native_stream() const { return nullptr; }
 };
 
-std::unique_ptr<SolverBackend> make_cpu_backend(const LatticeGeometry& geometry);
+/// The SolverConfig fields a backend needs (validated by validate_solver_config).
+struct BackendOptions {
+  ForceEvaluation evaluation = ForceEvaluation::kShared;
+  CpuInstructionSet cpu_instruction_set = CpuInstructionSet::kAuto;
+  int cpu_tile_rows = 0;
+  int cuda_steps_per_graph = 64;
+  int cuda_planes_per_block = 0;
+  int cuda_tile_rows = 0;
+};
+BackendOptions backend_options(const SolverConfig& config);
+
+/// Throws tsf::Error when the configured instruction set is not available on this processor.
+std::unique_ptr<SolverBackend> make_cpu_backend(const LatticeGeometry& geometry,
+                                                const BackendOptions& options);
 /// Throws tsf::Error (with cuda_status().reason) when CUDA is not built or has no device.
 std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry& geometry,
-                                                 int steps_per_graph);
+                                                 const BackendOptions& options);
 
 }  // namespace tsf::crms

@@ -36,6 +36,23 @@ const char* to_string(AngularReactions reactions) {
   return reactions == AngularReactions::kGather ? "gather" : "symmetric";
 }
 
+const char* to_string(ForceEvaluation evaluation) {
+  return evaluation == ForceEvaluation::kShared ? "shared" : "per-node";
+}
+const char* to_string(CpuInstructionSet isa) {
+  switch (isa) {
+    case CpuInstructionSet::kAuto:
+      return "auto";
+    case CpuInstructionSet::kBaseline:
+      return "baseline";
+    case CpuInstructionSet::kAvx2:
+      return "avx2";
+    case CpuInstructionSet::kAvx512:
+      return "avx512";
+  }
+  return "?";
+}
+
 void validate_solver_config(const SolverConfig& c) {
   const double g = std::sqrt(length_squared(c.gravity));
   require(std::isfinite(g) && g <= 1e7,
@@ -60,6 +77,15 @@ void validate_solver_config(const SolverConfig& c) {
               c.cuda_steps_per_graph % 2 == 0,
           "cuda_steps_per_graph = " + std::to_string(c.cuda_steps_per_graph) +
               ", expected an even number in [2, 4096]");
+  require(c.cpu_tile_rows >= 0 && c.cpu_tile_rows <= 65536,
+          "cpu_tile_rows = " + std::to_string(c.cpu_tile_rows) +
+              " is out of range (0 = automatic, else 1..65536)");
+  require(c.cuda_planes_per_block >= 0 && c.cuda_planes_per_block <= 4096,
+          "cuda_planes_per_block = " + std::to_string(c.cuda_planes_per_block) +
+              " is out of range (0 = automatic, else 1..4096)");
+  require(
+      c.cuda_tile_rows == 0 || c.cuda_tile_rows == 4 || c.cuda_tile_rows == 8,
+      "cuda_tile_rows = " + std::to_string(c.cuda_tile_rows) + ", expected 0 (automatic), 4 or 8");
   require(c.implicit_newton_iterations >= 1 && c.implicit_newton_iterations <= 50,
           "implicit_newton_iterations = " + std::to_string(c.implicit_newton_iterations) +
               " is out of range [1, 50]");
@@ -67,6 +93,10 @@ void validate_solver_config(const SolverConfig& c) {
       std::isfinite(c.implicit_tolerance) && c.implicit_tolerance >= 0.0 &&
           c.implicit_tolerance < 1.0,
       "implicit_tolerance = " + std::to_string(c.implicit_tolerance) + " is out of range [0, 1)");
+  validate_effects_config(c.effects);
+  require(!(c.integrator == Integrator::kImplicitEuler && c.effects.any()),
+          "effects (plasticity, anisotropy, fluid, tearing) run with the explicit integrators "
+          "only: use integrator symplectic-euler or explicit-euler");
   require(!(c.integrator == Integrator::kImplicitEuler && c.backend == Backend::kCuda),
           "integrator implicit-euler runs on the CPU only: use backend cpu or auto");
 }

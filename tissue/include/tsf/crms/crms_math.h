@@ -65,6 +65,26 @@ TSF_HD_INLINE float crms_asin(float x) {
   return x < 0.0f ? -v : v;
 }
 
+/// 1/√x and 1/x for x > 0. On the device these are the special-function unit's approximations
+/// (≤ 2 ulp, one instruction each instead of the multi-instruction IEEE sequences), on the host
+/// the correctly rounded operations; the physics only takes them of squared lengths and sums of
+/// lengths that are clamped away from 0, so the difference stays at float rounding (the CPU/CUDA
+/// parity test bounds it).
+TSF_HD_INLINE float crms_rsqrt(float x) {
+#if defined(__CUDA_ARCH__)
+  return rsqrtf(x);
+#else
+  return 1.0f / sqrtf(x);
+#endif
+}
+TSF_HD_INLINE float crms_rcp(float x) {
+#if defined(__CUDA_ARCH__)
+  return __fdividef(1.0f, x);
+#else
+  return 1.0f / x;
+#endif
+}
+
 // ---- double -----------------------------------------------------------------------------------
 TSF_HD_INLINE double crms_sqrt(double x) {
   return sqrt(x);
@@ -86,9 +106,23 @@ TSF_HD_INLINE double crms_asin(double x) {
 }
 
 // ---- generic ----------------------------------------------------------------------------------
+/// 1/√x and 1/x for double and dual numbers (float has its own overloads above).
+template <typename T>
+TSF_HD_INLINE T crms_rsqrt(const T& x) {
+  return T(1) / crms_sqrt(x);
+}
+template <typename T>
+TSF_HD_INLINE T crms_rcp(const T& x) {
+  return T(1) / x;
+}
 template <typename T>
 TSF_HD_INLINE T crms_clamp(T x, T lo, T hi) {
   return crms_min(crms_max(x, lo), hi);
+}
+/// v[axis] for a per-axis triple, by selects: a run-time axis then never forces the array (or the
+/// kernel parameter block holding it) into local memory on the GPU.
+TSF_HD_INLINE float axis_value(const float* v, int axis) {
+  return axis == 0 ? v[0] : (axis == 1 ? v[1] : v[2]);
 }
 template <typename T>
 TSF_HD_INLINE Vec3<T> select(bool c, const Vec3<T>& a, const Vec3<T>& b) {

@@ -9,11 +9,20 @@
 //   knobs   — alternative formulations of the same physics, measured against each other
 //   effects — extra physics that needs per-node data
 // Issue 6 adds plasticity, anisotropy, fluid pressure, animation and tearing as further effect
-// bits with their own arrays in EffectArrays (node_state_view.h).
+// bits with their own arrays in LatticeView (node_state_view.h).
+//
+// Which sets are compiled is an explicit list (CompiledFeatureSets), not every subset of the
+// bits: each set costs a few kernels of compile time per backend, and 2^kCount stops being
+// affordable beyond a handful of bits. A set outside the list is rejected with an error naming
+// its bits (Solver checks at construction and whenever its set changes).
 #pragma once
 
+#include <cstdio>
+#include <string>
 #include <type_traits>
 #include <utility>
+
+#include "tsf/common/error.h"
 
 namespace tsf::crms {
 
@@ -31,10 +40,60 @@ constexpr unsigned kHeterogeneous = 1u << 3;
 
 constexpr unsigned kCount = 4;
 constexpr unsigned kAll = (1u << kCount) - 1;
+
+/// Name of one bit, for messages and reports.
+inline const char* name(unsigned bit) {
+  switch (bit) {
+    case kCosineAngular:
+      return "cosine-angular";
+    case kSymmetricReactions:
+      return "symmetric-reactions";
+    case kExternalForces:
+      return "external-forces";
+    case kHeterogeneous:
+      return "heterogeneous";
+    default:
+      return "unknown";
+  }
+}
 }  // namespace features
 
-/// Calls `f(std::integral_constant<unsigned, F>{})` with the compile-time F equal to the run-time
-/// `set` (which must be ≤ features::kAll). One instantiation per feature set in use.
+/// The feature sets the backends compile kernels for. With the 4 bits of today that is all 16
+/// subsets; a new bit adds the sets scenes use (e.g. `kSymmetricReactions | kPlasticity`, with
+/// and without kExternalForces), not all 2^kCount.
+using CompiledFeatureSets =
+    std::integer_sequence<unsigned, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15>;
+
+/// "{symmetric-reactions, external-forces}" for a set of bits.
+inline std::string describe_features(unsigned set) {
+  std::string s = "{";
+  for (unsigned b = 0; b < 32; ++b)
+    if (set & (1u << b)) {
+      if (s.size() > 1) s += ", ";
+      s += features::name(1u << b);
+    }
+  return s + "}";
+}
+
+template <unsigned... Sets>
+constexpr bool is_compiled_feature_set_impl(unsigned set,
+                                            std::integer_sequence<unsigned, Sets...>) {
+  return ((set == Sets) || ...);
+}
+/// True when the kernels of `set` are compiled (listed in CompiledFeatureSets).
+constexpr bool is_compiled_feature_set(unsigned set) {
+  return is_compiled_feature_set_impl(set, CompiledFeatureSets{});
+}
+
+/// Throws tsf::Error naming the set when it is not compiled.
+inline void require_compiled_feature_set(unsigned set) {
+  if (is_compiled_feature_set(set)) return;
+  char bits[16];
+  std::snprintf(bits, sizeof bits, "0x%x", set);
+  throw Error("the CRMS kernels are not compiled for the feature set " + describe_features(set) +
+              " (bits " + bits + "): add it to CompiledFeatureSets in tsf/crms/effects.h");
+}
+
 template <typename Function, unsigned... Sets>
 decltype(auto) dispatch_features_impl(unsigned set, Function&& f,
                                       std::integer_sequence<unsigned, Sets...>) {
@@ -47,10 +106,13 @@ decltype(auto) dispatch_features_impl(unsigned set, Function&& f,
     return r;
   }
 }
+
+/// Calls `f(std::integral_constant<unsigned, F>{})` with the compile-time F equal to the run-time
+/// `set`, one instantiation per set of CompiledFeatureSets; throws tsf::Error for a set outside.
 template <typename Function>
 decltype(auto) dispatch_features(unsigned set, Function&& f) {
-  return dispatch_features_impl(set, std::forward<Function>(f),
-                                std::make_integer_sequence<unsigned, features::kAll + 1>{});
+  require_compiled_feature_set(set);
+  return dispatch_features_impl(set, std::forward<Function>(f), CompiledFeatureSets{});
 }
 
 }  // namespace tsf::crms

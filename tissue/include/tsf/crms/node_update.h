@@ -15,6 +15,8 @@
 // node instead of letting NaN spread through the springs.
 #pragma once
 
+#include <cfloat>
+
 #include "tsf/common/hd.h"
 #include "tsf/common/vec3.h"
 #include "tsf/crms/crms_math.h"
@@ -32,23 +34,25 @@ struct NodeStepResult {
 
 /// Applies kinetic damping and the velocity limit to a velocity (see header).
 TSF_HD_INLINE Vec3f limit_velocity(Vec3f v, float dt, float kinetic_damping, float velocity_limit) {
-  float speed = crms_sqrt(dot(v, v));
+  const float speed = crms_sqrt(dot(v, v));
   const float drag = 1.0f / (1.0f + dt * kinetic_damping * speed);
-  speed *= drag;
-  const bool over = velocity_limit > 0.0f && speed > velocity_limit;
-  const float scale = over ? drag * velocity_limit / speed : drag;
-  return v * scale;
+  const float damped = speed * drag;
+  // The limited scale is computed unconditionally and selected: no division inside a branch, so
+  // the CPU loops can if-convert and vectorize it.
+  const float limited = drag * velocity_limit / crms_max(damped, FLT_MIN);
+  const bool over = velocity_limit > 0.0f && damped > velocity_limit;
+  return v * (over ? limited : drag);
 }
 
-template <unsigned kF, class St>
-TSF_HD_INLINE NodeStepResult step_node(const St& st, const float rest_length[3],
-                                       const StepParameters& p) {
-  const unsigned flags = st.flags(0);
-  const Vec3f u = st.u(0);
-  const Vec3f v = st.v(0);
-  Vec3f f = spring_force<kF>(st, rest_length, p.palette);
-  if constexpr ((kF & features::kExternalForces) != 0) f += st.external_force();
-  const Vec3f a = f * st.inv_mass() + p.gravity;
+/// Integrates one node given its spring force (node_force.h), µN: the second half of a step,
+/// shared by the per-node kernels and the two-pass kernels.
+template <unsigned kF>
+TSF_HD_INLINE NodeStepResult integrate_node(unsigned flags, const Vec3f& u, const Vec3f& v,
+                                            float inv_mass, const Vec3f& external_force,
+                                            const Vec3f& spring_force, const StepParameters& p) {
+  Vec3f f = spring_force;
+  if constexpr ((kF & features::kExternalForces) != 0) f += external_force;
+  const Vec3f a = f * inv_mass + p.gravity;
 
   NodeStepResult r;
   if (p.scheme == static_cast<int>(ExplicitScheme::kExplicitEuler)) {
@@ -65,6 +69,16 @@ TSF_HD_INLINE NodeStepResult step_node(const St& st, const float rest_length[3],
   r.u = select(keep, u, r.u);
   r.v = select(keep, zero, r.v);
   return r;
+}
+
+/// One whole step of the stencil's centre node from its whole stencil (per-node evaluation).
+template <unsigned kF, class St>
+TSF_HD_INLINE NodeStepResult step_node(const St& st, const float rest_length[3],
+                                       const StepParameters& p) {
+  Vec3f external{0.0f, 0.0f, 0.0f};
+  if constexpr ((kF & features::kExternalForces) != 0) external = st.external_force();
+  return integrate_node<kF>(st.flags(0), st.u(0), st.v(0), st.inv_mass(), external,
+                            spring_force<kF>(st, rest_length, p.palette), p);
 }
 
 }  // namespace tsf::crms

@@ -36,6 +36,8 @@
 namespace tsf::crms {
 
 class SolverBackend;
+class EffectsEngine;
+struct EffectParameters;
 
 /// The first node whose update was not finite (NaN or Inf); the solver halts on that step.
 struct Instability {
@@ -151,14 +153,29 @@ class Solver {
   void poll_snapshot();
   const SnapshotBuffer& snapshots() const;
 
-  /// Bytes the backend keeps per node for the lattice and state (reported by benchmarks).
+  /// Bytes the backend keeps per node for the lattice and state, effects included (reported by
+  /// benchmarks).
   double bytes_per_node() const;
+
+  // ---- optional effects (effects_config.h) ----
+  /// Names of the enabled effects, e.g. {"plasticity", "fluid"}; empty when none is on.
+  std::vector<std::string> active_effects() const { return config_.effects.active(); }
+  /// Host copies of the effects' arrays (synchronises; empty for effects that are off).
+  EffectsState effects_state() const;
+  /// Springs broken by tearing since construction (synchronises).
+  std::int64_t torn_springs() const;
 
  private:
   StepParameters step_parameters(double dt) const;
   void refresh_flags(const std::vector<std::int64_t>& nodes);
   void step_implicit(int n, double dt, StepReport& report);
   Instability make_instability(std::int64_t node, std::int64_t step) const;
+  EffectParameters effect_parameters(double dt) const;
+  void step_with_effects(int n, double dt);
+  /// Clears on the host lattice the links that tearing removed on the backend.
+  void sync_torn_links();
+  /// Elastic energy the effects add to the core's (plastic rest lengths, anisotropy, fluid), nJ.
+  double effects_energy_nj() const;
 
   Lattice lattice_;
   SolverConfig config_;
@@ -169,6 +186,9 @@ class Solver {
   bool external_forces_ = false;
   std::int64_t steps_done_ = 0;
   std::optional<Instability> instability_;
+  unsigned effect_bits_ = 0;
+  std::unique_ptr<EffectsEngine> effects_;
+  std::int64_t torn_synced_ = 0;  // springs already cleared on the host lattice by sync_torn_links
 };
 
 }  // namespace tsf::crms

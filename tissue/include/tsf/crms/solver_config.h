@@ -8,6 +8,7 @@
 
 #include "tsf/common/vec3.h"
 #include "tsf/crms/calibration.h"
+#include "tsf/crms/effects_config.h"
 #include "tsf/crms/spring_constants.h"
 
 namespace tsf::crms {
@@ -33,10 +34,25 @@ enum class AngularReactions {
   kSymmetric,
 };
 
+/// How the kernels evaluate the symmetric form each step (same physics; a cost knob).
+enum class ForceEvaluation {
+  /// Every spring and angle once per step, its reactions shared with the nodes they act on: two
+  /// passes over a 7-node stencil (node_force.h). The default.
+  kShared,
+  /// Every node evaluates its whole 19-node stencil (each angle three times): the original
+  /// kernels, kept as the reference the shared evaluation is tested and benchmarked against.
+  kPerNode,
+};
+/// Instruction set of the CPU kernels. kAuto takes the widest the processor has; naming one the
+/// processor lacks is an error.
+enum class CpuInstructionSet { kAuto, kBaseline, kAvx2, kAvx512 };
+
 const char* to_string(Integrator integrator);
 const char* to_string(Backend backend);
 const char* to_string(AngularForm form);
 const char* to_string(AngularReactions reactions);
+const char* to_string(ForceEvaluation evaluation);
+const char* to_string(CpuInstructionSet isa);
 
 struct StabilityControls {
   /// k_sys, 1/mm: speed-dependent drag a = −k_sys·|v|·v (node_update.h). Range [0, 1e3].
@@ -57,9 +73,23 @@ struct SolverConfig {
   StabilityControls stability;
   /// Materials indexed by the lattice's per-node material (≥ 1, ≤ kMaxMaterials). Calibrated with
   /// calibrate_springs() for this lattice's spacing and angular_reactions.
-  std::vector<Material> materials{Material{}};
+  std::vector<Material> materials =
+      std::vector<Material>(1);  // (not {Material{}}: GCC 12 warns on the initializer_list copy)
+  ForceEvaluation force_evaluation = ForceEvaluation::kShared;
+  CpuInstructionSet cpu_instruction_set = CpuInstructionSet::kAuto;
+  /// CPU, shared evaluation: lattice rows per tile (0 = sized so that a thread's ring of terms,
+  /// 3 planes × 84 bytes × (rows + 2) × nx, stays in its core's cache; else 1..65536). A tuning
+  /// and testing knob; results do not depend on it.
+  int cpu_tile_rows = 0;
+  /// Optional effects (effects_config.h); all off by default. Explicit integrators only.
+  EffectsConfig effects;
   /// CUDA: steps captured per CUDA graph launch (even, 2..4096).
   int cuda_steps_per_graph = 64;
+  /// CUDA, shared evaluation: lattice planes each thread block marches through (0 = chosen from
+  /// the lattice size and the device; else 1..4096) and rows of its 32-wide tile (0 = chosen;
+  /// else 4 or 8). Tuning knobs for benchmarks; results do not depend on them.
+  int cuda_planes_per_block = 0;
+  int cuda_tile_rows = 0;
   /// Implicit Euler: Newton iterations per step (1 = linearised backward Euler) and the relative
   /// residual at which they stop early. Ranges [1, 50] and [0, 1).
   int implicit_newton_iterations = 8;

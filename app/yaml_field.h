@@ -1,5 +1,6 @@
-// A YAML node with its key path, for strict reading of human-edited files (materials, scene
-// extensions): every accessor checks type and range and names the file and key path on error,
+// A YAML node with its key path, for strict reading of every human-edited file of the app (scenes,
+// pipeline specs, materials, haptic trajectories): every accessor checks type and range and names
+// the file and key path on error,
 //   tissues.yaml: materials.fat.youngs_modulus_pa: expected a number in [1, 1e+11], got -3 (line 9)
 // yaml-cpp stays in app/: tissue/ never sees it.
 #pragma once
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "tsf/common/error.h"
+#include "tsf/common/vec3.h"
 
 namespace tsf::app {
 
@@ -120,6 +122,25 @@ class YamlField {
     }
     fail("expected one of " + list + ", got '" + t + "'");
   }
+  /// A required number in [lo, hi] (or (lo, hi] with lo_open).
+  double required_number(double lo, double hi, bool lo_open = false) const {
+    return required().number(0, lo, hi, lo_open);
+  }
+  /// A list of 3 numbers [x, y, z]; `fallback` when absent.
+  Vec3d vec3(Vec3d fallback) const {
+    if (!defined()) return fallback;
+    return vec3();
+  }
+  /// A required list of 3 numbers [x, y, z].
+  Vec3d vec3() const {
+    if (!defined()) fail("is required");
+    if (!node_.IsSequence() || node_.size() != 3) fail("expected a list of 3 numbers [x, y, z]");
+    Vec3d v;
+    for (int a = 0; a < 3; ++a) v[a] = at(static_cast<std::size_t>(a)).number();
+    return v;
+  }
+  /// The scalar `auto` (a value the program derives).
+  bool is_auto() const { return defined() && node_.IsScalar() && node_.Scalar() == "auto"; }
   std::size_t size() const {
     if (!defined() || !node_.IsSequence()) fail("expected a list");
     return node_.size();

@@ -1,0 +1,254 @@
+// Per-node physics of the optional CRMS effects (effects_config.h): one copy, called by the thin
+// CPU loops (cpu_effects.cpp) and CUDA kernels (cuda_effects.cu).
+//
+// A step with effects is
+//   1. cube pass    (fluid)              p_c = K·(content_c − ΔV_c/V0)             per cube
+//   2. force pass   (plastic, aniso, fluid) F_eff[n]                              per node
+//   3. kick pass                          v_n += dt·F_eff[n]/m_n  (moving nodes)   per node
+//   4. the core step (node_update.h)
+//   5. update pass  (plastic, fluid)      rest offsets creep/recover, fluid flows  per node/cube
+//   6. tear pass    (tearing)             over-strained links are cleared          per node
+// Passes 2 and 3 are separate so that no pass writes what a neighbour reads (the force pass
+// reads neighbours' velocities for the anisotropic damping). Each pass writes only its own
+// node's (or cube's) entries, so the result does not depend on execution order.
+//
+// Linear springs (spring d of node n, rest length L, stiffness ks, damping kd of node_force.h):
+//   plastic: rest length L + δ, δ stored once per spring at its lower end (plastic_offset[axis]):
+//            F_n −= (1 + a_d)·ks·δ/L·dir  (the change of the core force for that rest length);
+//            after the step: ε = (l − L − δ)/L; if |ε| > ε_y: δ += min(creep·dt, 1)·(|ε| −
+//            ε_y)·L·sgn ε; then δ ← δ·exp(−recovery·dt) (visco-elastic recovery, exact decay).
+//   aniso:   F_n += a_d·(ks·x + kd·ẋ)·x̂ with a_d = (factor − 1)·axis_d², i.e. the spring is
+//            (1 + a_d) times stiffer and more damped.
+// Cubes (lower corner node c, corners c + {0,1}³, all alive): edge vectors averaged over the 4
+// parallel edges, e_x = h_x·x̂ + ¼Σ(u_{1bc} − u_{0bc}) (likewise y, z), V = e_x·(e_y × e_z)
+// (exact for parallelepipeds, V0 = h_x·h_y·h_z at rest exactly). Corner (a,b,c) gets
+//   F = p·∂V/∂x = p·¼·(s_a·e_y×e_z + s_b·e_z×e_x + s_c·e_x×e_y),  s = −1 low end, +1 high end,
+// the gradient of the energy ½K·(ΔV/V0 − content)²·V0. Fluid flow (Darcy-like, on the cube
+// lattice): content_i += α·Σ_nb (p_nb − p_i)/K with α = (1 − exp(−6·rate·dt))/6, which is
+// rate·dt for small steps and stays below 1/6 (the explicit diffusion limit) for any step.
+#pragma once
+
+#include <cstdint>
+
+#include "tsf/common/hd.h"
+#include "tsf/common/vec3.h"
+#include "tsf/crms/crms_math.h"
+#include "tsf/crms/lattice_geometry.h"
+#include "tsf/crms/node_force.h"
+#include "tsf/crms/node_state_view.h"
+#include "tsf/crms/spring_constants.h"
+#include "tsf/crms/stencil.h"
+
+namespace tsf::crms {
+
+namespace effect_bits {
+constexpr unsigned kPlasticity = 1u << 0;
+constexpr unsigned kAnisotropy = 1u << 1;
+constexpr unsigned kFluid = 1u << 2;
+constexpr unsigned kTearing = 1u << 3;
+/// Effects that add a force (passes 2 and 3).
+constexpr unsigned kForceEffects = kPlasticity | kAnisotropy | kFluid;
+}  // namespace effect_bits
+
+/// Effect arrays (device memory on CUDA); null when their effect is off.
+struct EffectArrays {
+  float* plastic_offset[3] = {nullptr, nullptr, nullptr};  ///< #nodes each, mm, spring n → n+axis
+  float* fluid_content = nullptr;                          ///< #nodes (cube at lower corner), 1
+  float* fluid_pressure = nullptr;                         ///< #nodes (cube at lower corner), Pa
+  float* force[3] = {nullptr, nullptr, nullptr};           ///< #nodes each, µN (pass 2 → 3)
+};
+
+/// Scalars of the effect passes, by value to kernels.
+struct EffectParameters {
+  unsigned enabled = 0;  ///< effect_bits
+  float dt = 0;          ///< s
+  bool heterogeneous = false;
+  MaterialPalette palette;
+  float yield_strain = 0;
+  float creep_step = 0;              ///< min(creep_rate·dt, 1)
+  float recovery_decay = 1;          ///< exp(−recovery_rate·dt)
+  float aniso_extra[3] = {0, 0, 0};  ///< a_axis = (factor − 1)·axis_axis²
+  float bulk_modulus = 0;            ///< K, Pa = µN/mm²
+  float diffusion_step = 0;          ///< α
+  float tear_strain = 0;
+};
+
+/// Linear spring constants of node n's spring d (series across a material interface, as in
+/// node_spring_terms()).
+template <class St>
+TSF_HD_INLINE void linear_constants(const St& st, const EffectParameters& p, int d, float& ks,
+                                    float& kd) {
+  const int ax = direction_axis(d);
+  const SpringConstants& own = p.palette.entry[p.heterogeneous ? st.material(0) : 0];
+  ks = axis_value(own.ks_linear, ax);
+  kd = axis_value(own.kd_linear, ax);
+  if (p.heterogeneous) {
+    const SpringConstants& other = p.palette.entry[st.material(face_slot(d))];
+    ks = series_stiffness(ks, axis_value(other.ks_linear, ax));
+    kd = series_stiffness(kd, axis_value(other.kd_linear, ax));
+  }
+}
+
+/// True when the cube with lower corner (i, j, k) lies inside the lattice with 8 live corners.
+TSF_HD_INLINE bool cube_exists(const LatticeView& lat, int i, int j, int k) {
+  if (i < 0 || j < 0 || k < 0 || i + 1 >= lat.dims.x || j + 1 >= lat.dims.y || k + 1 >= lat.dims.z)
+    return false;
+  const std::int64_t c = i + j * lat.stride_y + k * lat.stride_z;
+  bool alive = true;
+  for (int q = 0; q < 8; ++q) {
+    const std::int64_t m = c + (q & 1) + ((q >> 1) & 1) * lat.stride_y + (q >> 2) * lat.stride_z;
+    alive = alive && (lat.flags[m] & kAliveBit) != 0;
+  }
+  return alive;
+}
+
+/// Averaged edge vectors of an existing cube, mm.
+struct CubeEdges {
+  Vec3f e[3];
+  TSF_HD_INLINE float volume() const { return dot(e[0], cross(e[1], e[2])); }
+};
+TSF_HD_INLINE CubeEdges cube_edges(const LatticeView& lat, const ConstStateView& s, int i, int j,
+                                   int k) {
+  const std::int64_t c = i + j * lat.stride_y + k * lat.stride_z;
+  Vec3f corner[8];
+  for (int q = 0; q < 8; ++q) {
+    const std::int64_t m = c + (q & 1) + ((q >> 1) & 1) * lat.stride_y + (q >> 2) * lat.stride_z;
+    corner[q] = {s.u[0][m], s.u[1][m], s.u[2][m]};
+  }
+  CubeEdges edges;
+  for (int a = 0; a < 3; ++a) {
+    Vec3f du{0.0f, 0.0f, 0.0f};
+    for (int q = 0; q < 8; ++q)
+      if (((q >> a) & 1) == 0) du += corner[q | (1 << a)] - corner[q];
+    Vec3f e{0.0f, 0.0f, 0.0f};
+    e[a] = lat.rest_length[a];
+    edges.e[a] = e + du * 0.25f;
+  }
+  return edges;
+}
+
+/// Pass 1: pressure of the cube with lower corner n = (i, j, k), Pa (0 when it does not exist).
+TSF_HD_INLINE float cube_pressure(const LatticeView& lat, const ConstStateView& s,
+                                  const EffectArrays& arrays, const EffectParameters& p,
+                                  std::int64_t n, int i, int j, int k) {
+  if (!cube_exists(lat, i, j, k)) return 0.0f;
+  const float v0 = lat.rest_length[0] * lat.rest_length[1] * lat.rest_length[2];
+  const float volumetric_strain = (cube_edges(lat, s, i, j, k).volume() - v0) / v0;
+  return p.bulk_modulus * (arrays.fluid_content[n] - volumetric_strain);
+}
+
+/// Pass 2: the effects' force on node n = (i, j, k), µN.
+TSF_HD_INLINE Vec3f effect_force(const LatticeView& lat, const ConstStateView& s,
+                                 const EffectArrays& arrays, const EffectParameters& p,
+                                 std::int64_t n, int i, int j, int k) {
+  Vec3f force{0.0f, 0.0f, 0.0f};
+  const unsigned flags = lat.flags[n];
+  if ((flags & kAliveBit) == 0) return force;
+  const IndexedStencil st{lat, s, n, i, j, k};
+  if ((p.enabled & (effect_bits::kPlasticity | effect_bits::kAnisotropy)) != 0) {
+    const unsigned links = flags & kLinkBits;
+    const Vec3f u0 = st.u(0), v0 = st.v(0);
+    for (int d = 0; d < 6; ++d) {
+      if (((links >> d) & 1u) == 0) continue;
+      const int ax = direction_axis(d);
+      const float rest = axis_value(lat.rest_length, ax);
+      const Arm<float> arm = arm_of(st, links, u0, v0, lat.rest_length, d);
+      float ks = 0, kd = 0;
+      linear_constants(st, p, d, ks, kd);
+      const float extra =
+          (p.enabled & effect_bits::kAnisotropy) != 0 ? axis_value(p.aniso_extra, ax) : 0.0f;
+      force += linear_spring_force(arm, ks, kd, rest) * extra;
+      if ((p.enabled & effect_bits::kPlasticity) != 0) {
+        // The spring's offset lives at its lower end: n for +axis, the neighbour for −axis.
+        const std::int64_t owner = direction_sign(d) > 0 ? n : st.slot_index(face_slot(d));
+        const float delta = arrays.plastic_offset[ax][owner];
+        force -= arm.dir * ((1.0f + extra) * ks * delta / rest);
+      }
+    }
+  }
+  if ((p.enabled & effect_bits::kFluid) != 0) {
+    for (int q = 0; q < 8; ++q) {  // the 8 cubes with n as corner (a, b, c) = high end bits
+      const int a = q & 1, b = (q >> 1) & 1, c = q >> 2;
+      const int ci = i - a, cj = j - b, ck = k - c;
+      if (!cube_exists(lat, ci, cj, ck)) continue;
+      const std::int64_t cube = ci + cj * lat.stride_y + ck * lat.stride_z;
+      const CubeEdges e = cube_edges(lat, s, ci, cj, ck);
+      const Vec3f grad =
+          (cross(e.e[1], e.e[2]) * (a ? 1.0f : -1.0f) + cross(e.e[2], e.e[0]) * (b ? 1.0f : -1.0f) +
+           cross(e.e[0], e.e[1]) * (c ? 1.0f : -1.0f)) *
+          0.25f;
+      force += grad * arrays.fluid_pressure[cube];
+    }
+  }
+  return force;
+}
+
+/// Pass 3: the kicked velocity of node n (unchanged for fixed and dead nodes).
+TSF_HD_INLINE Vec3f kicked_velocity(const LatticeView& lat, const ConstStateView& s,
+                                    const EffectArrays& arrays, const EffectParameters& p,
+                                    std::int64_t n) {
+  const Vec3f v{s.v[0][n], s.v[1][n], s.v[2][n]};
+  const bool moving = (lat.flags[n] & (kAliveBit | kFixedBit)) == kAliveBit;
+  if (!moving) return v;
+  const Vec3f f{arrays.force[0][n], arrays.force[1][n], arrays.force[2][n]};
+  return v + f * (p.dt * lat.inv_mass[n]);
+}
+
+/// Pass 5, plasticity: node n's 3 springs towards +axis (their offsets live at n).
+TSF_HD_INLINE void update_plastic_offsets(const LatticeView& lat, const ConstStateView& s,
+                                          const EffectArrays& arrays, const EffectParameters& p,
+                                          std::int64_t n, int i, int j, int k) {
+  const IndexedStencil st{lat, s, n, i, j, k};
+  const unsigned links = lat.flags[n] & kLinkBits;
+  const Vec3f u0 = st.u(0), v0 = st.v(0);
+  for (int ax = 0; ax < 3; ++ax) {
+    const int d = make_direction(ax, 1);
+    float delta = arrays.plastic_offset[ax][n];
+    if (((links >> d) & 1u) != 0) {
+      const float rest = axis_value(lat.rest_length, ax);
+      const Arm<float> arm = arm_of(st, links, u0, v0, lat.rest_length, d);
+      const float strain = (arm.stretch - delta) / rest;
+      const float excess = crms_abs(strain) - p.yield_strain;
+      if (excess > 0.0f) delta += p.creep_step * excess * rest * (strain > 0.0f ? 1.0f : -1.0f);
+    }
+    arrays.plastic_offset[ax][n] = delta * p.recovery_decay;
+  }
+}
+
+/// Pass 5, fluid: flow into the cube with lower corner n from its face-neighbour cubes.
+TSF_HD_INLINE void update_fluid_content(const LatticeView& lat, const EffectArrays& arrays,
+                                        const EffectParameters& p, std::int64_t n, int i, int j,
+                                        int k) {
+  if (!cube_exists(lat, i, j, k)) return;
+  const float own = arrays.fluid_pressure[n];
+  float flow = 0.0f;
+  for (int d = 0; d < 6; ++d) {
+    const Int3 o = direction_offset(d);
+    if (!cube_exists(lat, i + o.x, j + o.y, k + o.z)) continue;
+    const std::int64_t m = n + o.x + o.y * lat.stride_y + o.z * lat.stride_z;
+    flow += arrays.fluid_pressure[m] - own;
+  }
+  arrays.fluid_content[n] += p.diffusion_step * flow / p.bulk_modulus;
+}
+
+/// Pass 6: node n's flags with every link whose strain exceeds the threshold cleared. Both ends
+/// of a spring compute bit-identical strains (arm_of negates exactly), so they agree.
+TSF_HD_INLINE std::uint8_t torn_flags(const LatticeView& lat, const ConstStateView& s,
+                                      const EffectParameters& p, std::int64_t n, int i, int j,
+                                      int k) {
+  const unsigned flags = lat.flags[n];
+  const unsigned links = flags & kLinkBits;
+  if (links == 0) return static_cast<std::uint8_t>(flags);
+  const IndexedStencil st{lat, s, n, i, j, k};
+  const Vec3f u0 = st.u(0), v0 = st.v(0);
+  unsigned keep = flags;
+  for (int d = 0; d < 6; ++d) {
+    if (((links >> d) & 1u) == 0) continue;
+    const Arm<float> arm = arm_of(st, links, u0, v0, lat.rest_length, d);
+    if (arm.stretch > p.tear_strain * axis_value(lat.rest_length, direction_axis(d)))
+      keep &= ~(1u << d);
+  }
+  return static_cast<std::uint8_t>(keep);
+}
+
+}  // namespace tsf::crms

@@ -1,0 +1,135 @@
+// CPU effect passes: the per-node functions of effect_physics.h in OpenMP loops over rows.
+#include <omp.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "effects_engine.h"
+
+namespace tsf::crms {
+namespace {
+
+/// Below this many nodes a pass runs on one thread (thread start-up would dominate).
+constexpr std::int64_t kParallelNodes = 8192;
+
+/// Calls body(n, i, j, k) for every node, rows spread over threads.
+template <class Body>
+void for_each_node(const LatticeView& lat, Body&& body) {
+  const int nx = lat.dims.x, ny = lat.dims.y;
+  const std::int64_t rows = static_cast<std::int64_t>(ny) * lat.dims.z;
+#pragma omp parallel for schedule(static) if (lat.count >= kParallelNodes)
+  for (std::int64_t row = 0; row < rows; ++row) {
+    const int j = static_cast<int>(row % ny), k = static_cast<int>(row / ny);
+    const std::int64_t base = row * nx;
+    for (int i = 0; i < nx; ++i) body(base + i, i, j, k);
+  }
+}
+
+class CpuEffects final : public EffectsEngine {
+ public:
+  CpuEffects(const LatticeGeometry& g, unsigned enabled)
+      : count_(static_cast<std::size_t>(g.node_count())), enabled_(enabled) {
+    if (enabled & effect_bits::kPlasticity)
+      for (auto& c : plastic_) c.assign(count_, 0.0f);
+    if (enabled & effect_bits::kFluid) {
+      content_.assign(count_, 0.0f);
+      pressure_.assign(count_, 0.0f);
+    }
+    if (enabled & effect_bits::kForceEffects)
+      for (auto& c : force_) c.assign(count_, 0.0f);
+  }
+
+  void before_step(const LatticeView& lat, const StateView& state,
+                   const EffectParameters& p) override {
+    if ((enabled_ & effect_bits::kForceEffects) == 0) return;
+    const EffectArrays a = arrays();
+    const ConstStateView s = state;
+    if (enabled_ & effect_bits::kFluid)
+      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+        a.fluid_pressure[n] = cube_pressure(lat, s, a, p, n, i, j, k);
+      });
+    for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+      const Vec3f f = effect_force(lat, s, a, p, n, i, j, k);
+      a.force[0][n] = f.x;
+      a.force[1][n] = f.y;
+      a.force[2][n] = f.z;
+    });
+    for_each_node(lat, [&](std::int64_t n, int, int, int) {
+      const Vec3f v = kicked_velocity(lat, s, a, p, n);
+      state.v[0][n] = v.x;
+      state.v[1][n] = v.y;
+      state.v[2][n] = v.z;
+    });
+  }
+
+  void after_step(const LatticeView& lat, const StateView& state,
+                  const EffectParameters& p) override {
+    const EffectArrays a = arrays();
+    const ConstStateView s = state;
+    if (enabled_ & (effect_bits::kPlasticity | effect_bits::kFluid))
+      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+        if (enabled_ & effect_bits::kPlasticity) update_plastic_offsets(lat, s, a, p, n, i, j, k);
+        if (enabled_ & effect_bits::kFluid) update_fluid_content(lat, a, p, n, i, j, k);
+      });
+    if (enabled_ & effect_bits::kTearing) {
+      auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
+      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+        flags[n] = torn_flags(lat, s, p, n, i, j, k);
+      });
+    }
+  }
+
+  EffectsState read() const override {
+    EffectsState r;
+    if (!plastic_[0].empty()) {
+      r.plastic_offset.resize(count_);
+      for (std::size_t n = 0; n < count_; ++n)
+        r.plastic_offset[n] = {plastic_[0][n], plastic_[1][n], plastic_[2][n]};
+    }
+    r.fluid_content = content_;
+    r.fluid_pressure = pressure_;
+    return r;
+  }
+
+  std::vector<std::uint8_t> read_flags(const LatticeView& lat) const override {
+    return std::vector<std::uint8_t>(lat.flags, lat.flags + lat.count);
+  }
+
+  double bytes_per_node() const override {
+    double b = 0;
+    if (enabled_ & effect_bits::kPlasticity) b += 3 * sizeof(float);
+    if (enabled_ & effect_bits::kFluid) b += 2 * sizeof(float);
+    if (enabled_ & effect_bits::kForceEffects) b += 3 * sizeof(float);
+    return b;
+  }
+
+ private:
+  EffectArrays arrays() const {
+    EffectArrays a;
+    auto data = [](const std::vector<float>& v) {
+      return v.empty() ? nullptr : const_cast<float*>(v.data());
+    };
+    for (int c = 0; c < 3; ++c) {
+      a.plastic_offset[c] = data(plastic_[c]);
+      a.force[c] = data(force_[c]);
+    }
+    a.fluid_content = data(content_);
+    a.fluid_pressure = data(pressure_);
+    return a;
+  }
+
+  std::size_t count_;
+  unsigned enabled_;
+  std::array<std::vector<float>, 3> plastic_, force_;
+  std::vector<float> content_, pressure_;
+};
+
+}  // namespace
+
+std::unique_ptr<EffectsEngine> make_cpu_effects(const LatticeGeometry& geometry, unsigned enabled) {
+  return std::make_unique<CpuEffects>(geometry, enabled);
+}
+
+}  // namespace tsf::crms
