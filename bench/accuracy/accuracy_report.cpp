@@ -74,6 +74,7 @@ int main(int argc, char** argv) {
     options.threads = omp_get_max_threads();
     RunInfo info = collect_run_info();
     info.quick = quick;
+    info.plots = plots;
     info.repeats = options.repeats;
     info.commit = commit;
     info.command = "accuracy_report";

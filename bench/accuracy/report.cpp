@@ -284,6 +284,7 @@ void write_json(const fs::path& path, const RunInfo& info,
               {"load_average_end", info.load_average_end},
               {"compiler", info.compiler},
               {"quick", info.quick},
+              {"plots", info.plots},
               {"repeats", info.repeats},
               {"total_seconds", info.total_seconds},
               {"command", info.command}};
@@ -361,7 +362,7 @@ int verify_report(const fs::path& json_path) {
     if (!ids.insert(id).second) problem("study '" + id + "' appears twice");
     if (!s.value("failure", std::string()).empty())
       problem("study '" + id + "' failed: " + s["failure"].get<std::string>());
-    if (!non_empty_file(s.value("plot", std::string())))
+    if (j["run"].value("plots", true) && !non_empty_file(s.value("plot", std::string())))
       problem("study '" + id + "' has no plot file");
     int rows = 0;
     for (const auto& t : s["tables"])

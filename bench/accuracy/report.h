@@ -20,6 +20,7 @@ struct RunInfo {
   std::string load_average_start, load_average_end;
   std::string compiler;
   bool quick = false;
+  bool plots = true;  ///< false with --no-plots (no gnuplot): studies carry no PNG
   int repeats = 0;
   double total_seconds = 0;
   std::string command;  ///< the command line that produced the report
