@@ -91,9 +91,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   bench::BenchTissue tissue = bench::cranium_or_blobs();
-  const double voxel = std::min(tissue.volume.geometry().spacing.x,
-                                std::min(tissue.volume.geometry().spacing.y,
-                                         tissue.volume.geometry().spacing.z));
+  const double voxel =
+      std::min(tissue.volume.geometry().spacing.x,
+               std::min(tissue.volume.geometry().spacing.y, tissue.volume.geometry().spacing.z));
   std::printf("tissue: %s; lattice k = %d; %d edits per radius; ball ablation, strength 1\n",
               tissue.name.c_str(), k, edits);
 
@@ -103,8 +103,8 @@ int main(int argc, char** argv) {
     if (!header) {
       std::printf("backend: %s; %lld alive nodes; %zu surface vertices; voxel %.3f mm\n\n",
                   model.solver().backend_name().c_str(),
-                  static_cast<long long>(model.alive_nodes()),
-                  model.surface().live_vertex_count(), voxel);
+                  static_cast<long long>(model.alive_nodes()), model.surface().live_vertex_count(),
+                  voxel);
       std::printf("%7s | %11s %11s %11s %11s %11s %11s | %11s %11s %11s | %8s %8s %8s %7s %6s\n",
                   "radius", "map", "voxel edit", "IMT remesh", "topology", "rebind", "couple",
                   "total", "wall", "thread CPU", "rebound", "(nodes)", "tris", "nodes", "springs");
@@ -156,21 +156,24 @@ int main(int argc, char** argv) {
     omp_set_num_threads(omp_get_num_procs());
     auto pp = [](const std::vector<double>& v) {
       char b[32];
-      std::snprintf(b, sizeof b, "%.0f/%.0f", bench::percentile(v, 0.5), bench::percentile(v, 0.99));
+      std::snprintf(b, sizeof b, "%.0f/%.0f", bench::percentile(v, 0.5),
+                    bench::percentile(v, 0.99));
       return std::string(b);
     };
     std::printf(
         "%7.0f | %11s %11s %11s %11s %11s %11s | %11s %11s %11s | %8.0f %8.0f %8.0f %7.2f %6.2f\n",
         radius_voxels, pp(map).c_str(), pp(edit).c_str(), pp(remesh).c_str(), pp(topo).c_str(),
         pp(rebind).c_str(), pp(couple).c_str(), pp(total).c_str(), pp(wall).c_str(),
-        pp(cpu).c_str(),
-        rebound / edits, rebound_topology / edits, tris / edits, nodes / edits, springs / edits);
+        pp(cpu).c_str(), rebound / edits, rebound_topology / edits, tris / edits, nodes / edits,
+        springs / edits);
   }
   std::printf(
       "\nmap = tool pose to rest space (gather nodes near the tool, Newton per cube); voxel edit = "
       "the ablation with the stroke memory; IMT remesh = update + change list; topology = "
       "lattice deletions and broken springs; rebind / couple = the coupler on the changed "
       "vertices (rebound (nodes) = of them, only because a node of their cube was deleted or a "
-      "spring broken); total = apply_tool end to end (wall = the same measured outside; thread CPU = the CPU time of the edit's thread, which leaves out the time slices other processes take on a shared machine).\n");
+      "spring broken); total = apply_tool end to end (wall = the same measured outside; thread CPU "
+      "= the CPU time of the edit's thread, which leaves out the time slices other processes take "
+      "on a shared machine).\n");
   return 0;
 }

@@ -60,7 +60,8 @@ VoxelVolume cranium_crop(const Int3& lo, const Int3& hi) {
 ::testing::AssertionResult consistent(const interaction::TissueModel& model,
                                       const std::string& when) {
   if (model.solver().instability())
-    return ::testing::AssertionFailure() << when << ": " << model.solver().instability()->describe();
+    return ::testing::AssertionFailure()
+           << when << ": " << model.solver().instability()->describe();
   const auto pos = model.solver().positions();
   for (std::size_t n = 0; n < pos.size(); ++n)
     if (model.solver().lattice().alive(static_cast<std::int64_t>(n)) && !all_finite(pos[n]))
@@ -75,8 +76,8 @@ VoxelVolume cranium_crop(const Int3& lo, const Int3& hi) {
     if (!all_finite(mesh.positions[i]) || !all_finite(mesh.normals[i]))
       return ::testing::AssertionFailure() << when << ": coupled vertex " << i << " not finite";
   const imt::MeshTopology t = imt::analyse_topology(mesh);
-  if (t.unreferenced_vertices || t.nonmanifold_edges || t.boundary_edges ||
-      t.misoriented_edges || t.nonmanifold_vertices || t.degenerate_triangles)
+  if (t.unreferenced_vertices || t.nonmanifold_edges || t.boundary_edges || t.misoriented_edges ||
+      t.nonmanifold_vertices || t.degenerate_triangles)
     return ::testing::AssertionFailure()
            << when << ": dangling " << t.unreferenced_vertices << ", non-manifold edges "
            << t.nonmanifold_edges << ", boundary " << t.boundary_edges << ", misoriented "
@@ -95,9 +96,9 @@ VoxelVolume cranium_crop(const Int3& lo, const Int3& hi) {
                   b.w[1] != f.w[1] || b.w[2] != f.w[2];
   }
   if (unbound || orphans || mismatched)
-    return ::testing::AssertionFailure() << when << ": " << unbound << " unbound, " << orphans
-                                         << " without a frame, " << mismatched
-                                         << " differing from a fresh binding";
+    return ::testing::AssertionFailure()
+           << when << ": " << unbound << " unbound, " << orphans << " without a frame, "
+           << mismatched << " differing from a fresh binding";
   return ::testing::AssertionSuccess();
 }
 
@@ -131,10 +132,14 @@ TEST(CutCranium, ThousandRandomCutsAndAblationsKeepEveryLayerConsistent) {
   for (int op = 0; op < 1000; ++op) {
     Stopwatch clock;
     // Aim at the deformed surface: a random live vertex, a little offset.
-    std::uint32_t slot = 1 + static_cast<std::uint32_t>(u01(rng) * (model.surface().vertex_slot_count() - 2));
-    while (!model.surface().vertex_live(slot)) slot = 1 + slot % (model.surface().vertex_slot_count() - 1);
-    const Vec3d at = to_double(model.coupler().positions()[slot]) + Vec3d{unit(rng), unit(rng), unit(rng)};
-    const Rotation r = Rotation::about_axis({unit(rng), unit(rng), unit(rng) + 1e-3}, 3.0 * unit(rng));
+    std::uint32_t slot =
+        1 + static_cast<std::uint32_t>(u01(rng) * (model.surface().vertex_slot_count() - 2));
+    while (!model.surface().vertex_live(slot))
+      slot = 1 + slot % (model.surface().vertex_slot_count() - 1);
+    const Vec3d at =
+        to_double(model.coupler().positions()[slot]) + Vec3d{unit(rng), unit(rng), unit(rng)};
+    const Rotation r =
+        Rotation::about_axis({unit(rng), unit(rng), unit(rng) + 1e-3}, 3.0 * unit(rng));
     const Vec3d step{2 * unit(rng), 2 * unit(rng), 2 * unit(rng)};
     const int kind = op % 7;
     interaction::EditReport e;
@@ -165,10 +170,11 @@ TEST(CutCranium, ThousandRandomCutsAndAblationsKeepEveryLayerConsistent) {
     }
     t_check += clock.seconds();
   }
-  std::printf("cranium crop: %zu vertices, %lld nodes alive; edits %.1f s, simulation %.1f s, "
-              "checks %.1f s\n",
-              model.surface().live_vertex_count(), static_cast<long long>(model.alive_nodes()),
-              t_edit, t_step, t_check);
+  std::printf(
+      "cranium crop: %zu vertices, %lld nodes alive; edits %.1f s, simulation %.1f s, "
+      "checks %.1f s\n",
+      model.surface().live_vertex_count(), static_cast<long long>(model.alive_nodes()), t_edit,
+      t_step, t_check);
   EXPECT_GT(edits, 600u) << "most strokes must hit tissue";
   EXPECT_GT(model.totals().nodes_deleted, 0u);
   EXPECT_GT(model.totals().springs_broken, 0u);

@@ -73,7 +73,8 @@ TEST(Coupler, SaggingBlockSurfaceEqualsTrilinearInterpolationOfItsCube) {
   const std::vector<Vec3f> nodes = model.solver().positions();
   // The free end must have moved down noticeably, or the test proves nothing.
   double tip = 0;
-  for (const Vec3f& d : model.solver().displacements()) tip = std::min(tip, static_cast<double>(d.z));
+  for (const Vec3f& d : model.solver().displacements())
+    tip = std::min(tip, static_cast<double>(d.z));
   EXPECT_LT(tip, -0.05) << "the block did not sag";
 
   const crms::Lattice& l = model.solver().lattice();

@@ -27,7 +27,8 @@ void bend(TissueModel& model) {
   std::vector<Vec3f> du(static_cast<std::size_t>(l.node_count())), v(du.size());
   for (std::int64_t n = 0; n < l.node_count(); ++n) {
     const Vec3d p = l.geometry().rest_position(n);
-    du[static_cast<std::size_t>(n)] = to_float(Vec3d{0.02 * p.z * p.x, 0.01 * p.y, -0.01 * p.x * p.x});
+    du[static_cast<std::size_t>(n)] =
+        to_float(Vec3d{0.02 * p.z * p.x, 0.01 * p.y, -0.01 * p.x * p.x});
   }
   model.solver().set_state(du, v);
 }
@@ -37,7 +38,8 @@ double worst_difference(const TissueModel& a, const TissueModel& b) {
   EXPECT_EQ(a.surface().vertex_slot_count(), b.surface().vertex_slot_count());
   for (std::uint32_t s = 1; s < a.surface().vertex_slot_count(); ++s) {
     if (!a.surface().vertex_live(s)) continue;
-    worst = std::max(worst, double(length(a.coupler().positions()[s] - b.coupler().positions()[s])));
+    worst =
+        std::max(worst, double(length(a.coupler().positions()[s] - b.coupler().positions()[s])));
     worst = std::max(worst, double(length(a.coupler().normals()[s] - b.coupler().normals()[s])));
   }
   return worst;

@@ -81,8 +81,8 @@ TEST(VertexBinding, InferredCornersAreExactForTheMotionsTheFitClaims) {
   // 5 corners (3-D): affine exact. A face (coplanar): similarity exact. A face plus its outside
   // neighbours: affine exact again. One edge: similarity exact (rotation + scale on the line),
   // checked with a rotation about that edge's axis only.
-  for (const Case& c : {Case{0x1fu, false, true}, Case{0x0fu, false, false},
-                        Case{0x0fu, true, true}}) {
+  for (const Case& c :
+       {Case{0x1fu, false, true}, Case{0x0fu, false, false}, Case{0x0fu, true, true}}) {
     for (int m = 0; m < 2; ++m) {
       if (m == 1 && !c.affine_exact) continue;
       Vec3f q[8];
@@ -102,8 +102,8 @@ TEST(VertexBinding, InferredCornersAreExactForTheMotionsTheFitClaims) {
                       static_cast<float>(cell.z + corner_bit(k, 2)) * h[2]};
         const Vec3f expected = (m == 0 ? rigid(r) : affine(r)) - origin;
         EXPECT_LT(length(q[k] - expected), 2e-4f)
-            << "alive " << c.alive << " outside " << c.with_outside << " motion " << m
-            << " corner " << k;
+            << "alive " << c.alive << " outside " << c.with_outside << " motion " << m << " corner "
+            << k;
       }
     }
   }

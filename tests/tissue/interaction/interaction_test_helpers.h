@@ -90,8 +90,8 @@ inline ::testing::AssertionResult closed_manifold(const imt::SurfaceMesh& mesh) 
   const imt::MeshTopology t = imt::analyse_topology(mesh);
   if (t.closed_oriented_manifold()) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure()
-         << "boundary edges " << t.boundary_edges << ", non-manifold edges "
-         << t.nonmanifold_edges << ", misoriented " << t.misoriented_edges << ", pinched vertices "
+         << "boundary edges " << t.boundary_edges << ", non-manifold edges " << t.nonmanifold_edges
+         << ", misoriented " << t.misoriented_edges << ", pinched vertices "
          << t.nonmanifold_vertices << ", unreferenced " << t.unreferenced_vertices
          << ", degenerate " << t.degenerate_triangles;
 }

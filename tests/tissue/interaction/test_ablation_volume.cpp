@@ -15,7 +15,9 @@ using test::block_volume;
 
 TissueModel solid_block() {
   auto o = block_options(-1, 0.0);
-  o.anchor = [](crms::Lattice& l) { crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0}); };
+  o.anchor = [](crms::Lattice& l) {
+    crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0});
+  };
   return TissueModel(block_volume({40, 40, 40}, {1, 1, 1}, {39, 39, 39}), o);
 }
 

@@ -85,7 +85,8 @@ TEST(RestSpaceMap, ARigidlyRotatedBladeMapsBackToItsRestOrientation) {
   const Rotation rest = rest_orientation(world, rp.gradient);
   // rest should be Rᵀ·world: compare by the angle between them.
   const Rotation expected = Rotation{r.w, -r.x, -r.y, -r.z};
-  const Vec3d ex = expected.apply(world.apply({1, 0, 0})), ey = expected.apply(world.apply({0, 1, 0}));
+  const Vec3d ex = expected.apply(world.apply({1, 0, 0})),
+              ey = expected.apply(world.apply({0, 1, 0}));
   EXPECT_LT(length(rest.apply({1, 0, 0}) - ex), 1e-4);
   EXPECT_LT(length(rest.apply({0, 1, 0}) - ey), 1e-4);
 }

@@ -37,7 +37,8 @@ namespace {
     if (!s.vertex_live(slot)) continue;
     const coupler::VertexBinding& b = c.bindings()[slot];
     const coupler::VertexBinding& f = fresh.bindings()[slot];
-    if (b.cell < 0) return ::testing::AssertionFailure() << when << ": live vertex " << slot << " unbound";
+    if (b.cell < 0)
+      return ::testing::AssertionFailure() << when << ": live vertex " << slot << " unbound";
     if (c.sources()[slot] == 0)
       return ::testing::AssertionFailure()
              << when << ": vertex " << slot << " has no source node (orphan)";
@@ -73,7 +74,8 @@ TEST(TissueModelRobustness, RandomStrokesAndPressesKeepEveryLayerConsistent) {
   blade.half_extents_mm = {6.0, 4.0, 0.3};
   for (int op = 0; op < 120; ++op) {
     const Vec3d p{ux(rng), uy(rng), uz(rng)};
-    const Rotation r = Rotation::about_axis({unit(rng), unit(rng), unit(rng) + 1e-3}, 3.0 * unit(rng));
+    const Rotation r =
+        Rotation::about_axis({unit(rng), unit(rng), unit(rng) + 1e-3}, 3.0 * unit(rng));
     const Vec3d step{3 * unit(rng), 3 * unit(rng), 3 * unit(rng)};
     const int k = kind(rng);
     if (k == 0) {

@@ -17,7 +17,9 @@ TissueModelOptions press_options() {
   auto o = block_options(-1, 0.0);
   o.solver.materials[0].youngs_modulus_pa = 50e3;  // soft: a longer stable step, fewer steps
   o.solver.materials[0].viscosity_pa_s = 10.0;     // settles within a few ms of simulated time
-  o.anchor = [](crms::Lattice& l) { crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0}); };
+  o.anchor = [](crms::Lattice& l) {
+    crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0});
+  };
   return o;
 }
 

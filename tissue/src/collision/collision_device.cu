@@ -126,8 +126,8 @@ class CudaCollisionDevice final : public CollisionDevice {
       gather_kernel<<<blocks, 256, 0, stream_>>>(lattice, lo, hi, t, tool ? 1 : 0, hits_.get(),
                                                  hits_.capacity(), counter_.get());
       TSF_CUDA_CHECK_LAUNCH();
-      TSF_CUDA_CHECK(cudaMemcpyAsync(&found, counter_.get(), sizeof(found),
-                                     cudaMemcpyDeviceToHost, stream_));
+      TSF_CUDA_CHECK(
+          cudaMemcpyAsync(&found, counter_.get(), sizeof(found), cudaMemcpyDeviceToHost, stream_));
       TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
       if (found <= hits_.capacity()) break;
       hits_.allocate(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
@@ -172,9 +172,8 @@ class CudaCollisionDevice final : public CollisionDevice {
             "collision: unknown CRMS feature set " + std::to_string(features));
     crms::dispatch_features(features, [&](auto f) {
       constexpr unsigned F = decltype(f)::value;
-      spring_force_kernel<F><<<blocks, 128, 0, stream_>>>(lattice, crms::ConstStateView(state),
-                                                          palette, nodes_.get(), count,
-                                                          forces_.get());
+      spring_force_kernel<F><<<blocks, 128, 0, stream_>>>(
+          lattice, crms::ConstStateView(state), palette, nodes_.get(), count, forces_.get());
     });
     TSF_CUDA_CHECK_LAUNCH();
     TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), forces_.get(), nodes.size() * sizeof(Vec3f),

@@ -19,8 +19,8 @@ class CollisionDevice {
  public:
   virtual ~CollisionDevice() = default;
   /// Fills `out` (nodes ascending) with the alive nodes in [lo, hi]; `tool` may be null.
-  virtual void gather(const coupler::DeformedLatticeView& lattice, const Vec3f& lo,
-                      const Vec3f& hi, const WorldTool* tool, NodeNeighbourhood& out) = 0;
+  virtual void gather(const coupler::DeformedLatticeView& lattice, const Vec3f& lo, const Vec3f& hi,
+                      const WorldTool* tool, NodeNeighbourhood& out) = 0;
   /// Spring force on each listed node (crms::spring_force with `features`), µN.
   virtual void spring_forces_at(const crms::LatticeView& lattice, const crms::StateView& state,
                                 const crms::MaterialPalette& palette, unsigned features,

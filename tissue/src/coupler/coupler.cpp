@@ -77,10 +77,9 @@ void Coupler::link(std::uint32_t slot) {
   ++bound_count_;
 }
 
-std::uint32_t Coupler::acquire_frame(std::int32_t cell, std::uint32_t sources,
-                                     bool single_piece) {
-  const std::uint64_t key = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell)) << 32) |
-                            sources;
+std::uint32_t Coupler::acquire_frame(std::int32_t cell, std::uint32_t sources, bool single_piece) {
+  const std::uint64_t key =
+      (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell)) << 32) | sources;
   const std::uint32_t found = frame_index_.find(key);
   if (found != FrameIndex::kAbsent) {
     ++frame_refs_[found];
@@ -150,10 +149,11 @@ void Coupler::bind_slots(const imt::ImtSurface& surface, const crms::Lattice& la
   std::vector<std::uint64_t>& order = scratch_order_;
   order.resize(slots.size());
   for (std::size_t i = 0; i < slots.size(); ++i) {
-    const crms::LatticeCellLocation loc = crms::locate_rest_point(geometry_, to_double(p[slots[i]]));
-    order[i] = (static_cast<std::uint64_t>(geometry_.index(loc.cell.x, loc.cell.y, loc.cell.z))
-                << 32) |
-               slots[i];
+    const crms::LatticeCellLocation loc =
+        crms::locate_rest_point(geometry_, to_double(p[slots[i]]));
+    order[i] =
+        (static_cast<std::uint64_t>(geometry_.index(loc.cell.x, loc.cell.y, loc.cell.z)) << 32) |
+        slots[i];
   }
   std::sort(order.begin(), order.end());
   // What each slot was bound to, to keep links and frames that do not change.
@@ -171,7 +171,8 @@ void Coupler::bind_slots(const imt::ImtSurface& surface, const crms::Lattice& la
     const auto cell = static_cast<std::int32_t>(order[i] >> 32);
     const std::uint32_t f = vertex_frames_[s].frame;
     if (f == kNoFrame || old_cell[i] != cell || !frame_single_[f] || orphan_[s]) continue;
-    if (std::binary_search(touched_cells.begin(), touched_cells.end(), std::int64_t{cell})) continue;
+    if (std::binary_search(touched_cells.begin(), touched_cells.end(), std::int64_t{cell}))
+      continue;
     full[i] = 0;
     const Int3 c = geometry_.coordinates(cell);
     const Vec3d r = geometry_.rest_position(c.x, c.y, c.z);
@@ -464,9 +465,8 @@ void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::ui
 std::vector<std::pair<std::uint32_t, std::uint32_t>> Coupler::changed_ranges(
     std::uint64_t since) const {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
-  const auto blocks = static_cast<std::uint32_t>(
-      std::min<std::size_t>(block_versions_.size(),
-                            (slot_count_ + kDirtyBlockSlots - 1) / kDirtyBlockSlots));
+  const auto blocks = static_cast<std::uint32_t>(std::min<std::size_t>(
+      block_versions_.size(), (slot_count_ + kDirtyBlockSlots - 1) / kDirtyBlockSlots));
   for (std::uint32_t b = 0; b < blocks; ++b) {
     if (block_versions_[b] <= since) continue;
     const std::uint32_t first = b * kDirtyBlockSlots;

@@ -34,7 +34,8 @@ class DeviceArray {
   void allocate(std::size_t count) {
     if (data_ && count <= capacity_) return;
     release();
-    TSF_CUDA_CHECK(cudaMalloc(reinterpret_cast<void**>(&data_), std::max<std::size_t>(count, 1) * sizeof(T)));
+    TSF_CUDA_CHECK(
+        cudaMalloc(reinterpret_cast<void**>(&data_), std::max<std::size_t>(count, 1) * sizeof(T)));
     capacity_ = count;
   }
   void release() {
@@ -51,13 +52,13 @@ class DeviceArray {
 };
 
 __global__ void resolve_frames_kernel(DeformedLatticeView lattice, const CubeFrame* frames,
-                                      std::uint32_t frame_count, int mode,
-                                      FrameCorners* corners) {
+                                      std::uint32_t frame_count, int mode, FrameCorners* corners) {
   const std::uint32_t f = blockIdx.x * blockDim.x + threadIdx.x;
   if (f >= frame_count) return;
   const CubeFrame frame = frames[f];
   if (frame.cell < 0) return;  // a free frame slot
-  corners[f] = resolve_frame(LatticeReader{lattice}, lattice, frame, static_cast<CouplerMode>(mode));
+  corners[f] =
+      resolve_frame(LatticeReader{lattice}, lattice, frame, static_cast<CouplerMode>(mode));
 }
 
 __global__ void resolve_listed_frames_kernel(DeformedLatticeView lattice, const CubeFrame* frames,
@@ -70,7 +71,8 @@ __global__ void resolve_listed_frames_kernel(DeformedLatticeView lattice, const 
   if (f >= frame_capacity) return;
   const CubeFrame frame = frames[f];
   if (frame.cell < 0) return;
-  corners[f] = resolve_frame(LatticeReader{lattice}, lattice, frame, static_cast<CouplerMode>(mode));
+  corners[f] =
+      resolve_frame(LatticeReader{lattice}, lattice, frame, static_cast<CouplerMode>(mode));
 }
 
 __global__ void couple_all_kernel(DeformedLatticeView lattice, const VertexFrameBinding* bindings,
@@ -216,8 +218,8 @@ class CudaCouplerDevice final : public CouplerDevice {
     TSF_CUDA_CHECK(cudaMemcpyAsync(stage_frames_.get(), packed_frames_.data(),
                                    count * sizeof(CubeFrame), cudaMemcpyHostToDevice, stream_));
     scatter_kernel<CubeFrame><<<blocks_for(count, 256), 256, 0, stream_>>>(
-        stage_index_.get(), static_cast<std::uint32_t>(count), frame_capacity_,
-        stage_frames_.get(), frames_.get());
+        stage_index_.get(), static_cast<std::uint32_t>(count), frame_capacity_, stage_frames_.get(),
+        frames_.get());
     TSF_CUDA_CHECK_LAUNCH();
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
@@ -253,9 +255,8 @@ class CudaCouplerDevice final : public CouplerDevice {
     if (count == 0) return;
     if (frame_count > 0) {
       stage_list_.allocate(frame_count);
-      TSF_CUDA_CHECK(cudaMemcpyAsync(stage_list_.get(), frames,
-                                     frame_count * sizeof(std::uint32_t), cudaMemcpyHostToDevice,
-                                     stream_));
+      TSF_CUDA_CHECK(cudaMemcpyAsync(stage_list_.get(), frames, frame_count * sizeof(std::uint32_t),
+                                     cudaMemcpyHostToDevice, stream_));
       resolve_listed_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_>>>(
           lattice, frames_.get(), stage_list_.get(), static_cast<std::uint32_t>(frame_count),
           frame_capacity_, static_cast<int>(mode), corners_.get());

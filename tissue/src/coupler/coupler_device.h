@@ -33,9 +33,8 @@ class CouplerDevice {
   /// Resolves the listed frames, couples the listed slots and copies their outputs into the host
   /// arrays (indexed by slot).
   virtual void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* frames,
-                            std::size_t frame_count, const std::uint32_t* slots,
-                            std::size_t count, CouplerMode mode, Vec3f* positions,
-                            Vec3f* normals) = 0;
+                            std::size_t frame_count, const std::uint32_t* slots, std::size_t count,
+                            CouplerMode mode, Vec3f* positions, Vec3f* normals) = 0;
   /// Copies outputs of slots [first, first + count) into the host arrays (indexed by slot).
   virtual void download(std::uint32_t first, std::uint32_t count, Vec3f* positions,
                         Vec3f* normals) = 0;

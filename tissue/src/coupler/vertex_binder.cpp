@@ -128,9 +128,8 @@ int VertexBinder::pick_anchor(const Int3& cell, const Vec3d& p, const Vec3d& n) 
   double best_behind = 1.0;
   for (int b = 0; b < 8; ++b) {
     if (!((alive_ >> b) & 1u)) continue;
-    const Vec3d d = g.rest_position(cell.x + t.offset[b].x, cell.y + t.offset[b].y,
-                                    cell.z + t.offset[b].z) -
-                    p;
+    const Vec3d d =
+        g.rest_position(cell.x + t.offset[b].x, cell.y + t.offset[b].y, cell.z + t.offset[b].z) - p;
     const double behind = dot(d, n) / h;
     const double score = behind + 0.25 * length(d) / h;
     if (score < best_score) {
@@ -142,8 +141,8 @@ int VertexBinder::pick_anchor(const Int3& cell, const Vec3d& p, const Vec3d& n) 
   if (best >= 0 && best_behind < 0.0) return best;
   for (int b = 8; b < 32; ++b) {
     if (!((alive_ >> b) & 1u)) continue;
-    const Vec3d r = g.rest_position(cell.x + t.offset[b].x, cell.y + t.offset[b].y,
-                                    cell.z + t.offset[b].z);
+    const Vec3d r =
+        g.rest_position(cell.x + t.offset[b].x, cell.y + t.offset[b].y, cell.z + t.offset[b].z);
     const Vec3d d = r - p;
     const double score = dot(d, n) / h + 0.25 * length(d) / h;
     if (score < best_score) {
@@ -222,8 +221,7 @@ BindingResult VertexBinder::bind(const Vec3f& rest_position, const Vec3f& rest_n
   }
   const Vec3d r = g.rest_position(cell.x, cell.y, cell.z);
   out.binding.cell = static_cast<std::int32_t>(g.index(cell.x, cell.y, cell.z));
-  for (int a = 0; a < 3; ++a)
-    out.binding.w[a] = static_cast<float>((p[a] - r[a]) / g.spacing[a]);
+  for (int a = 0; a < 3; ++a) out.binding.w[a] = static_cast<float>((p[a] - r[a]) / g.spacing[a]);
   if (alive_ == 0) {
     out.orphan = true;
     ++orphans_;

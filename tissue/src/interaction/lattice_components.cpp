@@ -42,8 +42,8 @@ LatticeComponents find_lattice_components(const crms::Lattice& lattice) {
   std::stable_sort(order.begin(), order.end(),
                    [&](std::int32_t a, std::int32_t b) { return sizes[a] > sizes[b]; });
   std::vector<std::int32_t> rank(sizes.size());
-  for (std::size_t r = 0; r < order.size(); ++r) rank[static_cast<std::size_t>(order[r])] =
-      static_cast<std::int32_t>(r);
+  for (std::size_t r = 0; r < order.size(); ++r)
+    rank[static_cast<std::size_t>(order[r])] = static_cast<std::int32_t>(r);
   LatticeComponents out;
   out.label.resize(raw.size());
   for (std::size_t n = 0; n < raw.size(); ++n) out.label[n] = raw[n] < 0 ? -1 : rank[raw[n]];

@@ -26,8 +26,8 @@ void grow(Vec3d& lo, Vec3d& hi, const Vec3d& a, const Vec3d& b) {
 }
 
 bool same_tool(const Tool& a, const Tool& b) {
-  return a.shape == b.shape && a.radius_mm == b.radius_mm &&
-         a.half_length_mm == b.half_length_mm && a.half_extents_mm == b.half_extents_mm;
+  return a.shape == b.shape && a.radius_mm == b.radius_mm && a.half_length_mm == b.half_length_mm &&
+         a.half_extents_mm == b.half_extents_mm;
 }
 
 }  // namespace
@@ -39,10 +39,10 @@ void TissueModelOptions::validate() const {
   require(lattice.node_spacing_voxels >= 1 && lattice.node_spacing_voxels <= 64,
           "tissue model: lattice.node_spacing_voxels must be in [1, 64], got " +
               std::to_string(lattice.node_spacing_voxels));
-  require(std::isfinite(deletion_threshold) && deletion_threshold > 0.0f &&
-              deletion_threshold <= 1.0f,
-          "tissue model: deletion_threshold must be in (0, 1], got " +
-              std::to_string(deletion_threshold));
+  require(
+      std::isfinite(deletion_threshold) && deletion_threshold > 0.0f && deletion_threshold <= 1.0f,
+      "tissue model: deletion_threshold must be in (0, 1], got " +
+          std::to_string(deletion_threshold));
   require(std::isfinite(dt_s) && dt_s >= 0.0 && dt_s <= 1.0,
           "tissue model: dt must be in [0, 1] s (0 = automatic), got " + std::to_string(dt_s));
   require(std::isfinite(dt_safety) && dt_safety > 0.0 && dt_safety <= 10.0,
@@ -87,8 +87,8 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
           "viscosity > 0): set dt or use symplectic Euler");
   dt_ = std::min(dt_, 1.0);
 
-  coupler_ = std::make_unique<coupler::Coupler>(geometry,
-                                                coupler::CouplerOptions{options_.coupler_mode});
+  coupler_ =
+      std::make_unique<coupler::Coupler>(geometry, coupler::CouplerOptions{options_.coupler_mode});
   coupler_->bind_all(surface_, solver_->lattice());
   coupler_->couple(*solver_);
   gatherer_ = std::make_unique<collision::NodeGatherer>(geometry);

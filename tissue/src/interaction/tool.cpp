@@ -47,8 +47,7 @@ void Tool::validate() const {
   }
   if (shape == ToolShape::kCapsule) {
     if (!(std::isfinite(half_length_mm) && half_length_mm >= 0 && half_length_mm <= 1e3))
-      throw Error("tool.half_length: expected [0, 1000] mm, got " +
-                  std::to_string(half_length_mm));
+      throw Error("tool.half_length: expected [0, 1000] mm, got " + std::to_string(half_length_mm));
   }
   if (shape == ToolShape::kBlade) {
     for (int a = 0; a < 3; ++a)

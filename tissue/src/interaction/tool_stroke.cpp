@@ -73,9 +73,8 @@ VoxelBox ToolStroke::ablate_ball(VoxelVolume& volume, const Vec3d& from, const V
   const Vec3d hi{std::max(from.x, to.x), std::max(from.y, to.y), std::max(from.z, to.z)};
   const VoxelBox box = voxels_near_box(g, lo, hi, radius + h);
   return apply(volume, box, o, [&](int i, int j, int k) {
-    return falloff_weight(capsule_distance(path, g.index_to_tissue({double(i), double(j),
-                                                                     double(k)})),
-                          h);
+    return falloff_weight(
+        capsule_distance(path, g.index_to_tissue({double(i), double(j), double(k)})), h);
   });
 }
 
@@ -128,9 +127,9 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
   const ToolPose a{from.position, from.orientation.normalized()};
   const ToolPose b{to.position, to.orientation.normalized()};
   const double corner = length(e);
-  const int steps = sub_steps(
-      length(b.position - a.position) + a.orientation.angle_to(b.orientation) * corner, voxel,
-      "cut");
+  const int steps =
+      sub_steps(length(b.position - a.position) + a.orientation.angle_to(b.orientation) * corner,
+                voxel, "cut");
   // Each sub-step's box is bounded by its world-axis extent |R|·e (a thin blade's is thin), not
   // by the sphere through its corners: a 40 mm blade sweeping 70 mm visits ~60× fewer voxels.
   std::vector<ToolPose> poses(static_cast<std::size_t>(steps) + 1);
@@ -172,8 +171,8 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
     for (int k = sb.lo.z; k < sb.hi.z; ++k)
       for (int j = sb.lo.y; j < sb.hi.y; ++j)
         for (int i = sb.lo.x; i < sb.hi.x; ++i) {
-          const double d = blade_distance(blade, p, g.index_to_tissue({double(i), double(j),
-                                                                       double(k)}));
+          const double d =
+              blade_distance(blade, p, g.index_to_tissue({double(i), double(j), double(k)}));
           if (d >= h) continue;
           float& w = at(i, j, k);
           w = std::max(w, falloff_weight(d, h));

@@ -97,7 +97,8 @@ struct CoupledVertex {
 
 /// The cell (lower corner node coordinates) of a binding.
 TSF_HD_INLINE Int3 binding_cell(const DeformedLatticeView& lattice, std::int64_t n) {
-  return {static_cast<int>(n % lattice.dims.x), static_cast<int>((n / lattice.dims.x) % lattice.dims.y),
+  return {static_cast<int>(n % lattice.dims.x),
+          static_cast<int>((n / lattice.dims.x) % lattice.dims.y),
           static_cast<int>(n / (static_cast<std::int64_t>(lattice.dims.x) * lattice.dims.y))};
 }
 
@@ -135,8 +136,8 @@ TSF_HD_INLINE CoupledVertex couple_vertex(const Reader& reader, const DeformedLa
   }
   const Int3 cell = binding_cell(lattice, b.cell);
   Vec3f q[8];
-  const bool bound =
-      resolve_cube_corners(reader, cell, lattice.spacing, sources, q, nullptr, corners_needed(mode));
+  const bool bound = resolve_cube_corners(reader, cell, lattice.spacing, sources, q, nullptr,
+                                          corners_needed(mode));
   return couple_resolved(lattice, cell, q, bound, b, rest_normal, mode);
 }
 
@@ -189,7 +190,8 @@ TSF_HD_INLINE CoupledVertex couple_from_frame(const FrameCorners& f, const float
 }
 
 /// The rest position the binding stands for: rest(cell) + w ⊙ h.
-TSF_HD_INLINE Vec3f bound_rest_position(const DeformedLatticeView& lattice, const VertexBinding& b) {
+TSF_HD_INLINE Vec3f bound_rest_position(const DeformedLatticeView& lattice,
+                                        const VertexBinding& b) {
   const std::int64_t n = b.cell;
   const int i = static_cast<int>(n % lattice.dims.x);
   const int j = static_cast<int>((n / lattice.dims.x) % lattice.dims.y);

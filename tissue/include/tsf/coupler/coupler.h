@@ -11,8 +11,8 @@
 // Only vertices that an edit touched are (re)bound: those in the IMT change list (added,
 // modified, new normal — the normal picks the vertex's side of a cut), and those whose cube's
 // source nodes were deleted or had springs broken (their side may have changed); freed slots are
-// unbound. The result equals binding every vertex afresh (CouplerRobustness tests it). A bucket list per lattice cube finds the
-// latter without scanning the surface.
+// unbound. The result equals binding every vertex afresh (CouplerRobustness tests it). A bucket
+// list per lattice cube finds the latter without scanning the surface.
 //
 // Dirty tracking for uploads: slots are grouped in blocks of kDirtyBlockSlots; every couple()
 // or couple_slots() advances version() and stamps the blocks whose output changed, so a reader
@@ -47,13 +47,13 @@ struct CouplerOptions {
 
 /// What one rebinding pass did.
 struct RebindReport {
-  std::size_t rebound = 0;          ///< vertices (re)bound
-  std::size_t from_changes = 0;     ///< of which from the IMT change list
-  std::size_t from_topology = 0;    ///< of which only because their cube's sources changed
-  std::size_t unbound = 0;          ///< freed slots
-  std::size_t orphans = 0;          ///< of the rebound: no alive node near (kept at rest)
-  std::size_t cubes_touched = 0;    ///< cubes whose sources changed
-  bool full_rebind = false;         ///< the surface buffers were reallocated
+  std::size_t rebound = 0;        ///< vertices (re)bound
+  std::size_t from_changes = 0;   ///< of which from the IMT change list
+  std::size_t from_topology = 0;  ///< of which only because their cube's sources changed
+  std::size_t unbound = 0;        ///< freed slots
+  std::size_t orphans = 0;        ///< of the rebound: no alive node near (kept at rest)
+  std::size_t cubes_touched = 0;  ///< cubes whose sources changed
+  bool full_rebind = false;       ///< the surface buffers were reallocated
 };
 
 /// The deformed-lattice view of a solver's current state (device pointers on CUDA).

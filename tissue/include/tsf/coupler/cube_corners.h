@@ -90,7 +90,9 @@ TSF_HD_INLINE bool fetch_node(const Reader& reader, const Int3& cell, int ox, in
 /// A 3×3 linear map by its columns.
 struct LinearMap3 {
   Vec3f col[3];
-  TSF_HD_INLINE Vec3f apply(const Vec3f& v) const { return col[0] * v.x + col[1] * v.y + col[2] * v.z; }
+  TSF_HD_INLINE Vec3f apply(const Vec3f& v) const {
+    return col[0] * v.x + col[1] * v.y + col[2] * v.z;
+  }
 };
 
 /// Least-squares local frame of the known nodes (see header): the map A with q ≈ q̄ + A·(r − r̄)
@@ -252,11 +254,11 @@ TSF_HD_INLINE bool resolve_cube_corners(const Reader& reader, const Int3& cell, 
     for (int a = 0; a < 3; ++a) spread[a] |= corner_bit(c, a) ? 2 : 1;
   }
   // Four corners not on one face span the cube; otherwise add the outside neighbours.
-  const bool corners_span = count >= 4 && spread[0] == 3 && spread[1] == 3 && spread[2] == 3 &&
-                            !(count == 4 && (known == 0x0fu || known == 0xf0u || known == 0x33u ||
-                                             known == 0xccu || known == 0x55u || known == 0xaau ||
-                                             known == 0x99u || known == 0x66u || known == 0xc3u ||
-                                             known == 0x3cu || known == 0xa5u || known == 0x5au));
+  const bool corners_span =
+      count >= 4 && spread[0] == 3 && spread[1] == 3 && spread[2] == 3 &&
+      !(count == 4 && (known == 0x0fu || known == 0xf0u || known == 0x33u || known == 0xccu ||
+                       known == 0x55u || known == 0xaau || known == 0x99u || known == 0x66u ||
+                       known == 0xc3u || known == 0x3cu || known == 0xa5u || known == 0x5au));
   if (!corners_span && (sources >> 8) != 0) {
     for (int c = 0; c < 8; ++c)
       for (int a = 0; a < 3; ++a) {

@@ -67,8 +67,8 @@ class VertexBinder {
 
   const crms::Lattice& lattice_;
   std::int64_t cached_cell_ = -1;
-  std::uint32_t alive_ = 0;    ///< alive sources of the cached cube
-  bool single_piece_ = true;  ///< the cached cube's alive sources are all connected
+  std::uint32_t alive_ = 0;     ///< alive sources of the cached cube
+  bool single_piece_ = true;    ///< the cached cube's alive sources are all connected
   std::int8_t piece_[32] = {};  ///< piece id per source bit (−1: missing)
   std::int64_t orphans_ = 0;
   std::int64_t borrowed_ = 0;

@@ -11,8 +11,8 @@
 namespace tsf::interaction {
 
 struct LatticeComponents {
-  std::vector<std::int32_t> label;    ///< per node: component index, −1 for dead nodes
-  std::vector<std::int64_t> sizes;    ///< nodes per component, largest first
+  std::vector<std::int32_t> label;     ///< per node: component index, −1 for dead nodes
+  std::vector<std::int64_t> sizes;     ///< nodes per component, largest first
   std::vector<std::uint8_t> anchored;  ///< per component: holds a fixed node
   std::size_t count() const { return sizes.size(); }
 };

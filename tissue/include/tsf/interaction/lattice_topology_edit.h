@@ -51,19 +51,16 @@ class DensitySnapshot {
 };
 
 struct LatticeTopologyEdit {
-  std::vector<std::int64_t> deleted_nodes;        ///< ascending
-  std::vector<crms::SpringRef> broken_springs;    ///< each once, from its lower node (+ direction)
+  std::vector<std::int64_t> deleted_nodes;      ///< ascending
+  std::vector<crms::SpringRef> broken_springs;  ///< each once, from its lower node (+ direction)
   bool empty() const { return deleted_nodes.empty() && broken_springs.empty(); }
 };
 
 /// The nodes and springs an edit of `changed` voxels takes out (see header). `volume` is after
 /// the edit, `before` holds the densities from before it over (at least) `changed`.
-LatticeTopologyEdit find_lattice_topology_edit(const VoxelVolume& volume,
-                                               const DensitySnapshot& before,
-                                               const VoxelBox& changed,
-                                               const crms::Lattice& lattice,
-                                               int node_spacing_voxels, float deletion_threshold,
-                                               float iso);
+LatticeTopologyEdit find_lattice_topology_edit(
+    const VoxelVolume& volume, const DensitySnapshot& before, const VoxelBox& changed,
+    const crms::Lattice& lattice, int node_spacing_voxels, float deletion_threshold, float iso);
 
 /// Mean density of node n's cell (lattice_builders.h's occupancy).
 float cell_occupancy(const VoxelVolume& volume, const crms::LatticeGeometry& geometry,

@@ -22,12 +22,12 @@
 namespace tsf::interaction {
 
 struct RestPoint {
-  Vec3d rest{0, 0, 0};        ///< mm, tissue (rest) space
-  bool found = false;         ///< a node was gathered near the point
-  bool inside_cube = false;   ///< converged inside a cube (not extrapolated)
-  double residual_mm = 0.0;   ///< |φ(rest) − x| of the chosen cube
+  Vec3d rest{0, 0, 0};           ///< mm, tissue (rest) space
+  bool found = false;            ///< a node was gathered near the point
+  bool inside_cube = false;      ///< converged inside a cube (not extrapolated)
+  double residual_mm = 0.0;      ///< |φ(rest) − x| of the chosen cube
   double nearest_node_mm = 0.0;  ///< distance from x to the seed node, mm
-  std::int64_t cell = -1;     ///< the cube used (lower corner node)
+  std::int64_t cell = -1;        ///< the cube used (lower corner node)
   std::array<double, 9> gradient{1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< F, row-major
 };
 

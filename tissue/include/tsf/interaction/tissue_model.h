@@ -59,7 +59,7 @@ struct TissueModelOptions {
   /// A node is deleted when its cell's occupancy drops below this, in (0, 1].
   float deletion_threshold = 0.125f;
   crms::SolverConfig solver;
-  double dt_s = 0.0;      ///< solver step, s; 0 = dt_safety × the stable estimate
+  double dt_s = 0.0;  ///< solver step, s; 0 = dt_safety × the stable estimate
   double dt_safety = 0.9;
   coupler::CouplerMode coupler_mode = coupler::CouplerMode::kTrilinear;
   RemovalOptions removal;  ///< strength, fall-off and per-label rates of ablation and cuts
@@ -80,22 +80,23 @@ struct TissueModelOptions {
 /// One apply_tool call: what changed and what each layer cost.
 struct EditReport {
   ToolMode mode = ToolMode::kIdle;
-  bool edited = false;          ///< voxels changed
-  bool tissue_near = false;     ///< nodes were found near the tool (else nothing to edit)
+  bool edited = false;       ///< voxels changed
+  bool tissue_near = false;  ///< nodes were found near the tool (else nothing to edit)
   VoxelBox changed_voxels{};
-  double removed_mm3 = 0;       ///< tissue removed (Σ density drop × voxel volume)
+  double removed_mm3 = 0;  ///< tissue removed (Σ density drop × voxel volume)
   std::size_t nodes_deleted = 0;
   std::size_t springs_broken = 0;
   std::size_t vertices_rebound = 0;
-  std::size_t vertices_rebound_for_topology = 0;  ///< of which only because their cube's nodes changed
+  std::size_t vertices_rebound_for_topology =
+      0;  ///< of which only because their cube's nodes changed
   std::size_t vertices_added = 0, vertices_freed = 0, triangles_changed = 0;
-  double map_us = 0;       ///< tool pose → rest space (gather + Newton)
-  double edit_us = 0;      ///< voxel edit (with the density snapshot)
-  double remesh_us = 0;    ///< IMT update + change list
-  double topology_us = 0;  ///< lattice deletions and broken springs
-  double rebind_us = 0;    ///< coupler re-binding
-  double couple_us = 0;    ///< coupling the re-bound vertices
-  double total_us = 0;     ///< apply_tool end to end: edit → render buffer
+  double map_us = 0;                ///< tool pose → rest space (gather + Newton)
+  double edit_us = 0;               ///< voxel edit (with the density snapshot)
+  double remesh_us = 0;             ///< IMT update + change list
+  double topology_us = 0;           ///< lattice deletions and broken springs
+  double rebind_us = 0;             ///< coupler re-binding
+  double couple_us = 0;             ///< coupling the re-bound vertices
+  double total_us = 0;              ///< apply_tool end to end: edit → render buffer
   collision::ContactForce contact;  ///< press mode: the contact resolved at the new pose
 };
 

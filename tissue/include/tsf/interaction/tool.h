@@ -26,8 +26,8 @@ const char* to_string(collision::ToolShape shape);
 
 struct Tool {
   collision::ToolShape shape = collision::ToolShape::kSphere;
-  double radius_mm = 1.0;               ///< sphere, capsule; > 0
-  double half_length_mm = 0.0;          ///< capsule: half its axis length (0 = a sphere); ≥ 0
+  double radius_mm = 1.0;                 ///< sphere, capsule; > 0
+  double half_length_mm = 0.0;            ///< capsule: half its axis length (0 = a sphere); ≥ 0
   Vec3d half_extents_mm{5.0, 5.0, 0.25};  ///< blade; each > 0
 
   /// Throws tsf::Error naming the field when a value is out of range or not finite.
