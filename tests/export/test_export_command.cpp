@@ -7,47 +7,15 @@
 #include <fstream>
 
 #include "export_test_helpers.h"
+#include "support/tsf_process.h"
 #include "tsf/io/mesh_sequence.h"
 
 namespace tsf::exporter {
 namespace {
 using namespace test;
-
-std::optional<fs::path> tsf_executable() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) return std::nullopt;
-  const fs::path exe = self.parent_path().parent_path() / "bin" / "tsf";
-  if (fs::is_regular_file(exe)) return exe;
-  return std::nullopt;
-}
-
-#define TSF_EXECUTABLE_OR_SKIP(var)                                                              \
-  const auto var##_opt = tsf_executable();                                                       \
-  if (!var##_opt)                                                                                \
-    GTEST_SKIP() << "not run: the tsf executable is not part of this build (TSF_BUILD_APP=OFF)"; \
-  const fs::path var = *var##_opt
-
-struct ProcessRun {
-  int status = -1;
-  std::string output;  ///< stdout and stderr
-};
-
-ProcessRun run(const fs::path& exe, const std::string& args) {
-  ProcessRun r;
-  FILE* pipe = popen(("'" + exe.string() + "' " + args + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) r.output.append(buf, n);
-  const int status = pclose(pipe);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-std::string q(const fs::path& p) {
-  return "'" + p.string() + "'";
-}
+using ::tsf::test::ProcessRun;
+using ::tsf::test::run_tsf;
+using ::tsf::test::shell_quoted;
 
 /// PREFIX-density.nrrd and PREFIX-labels.nrrd of a sphere in the oblique frame (raw NRRD).
 void write_sphere_volume(const fs::path& prefix, const VolumeGeometry& g, double radius) {
@@ -85,7 +53,7 @@ void write_sphere_volume(const fs::path& prefix, const VolumeGeometry& g, double
 
 TEST(ExportCommand, HelpListsFormatsAndFrames) {
   TSF_EXECUTABLE_OR_SKIP(tsf);
-  const ProcessRun r = run(tsf, "export --help");
+  const ProcessRun r = run_tsf(tsf, "export --help");
   EXPECT_EQ(r.status, 0) << r.output;
   for (const char* word : {"--format", "--split-labels", "--units", "--frames", "glb", "fbx-ascii",
                            "y-up", "STEM-KKKK"})
@@ -97,8 +65,8 @@ TEST(ExportCommand, VolumeLandsInThePatientFrame) {
   const fs::path dir = tsf::test::scratch_dir("command");
   const VolumeGeometry g = oblique_geometry();
   write_sphere_volume(dir / "sphere", g, 5.5);
-  const ProcessRun r = run(
-      tsf, "export " + q(dir / "sphere-density.nrrd") + " -o " + q(dir / "out.stl") + " --stats");
+  const ProcessRun r = run_tsf(tsf, "export " + shell_quoted(dir / "sphere-density.nrrd") + " -o " +
+                                        shell_quoted(dir / "out.stl") + " --stats");
   if (r.status != 0 && r.output.find("needs ITK") != std::string::npos)
     GTEST_SKIP() << "not run: this build reads no volumes (TSF_WITH_ITK=OFF): " << r.output;
   ASSERT_EQ(r.status, 0) << r.output;
@@ -119,8 +87,9 @@ TEST(ExportCommand, VolumeLandsInThePatientFrame) {
       << "the test frame must differ from tissue space to mean anything";
 
   // Labels came along: per-tissue meshes in an OBJ.
-  const ProcessRun split = run(tsf, "export " + q(dir / "sphere-density.nrrd") + " -o " +
-                                        q(dir / "split.obj") + " --split-labels");
+  const ProcessRun split =
+      run_tsf(tsf, "export " + shell_quoted(dir / "sphere-density.nrrd") + " -o " +
+                       shell_quoted(dir / "split.obj") + " --split-labels");
   ASSERT_EQ(split.status, 0) << split.output;
   const Imported parts = import_file(dir / "split.obj");
   EXPECT_EQ(parts.meshes, 2u) << "soft tissue and mucosa";
@@ -139,8 +108,9 @@ TEST(ExportCommand, SequenceExportsFramesAndAnimation) {
     s.frames.push_back(frame);
   }
   io::write_mesh_sequence(dir / "state.tsfmesh", s);
-  const ProcessRun r = run(tsf, "export " + q(dir / "state.tsfmesh") + " -o " +
-                                    q(dir / "out" / "t.glb") + " --frames all --stats");
+  const ProcessRun r =
+      run_tsf(tsf, "export " + shell_quoted(dir / "state.tsfmesh") + " -o " +
+                       shell_quoted(dir / "out" / "t.glb") + " --frames all --stats");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json stats = nlohmann::json::parse(r.output);
   EXPECT_EQ(stats["input_kind"], "mesh sequence");
@@ -149,8 +119,8 @@ TEST(ExportCommand, SequenceExportsFramesAndAnimation) {
   EXPECT_EQ(files_in(dir / "out"),
             (std::vector<std::string>{"t-0000.glb", "t-0001.glb", "t-0002.glb", "t.glb"}));
 
-  const ProcessRun last =
-      run(tsf, "export " + q(dir / "state.tsfmesh") + " -o " + q(dir / "last.ply"));
+  const ProcessRun last = run_tsf(tsf, "export " + shell_quoted(dir / "state.tsfmesh") + " -o " +
+                                           shell_quoted(dir / "last.ply"));
   ASSERT_EQ(last.status, 0) << last.output;
   EXPECT_NE(last.output.find("state 2"), std::string::npos) << last.output;
 }
@@ -162,27 +132,28 @@ TEST(ExportCommand, ErrorsSayWhyAndLeaveNothing) {
   s.geometry = oblique_geometry();
   s.rest = labelled_sphere(s.geometry);
   io::write_mesh_sequence(dir / "state.tsfmesh", s);
-  const std::string in = "export " + q(dir / "state.tsfmesh");
+  const std::string in = "export " + shell_quoted(dir / "state.tsfmesh");
   const fs::path out = dir / "out";
   struct Bad {
     std::string args, says;
   };
-  for (const Bad& b : {Bad{" -o " + q(out / "x.dae"), "unknown extension '.dae'"},
-                       Bad{" -o " + q(out / "x.glb") + " --units mm", "metres"},
-                       Bad{" -o " + q(out / "x.glb") + " --format obj", "writes '.obj'"},
-                       Bad{" -o " + q(out / "x.stl") + " --split-labels", "--split-labels"},
-                       Bad{" -o " + q(out / "x.glb") + " --frames 3", "states 0..0"},
-                       Bad{" -o " + q(out / "x.glb") + " --frames sideways", "--frames"},
-                       Bad{" -o " + q(out / "x.glb") + " --iso 0.4", "--iso"}}) {
-    const ProcessRun r = run(tsf, in + b.args);
+  for (const Bad& b :
+       {Bad{" -o " + shell_quoted(out / "x.dae"), "unknown extension '.dae'"},
+        Bad{" -o " + shell_quoted(out / "x.glb") + " --units mm", "metres"},
+        Bad{" -o " + shell_quoted(out / "x.glb") + " --format obj", "writes '.obj'"},
+        Bad{" -o " + shell_quoted(out / "x.stl") + " --split-labels", "--split-labels"},
+        Bad{" -o " + shell_quoted(out / "x.glb") + " --frames 3", "states 0..0"},
+        Bad{" -o " + shell_quoted(out / "x.glb") + " --frames sideways", "--frames"},
+        Bad{" -o " + shell_quoted(out / "x.glb") + " --iso 0.4", "--iso"}}) {
+    const ProcessRun r = run_tsf(tsf, in + b.args);
     EXPECT_NE(r.status, 0) << b.args;
     EXPECT_NE(r.output.find(b.says), std::string::npos) << b.args << ": " << r.output;
     EXPECT_FALSE(fs::exists(out) && !fs::is_empty(out)) << b.args << " left files behind";
   }
   std::ofstream(dir / "corrupt.tsfmesh", std::ios::binary) << "\x89TSFM\r\n\x1a"
                                                            << "garbage";
-  const ProcessRun corrupt =
-      run(tsf, "export " + q(dir / "corrupt.tsfmesh") + " -o " + q(out / "c.glb"));
+  const ProcessRun corrupt = run_tsf(tsf, "export " + shell_quoted(dir / "corrupt.tsfmesh") +
+                                              " -o " + shell_quoted(out / "c.glb"));
   EXPECT_NE(corrupt.status, 0);
   EXPECT_NE(corrupt.output.find("corrupt.tsfmesh"), std::string::npos) << corrupt.output;
 }

@@ -10,6 +10,7 @@
 
 #include "dicom_test_files.h"
 #include "support/test_data.h"
+#include "support/tsf_process.h"
 #include "tsf/import/hu_volume_writer.h"
 #include "tsf/import/import_report_json.h"
 #include "tsf/import/import_volume.h"
@@ -17,44 +18,8 @@
 namespace tsf::import {
 namespace {
 namespace fs = std::filesystem;
-
-/// The `tsf` executable of this build: <build>/bin/tsf next to <build>/tests/<this test>.
-std::optional<fs::path> tsf_executable() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) return std::nullopt;
-  const fs::path exe = self.parent_path().parent_path() / "bin" / "tsf";
-  if (fs::is_regular_file(exe)) return exe;
-  return std::nullopt;
-}
-
-#define TSF_EXECUTABLE_OR_SKIP(var)                                                              \
-  const auto var##_opt = tsf_executable();                                                       \
-  if (!var##_opt)                                                                                \
-    GTEST_SKIP() << "not run: the tsf executable is not part of this build (TSF_BUILD_APP=OFF)"; \
-  const fs::path var = *var##_opt
-
-struct ProcessRun {
-  int status = -1;
-  std::string output;  ///< stdout and stderr together
-};
-
-ProcessRun run(const fs::path& exe, const std::string& args) {
-  ProcessRun r;
-  const std::string command = "'" + exe.string() + "' " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf{};
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.output.append(buf.data(), n);
-  const int status = pclose(pipe);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-std::string quoted(const fs::path& p) {
-  return "'" + p.string() + "'";
-}
+using test::run_tsf;
+using test::shell_quoted;
 
 fs::path ge_dir() {
   return test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing";
@@ -62,7 +27,7 @@ fs::path ge_dir() {
 
 TEST(ImportCommand, HelpDescribesInputsOutputsAndEveryOption) {
   TSF_EXECUTABLE_OR_SKIP(tsf);
-  const ProcessRun r = run(tsf, "import --help");
+  const test::ProcessRun r = run_tsf(tsf, "import --help");
   EXPECT_EQ(r.status, 0) << r.output;
   for (const char* word : {"--output", "--list", "--series", "--strict", "--slice-spacing",
                            "--sidecar", "--any-modality", "--max-gvoxels", "DICOMDIR", "NIfTI",
@@ -72,7 +37,7 @@ TEST(ImportCommand, HelpDescribesInputsOutputsAndEveryOption) {
 
 TEST(ImportCommand, ListShowsTheSeriesAndWhatWasSkipped) {
   TSF_EXECUTABLE_OR_SKIP(tsf);
-  const ProcessRun r = run(tsf, "import " + quoted(ge_dir()) + " --list");
+  const test::ProcessRun r = run_tsf(tsf, "import " + shell_quoted(ge_dir()) + " --list");
   EXPECT_EQ(r.status, 0) << r.output;
   for (const char* text :
        {"1.2.826.0.1.3680043.9.4245.3115138630835728997848661150714813892", "modality     CT",
@@ -80,7 +45,7 @@ TEST(ImportCommand, ListShowsTheSeriesAndWhatWasSkipped) {
         "slice gaps 4.00 mm ×13, 1.08 mm ×1, 7.00 mm ×13 (uneven)", "18.50° from positions",
         "after resampling", "not DICOM (1): LICENSE-SOURCE.txt"})
     EXPECT_NE(r.output.find(text), std::string::npos) << text << "\n" << r.output;
-  const ProcessRun j = run(tsf, "import " + quoted(ge_dir()) + " --list --json");
+  const test::ProcessRun j = run_tsf(tsf, "import " + shell_quoted(ge_dir()) + " --list --json");
   EXPECT_EQ(j.status, 0);
   const auto parsed = nlohmann::json::parse(j.output);
   EXPECT_EQ(parsed.at("series").size(), 1u);
@@ -90,7 +55,8 @@ TEST(ImportCommand, ListShowsTheSeriesAndWhatWasSkipped) {
 TEST(ImportCommand, WritesTheVolumeAndItsSidecar) {
   TSF_EXECUTABLE_OR_SKIP(tsf);
   const fs::path dir = test::scratch_dir("cli-write");
-  const ProcessRun r = run(tsf, "import " + quoted(ge_dir()) + " -o " + quoted(dir / "ge.nrrd"));
+  const test::ProcessRun r =
+      run_tsf(tsf, "import " + shell_quoted(ge_dir()) + " -o " + shell_quoted(dir / "ge.nrrd"));
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("warning: gantry tilt"), std::string::npos) << r.output;
   ASSERT_TRUE(fs::exists(dir / "ge.nrrd"));
@@ -107,18 +73,19 @@ TEST(ImportCommand, WritesTheVolumeAndItsSidecar) {
 TEST(ImportCommand, ErrorsExitNonZeroAndWriteNothing) {
   TSF_EXECUTABLE_OR_SKIP(tsf);
   const fs::path dir = test::scratch_dir("cli-errors");
-  const ProcessRun strict =
-      run(tsf, "import " + quoted(ge_dir()) + " --strict -o " + quoted(dir / "g.nrrd"));
+  const test::ProcessRun strict = run_tsf(
+      tsf, "import " + shell_quoted(ge_dir()) + " --strict -o " + shell_quoted(dir / "g.nrrd"));
   EXPECT_NE(strict.status, 0);
   EXPECT_NE(strict.output.find("refused (strict)"), std::string::npos) << strict.output;
-  const ProcessRun no_output = run(tsf, "import " + quoted(ge_dir()));
+  const test::ProcessRun no_output = run_tsf(tsf, "import " + shell_quoted(ge_dir()));
   EXPECT_NE(no_output.status, 0);
   EXPECT_NE(no_output.output.find("give -o OUT.nrrd"), std::string::npos) << no_output.output;
-  const ProcessRun bad_ext =
-      run(tsf, "import " + quoted(ge_dir()) + " -o " + quoted(dir / "g.png"));
+  const test::ProcessRun bad_ext =
+      run_tsf(tsf, "import " + shell_quoted(ge_dir()) + " -o " + shell_quoted(dir / "g.png"));
   EXPECT_NE(bad_ext.status, 0);
   EXPECT_NE(bad_ext.output.find(".nrrd or .mha"), std::string::npos) << bad_ext.output;
-  const ProcessRun missing = run(tsf, "import " + quoted(dir / "nothing-here") + " --list");
+  const test::ProcessRun missing =
+      run_tsf(tsf, "import " + shell_quoted(dir / "nothing-here") + " --list");
   EXPECT_NE(missing.status, 0);
   EXPECT_TRUE(fs::is_empty(dir));
 }
@@ -208,10 +175,11 @@ TEST(ImportPrivacy, NoPatientNameIdOrBirthDateInCommandOutputs) {
   for (const auto& c : privacy_cases()) {
     const auto values = identifying_values(c.identified_by);
     const fs::path out = dir / ("v" + std::to_string(index++) + ".nrrd");
-    const ProcessRun list = run(tsf, "import " + quoted(c.input) + " --list");
-    const ProcessRun list_json = run(tsf, "import " + quoted(c.input) + " --list --json");
-    const ProcessRun import =
-        run(tsf, "import " + quoted(c.input) + " --no-compress -o " + quoted(out));
+    const test::ProcessRun list = run_tsf(tsf, "import " + shell_quoted(c.input) + " --list");
+    const test::ProcessRun list_json =
+        run_tsf(tsf, "import " + shell_quoted(c.input) + " --list --json");
+    const test::ProcessRun import =
+        run_tsf(tsf, "import " + shell_quoted(c.input) + " --no-compress -o " + shell_quoted(out));
     expect_absent(values, list.output, "tsf import --list " + c.input.string());
     expect_absent(values, list_json.output, "tsf import --list --json " + c.input.string());
     expect_absent(values, import.output, "tsf import " + c.input.string());

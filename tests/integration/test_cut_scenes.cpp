@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "support/test_data.h"
+#include "support/tsf_process.h"
 #include "tsf/imt/mesh_topology.h"
 #include "tsf/imt/surface_ply.h"
 #include "tsf/io/mesh_sequence.h"
@@ -23,14 +24,6 @@ namespace tsf {
 namespace {
 
 namespace fs = std::filesystem;
-
-fs::path tsf_executable() {
-  char buf[4096];
-  const ssize_t n = readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return {};
-  buf[n] = 0;
-  return fs::path(buf).parent_path().parent_path() / "bin" / "tsf";
-}
 
 std::string read_text(const fs::path& p) {
   std::ifstream f(p);
@@ -52,7 +45,7 @@ void expect_closed_mesh(const fs::path& ply, std::size_t min_triangles) {
 }
 
 TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("cut-block-scene");
   const fs::path scene = test::source_dir() / "scenes" / "cut-block.yaml";
@@ -100,7 +93,7 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
 }
 
 TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("cut-cranium-scene");
   const std::string segment = exe.string() + " segment " +
@@ -128,7 +121,7 @@ TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
 }
 
 TEST(CutScenes, SceneTyposNameTheirKeyPath) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("cut-scene-errors");
   const std::string base = read_text(test::source_dir() / "scenes" / "cut-block.yaml");

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "support/test_data.h"
+#include "support/tsf_process.h"
 #include "tsf/imt/mesh_topology.h"
 #include "tsf/imt/surface_ply.h"
 
@@ -24,14 +25,6 @@ namespace tsf {
 namespace {
 
 namespace fs = std::filesystem;
-
-fs::path tsf_executable() {
-  char buf[4096];
-  const ssize_t n = readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return {};
-  buf[n] = 0;
-  return fs::path(buf).parent_path().parent_path() / "bin" / "tsf";
-}
 
 std::string read_text(const fs::path& p) {
   std::ifstream f(p);
@@ -112,7 +105,7 @@ void expect_valid_run_folder(const fs::path& dir, const std::string& name) {
 }
 
 TEST(RunScene, TheCiSinusSceneRunsEndToEndAndItsOutputsAreValid) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path ct = test::samples_dir() / "ct-head-cranium" / "cranium.nrrd";
   ASSERT_TRUE(fs::exists(ct)) << "the sample CT ships with the repository: " << ct;
@@ -126,7 +119,7 @@ TEST(RunScene, TheCiSinusSceneRunsEndToEndAndItsOutputsAreValid) {
 }
 
 TEST(RunScene, WithNoSceneItRunsTheBundledSinusSceneFromTheRepositoryRoot) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("run-default");
   // No scene argument: scenes/sinus.yaml is found from the working directory (the checkout);
@@ -154,7 +147,7 @@ fs::path broken_scene(const std::string& name, const std::string& from, const st
 }
 
 TEST(RunSceneRobustness, PipelineErrorsNameTheKeyPath) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   struct Case {
     std::string name, from, to, expected;
@@ -183,7 +176,7 @@ TEST(RunSceneRobustness, PipelineErrorsNameTheKeyPath) {
 }
 
 TEST(RunScene, MaterialLibraryPrintsEveryTissueWithDerivedLatticeParameters) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("run-materials");
   const CommandResult r = run_command(
@@ -201,7 +194,7 @@ TEST(RunScene, MaterialLibraryPrintsEveryTissueWithDerivedLatticeParameters) {
 }
 
 TEST(RunSceneRobustness, MaterialLibraryErrorsNameTheKeyPath) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   std::string text = read_text(test::source_dir() / "materials" / "tissues.yaml");
   const std::string from = "    youngs_modulus_pa: 3.25e3";

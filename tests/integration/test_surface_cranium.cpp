@@ -19,6 +19,7 @@
 #include <string>
 
 #include "support/test_data.h"
+#include "support/tsf_process.h"
 #include "tsf/import/itk_io_factories.h"
 #include "tsf/import/tissue_volume_io.h"
 #include "tsf/imt/extract_surface.h"
@@ -117,16 +118,8 @@ TEST(SurfaceCranium, EditsOnTheCraniumMatchAFreshBuild) {
   expect_closed_orientable_components(inc, "cranium after 60 edits");
 }
 
-fs::path tsf_executable() {
-  char buf[4096];
-  const ssize_t n = readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return {};
-  buf[n] = 0;
-  return fs::path(buf).parent_path().parent_path() / "bin" / "tsf";
-}
-
 TEST(SurfaceCranium, CommandWritesAMeshAndStats) {
-  const fs::path exe = tsf_executable();
+  const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("surface-cli");
   import::write_tissue_volume(dir / "cranium", cranium_density(-300.0));
