@@ -108,4 +108,17 @@ inline std::vector<Backend> available_backends() {
   return b;
 }
 
+/// Deforms every node's rest position by `map` (Vec3d → Vec3d, mm) and sets that as the state,
+/// at rest (zero velocity).
+template <typename Map>
+void deform(Solver& s, Map map) {
+  const Lattice& l = s.lattice();
+  std::vector<Vec3f> u(static_cast<std::size_t>(l.node_count())), v(u.size());
+  for (std::int64_t n = 0; n < l.node_count(); ++n) {
+    const Vec3d p = l.geometry().rest_position(n);
+    u[static_cast<std::size_t>(n)] = to_float(map(p) - p);
+  }
+  s.set_state(u, v);
+}
+
 }  // namespace tsf::crms::test

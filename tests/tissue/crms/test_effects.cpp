@@ -26,17 +26,7 @@ SolverConfig config_for(Backend backend, double damping_time = 1e-3) {
   return c;
 }
 
-/// Sets the state to rest positions mapped by `map` (at rest).
-template <typename Map>
-void deform(Solver& s, Map map) {
-  const Lattice& l = s.lattice();
-  std::vector<Vec3f> u(static_cast<std::size_t>(l.node_count())), v(u.size());
-  for (std::int64_t n = 0; n < l.node_count(); ++n) {
-    const Vec3d p = l.geometry().rest_position(n);
-    u[n] = to_float(map(p) - p);
-  }
-  s.set_state(u, v);
-}
+using test::deform;
 
 /// Mean displacement along `axis` of the nodes in `nodes`, mm.
 double mean_displacement(const Solver& s, const std::vector<std::int64_t>& nodes, int axis) {

@@ -25,17 +25,7 @@ SolverConfig base_config(Backend backend, double damping_time = 2e-4) {
   return c;
 }
 
-/// Deforms every node's rest position by `map` and sets that as the state (at rest).
-template <typename Map>
-void deform(Solver& s, Map map) {
-  const Lattice& l = s.lattice();
-  std::vector<Vec3f> u(static_cast<std::size_t>(l.node_count())), v(u.size());
-  for (std::int64_t n = 0; n < l.node_count(); ++n) {
-    const Vec3d p = l.geometry().rest_position(n);
-    u[n] = to_float(map(p) - p);
-  }
-  s.set_state(u, v);
-}
+using test::deform;
 
 /// Energy bound for a released scene: what it started with, plus what the velocity limit
 /// allows the kinetic energy to be when a scene runs beyond the stable step.
