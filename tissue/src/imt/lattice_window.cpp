@@ -191,18 +191,24 @@ bool LatticeWindow::load_and_classify(const Int3& c0, const Int3& c1) {
   // reads 0 like every other one. (The mean of 4 inside corners at 1 and 4 outside zeros is
   // exactly 0.5: a whole plane of centres on the iso-level, each emitting coincident vertices
   // and zero-area triangles wherever tissue touches the volume's border.)
-  for (int z = 0; z < dims_.z; ++z) {
-    const int gz = lo_.z + z;
-    for (int y = 0; y < dims_.y; ++y) {
-      const int gy = lo_.y + y;
-      float* row = centre + sy_ * y + sz_ * z;
-      if (gz < 0 || gz + 1 >= vd.z || gy < 0 || gy + 1 >= vd.y) {
-        std::fill(row, row + dims_.x, 0.0f);
-        continue;
-      }
-      for (int x = 0; x < dims_.x; ++x) {
-        const int gx = lo_.x + x;
-        if (gx < 0 || gx + 1 >= vd.x) row[x] = 0.0f;
+  // Only windows at the volume's border have such centres: interior windows skip this.
+  const bool at_border = lo_.x < 0 || lo_.y < 0 || lo_.z < 0 || lo_.x + dims_.x >= vd.x ||
+                         lo_.y + dims_.y >= vd.y || lo_.z + dims_.z >= vd.z;
+  if (at_border) {
+    // Columns x whose cube reaches outside: gx < 0 or gx + 1 >= vd.x.
+    const int x_in0 = std::clamp(-lo_.x, 0, dims_.x);
+    const int x_in1 = std::clamp(vd.x - 1 - lo_.x, x_in0, dims_.x);
+    for (int z = 0; z < dims_.z; ++z) {
+      const int gz = lo_.z + z;
+      for (int y = 0; y < dims_.y; ++y) {
+        const int gy = lo_.y + y;
+        float* row = centre + sy_ * y + sz_ * z;
+        if (gz < 0 || gz + 1 >= vd.z || gy < 0 || gy + 1 >= vd.y) {
+          std::fill(row, row + dims_.x, 0.0f);
+          continue;
+        }
+        std::fill(row, row + x_in0, 0.0f);
+        std::fill(row + x_in1, row + dims_.x, 0.0f);
       }
     }
   }
