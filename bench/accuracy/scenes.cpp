@@ -134,4 +134,20 @@ double seconds_per_step(crms::Solver& solver, double dt, int steps, int repeats)
   return median_seconds(repeats, [&] { solver.step(steps, dt); }) / steps;
 }
 
+BlockPressureSolve solve_block_pressure(const Block& block) {
+  BlockPressureSolve r;
+  r.lattice = block.lattice();
+  r.patch = block_patch_nodes(block, r.lattice);
+  const double h = block.spacing_mm;
+  const std::vector<Vec3f> forces(r.patch.size(),
+                                  Vec3f{0, 0, static_cast<float>(-block.pressure_pa * h * h)});
+  r.material.youngs_modulus_pa = block.youngs_pa;
+  r.solve = crms_static(
+      r.lattice,
+      crms_config(r.material, crms::Integrator::kImplicitEuler, crms::AngularForm::kExact,
+                  crms::AngularReactions::kSymmetric, {0, 0, 0}),
+      r.patch, forces);
+  return r;
+}
+
 }  // namespace tsf::accuracy

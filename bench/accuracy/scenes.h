@@ -73,6 +73,16 @@ double mean_lattice_uz(const crms::Lattice& lattice, const std::vector<Vec3d>& u
 /// Block: nodes of the top layer under the patch and the per-node force of the pressure, µN.
 std::vector<std::int64_t> block_patch_nodes(const Block& block, const crms::Lattice& lattice);
 
+/// Block under its patch pressure, solved statically on the lattice (exact angles, symmetric
+/// reactions, no gravity): the lattice, the loaded nodes, the material and the solution.
+struct BlockPressureSolve {
+  crms::Lattice lattice;
+  std::vector<std::int64_t> patch;
+  crms::Material material;
+  StaticSolve solve;
+};
+BlockPressureSolve solve_block_pressure(const Block& block);
+
 /// The FEM twin of a lattice (same cells, anchored cells rigid) with one material.
 struct FemTwin {
   std::unique_ptr<reference::FemHexModel> model;

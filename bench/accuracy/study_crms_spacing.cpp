@@ -131,17 +131,11 @@ StudyResult run(const RunOptions& options) {
   for (double h : spacings) {
     Block blk;
     blk.spacing_mm = h;
-    const crms::Lattice lattice = blk.lattice();
-    const std::vector<std::int64_t> patch = block_patch_nodes(blk, lattice);
-    const std::vector<Vec3f> forces(patch.size(),
-                                    Vec3f{0, 0, static_cast<float>(-blk.pressure_pa * h * h)});
-    crms::Material material;
-    material.youngs_modulus_pa = blk.youngs_pa;
-    const StaticSolve lat =
-        crms_static(lattice,
-                    crms_config(material, Integrator::kImplicitEuler, AngularForm::kExact,
-                                AngularReactions::kSymmetric, {0, 0, 0}),
-                    patch, forces);
+    const BlockPressureSolve solved = solve_block_pressure(blk);
+    const crms::Lattice& lattice = solved.lattice;
+    const std::vector<std::int64_t>& patch = solved.patch;
+    const crms::Material& material = solved.material;
+    const StaticSolve& lat = solved.solve;
     const double c0 = 0.5 * (blk.width_mm - blk.patch_mm), c1 = 0.5 * (blk.width_mm + blk.patch_mm);
     const FemTwin fem = solve_fem_twin(
         lattice, {blk.youngs_pa, 0.0, 1e-3}, {0, 0, 0}, [&](reference::FemHexModel& m) {

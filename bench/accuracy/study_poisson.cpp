@@ -41,18 +41,10 @@ StudyResult run(const RunOptions& options) {
     Block blk;
     blk.patch_mm = lc.patch_mm;
     blk.spacing_mm = options.quick ? 2.0 : 1.0;
-    const double h = blk.spacing_mm;
-    const crms::Lattice lattice = blk.lattice();
-    const std::vector<std::int64_t> patch = block_patch_nodes(blk, lattice);
-    const std::vector<Vec3f> forces(patch.size(),
-                                    Vec3f{0, 0, static_cast<float>(-blk.pressure_pa * h * h)});
-    crms::Material material;
-    material.youngs_modulus_pa = blk.youngs_pa;
-    const StaticSolve lat =
-        crms_static(lattice,
-                    crms_config(material, Integrator::kImplicitEuler, AngularForm::kExact,
-                                AngularReactions::kSymmetric, {0, 0, 0}),
-                    patch, forces);
+    const BlockPressureSolve solved = solve_block_pressure(blk);
+    const crms::Lattice& lattice = solved.lattice;
+    const std::vector<std::int64_t>& patch = solved.patch;
+    const StaticSolve& lat = solved.solve;
     double lattice_depth = 0;
     for (std::int64_t n : patch) lattice_depth -= lat.displacements[static_cast<std::size_t>(n)].z;
     lattice_depth /= static_cast<double>(patch.size());
