@@ -53,6 +53,7 @@ crms::Lattice build_lattice(const Scene& scene) {
     o.occupancy_threshold = static_cast<float>(sl.occupancy_threshold);
     o.mass_floor = static_cast<float>(sl.mass_floor);
     o.density_g_per_mm3 = m.density_g_per_mm3;
+    configure_volume_lattice(scene.effect_regions, scene.solver, o);
     lattice = crms::build_lattice_from_volume(volume, o);
 #else
     throw Error(scene.file.string() +
@@ -126,7 +127,9 @@ void run_simulate(const SimulateArguments& args) {
       f += lattice.alive(n) && lattice.fixed(n);
     return f;
   }();
-  crms::Solver solver(std::move(lattice), scene.solver);
+  crms::SolverConfig config = scene.solver;
+  apply_scene_effects(scene.effect_regions, lattice, config);
+  crms::Solver solver(std::move(lattice), config);
   const crms::Lattice& l = solver.lattice();
   const double stable = solver.stable_dt();
   double dt = scene.dt_s > 0 ? scene.dt_s : scene.dt_safety * stable;
@@ -212,6 +215,7 @@ void run_simulate(const SimulateArguments& args) {
       {"angular_form", crms::to_string(scene.solver.angular_form)},
       {"angular_reactions", crms::to_string(scene.solver.angular_reactions)},
       {"effects", solver.active_effects()},
+      {"triggers_fired", solver.fired_triggers()},
       {"lattice",
        {{"dims", json::array({l.geometry().dims.x, l.geometry().dims.y, l.geometry().dims.z})},
         {"spacing_mm", to_json(l.geometry().spacing)},

@@ -130,6 +130,8 @@ interaction::TissueModelOptions tissue_model_options(const Scene& scene) {
                                       : static_cast<float>(scene.lattice.occupancy_threshold);
   o.lattice.mass_floor = static_cast<float>(scene.lattice.mass_floor);
   o.lattice.density_g_per_mm3 = scene.solver.materials.at(0).density_g_per_mm3;
+  if (scene.lattice.source == SceneLattice::Source::kVolume)
+    configure_volume_lattice(scene.effect_regions, scene.solver, o.lattice);
   o.deletion_threshold = static_cast<float>(scene.tissue.deletion_threshold);
   o.solver = scene.solver;
   o.dt_s = scene.dt_s;
@@ -142,6 +144,9 @@ interaction::TissueModelOptions tissue_model_options(const Scene& scene) {
   // The options own a copy of the scene for the anchors: they may outlive the caller's scene.
   auto held = std::make_shared<const Scene>(scene);
   o.anchor = [held](crms::Lattice& l) { apply_scene_anchors(l, *held); };
+  o.configure_effects = [held](const crms::Lattice& l, crms::SolverConfig& c) {
+    apply_scene_effects(held->effect_regions, l, c);
+  };
   return o;
 }
 

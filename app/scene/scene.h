@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "scene/scene_effects.h"
 #include "tsf/common/vec3.h"
 #include "tsf/coupler/couple_vertex.h"
 #include "tsf/crms/solver_config.h"
@@ -116,6 +117,8 @@ struct Scene {
   std::string name;
   SceneLattice lattice;
   crms::SolverConfig solver;  ///< materials[0] is the scene's material
+  /// effects.palette and effects.animation regions (scene_effects.h): applied to the lattice.
+  SceneEffects effect_regions;
   double dt_s = 0.0;          ///< 0 = automatic: dt_safety × the stable estimate
   double dt_safety = 0.9;
   std::int64_t steps = 1000;

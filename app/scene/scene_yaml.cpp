@@ -17,14 +17,6 @@ namespace {
 
 using Field = YamlField;
 
-std::uint8_t parse_label(const Field& f) {
-  const std::string t = f.text();
-  for (int l = 0; l < 256; ++l)
-    if (t == tissue_label_name(static_cast<std::uint8_t>(l))) return static_cast<std::uint8_t>(l);
-  const std::int64_t v = f.integer(-1, 0, 255);
-  return static_cast<std::uint8_t>(v);
-}
-
 // `volume_from_pipeline`: the scene has a `pipeline:` section (tsf run, app/run/run_spec.h),
 // which writes the volume and fills lattice.volume in.
 void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLattice& l,
@@ -373,7 +365,8 @@ void read_outputs(const Field& f, const std::filesystem::path& folder, SceneOutp
 /// `effects:` (tsf/crms/effects_config.h): a listed effect is on unless it says `enabled: false`.
 void read_effects(const Field& f, crms::EffectsConfig& e) {
   if (!f.defined()) return;
-  f.expect_keys({"plasticity", "anisotropy", "fluid", "tearing"});
+  // palette and animation need the lattice: read_scene_effects (scene_effects.h).
+  f.expect_keys({"plasticity", "anisotropy", "fluid", "tearing", "palette", "animation"});
   if (const Field p = f["plasticity"]; p.defined()) {
     p.expect_keys({"enabled", "yield_strain", "creep_rate", "recovery_rate"});
     e.plasticity.enabled = p["enabled"].boolean(true);
@@ -395,9 +388,10 @@ void read_effects(const Field& f, crms::EffectsConfig& e) {
     e.fluid.diffusion_rate = fl["diffusion_rate"].number(0.0, 0.0, 1e6);
   }
   if (const Field t = f["tearing"]; t.defined()) {
-    t.expect_keys({"enabled", "strain_threshold"});
+    t.expect_keys({"enabled", "strain_threshold", "node_force_threshold"});
     e.tearing.enabled = t["enabled"].boolean(true);
     e.tearing.strain_threshold = t["strain_threshold"].number(0.5, 0.0, 100.0, true);
+    e.tearing.node_force_threshold_un = t["node_force_threshold"].number(0.0, 0.0, 1e12);
   }
 }
 
@@ -434,6 +428,10 @@ Scene read_scene(const std::filesystem::path& file) {
   read_anchors(top["anchors"], s.anchors);
   read_loads(top["loads"], s.loads);
   read_effects(top["effects"], s.solver.effects);
+  read_scene_effects(top["effects"], s.effect_regions, s.solver);
+  if (s.effect_regions.channels_given && s.lattice.source != SceneLattice::Source::kVolume)
+    top["effects"]["palette"]["channels"].fail(
+        "needs lattice.source: volume (the channels are segment's material weights)");
   const Field init = top["initial"];
   init.expect_keys({"scale", "about"});
   if (init.defined()) {

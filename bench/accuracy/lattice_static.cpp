@@ -46,7 +46,9 @@ struct StaticDualStencil {
   }
   Vec3<Scalar> v(int) const { return {Scalar(0.0), Scalar(0.0), Scalar(0.0)}; }
   unsigned flags(int slot) const { return lattice.flags[slot_nodes[slot]]; }
-  int material(int slot) const { return lattice.material[slot_nodes[slot]]; }
+  crms::MaterialBlend material(int slot) const {
+    return crms::node_material(lattice, slot_nodes[slot]);
+  }
 };
 
 template <unsigned F>

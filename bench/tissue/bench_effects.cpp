@@ -1,5 +1,6 @@
 // The cost of the optional CRMS effects (issue 6): time per step and bytes per node for the
-// baseline, every effect alone and all together, on cubic lattices, CPU and CUDA. "Disabled"
+// baseline, every effect alone (palette blends, plasticity, anisotropy, fluid, tearing, node
+// masking, rest-shape animation) and all together, on cubic lattices, CPU and CUDA. "Disabled"
 // is a scene whose effects carry parameters but are switched off: it must cost what the
 // baseline costs, within the run-to-run noise measured here (the spread of the baseline's own
 // repetitions, printed as the noise band).
@@ -33,10 +34,26 @@ using namespace tsf::crms;
 struct Variant {
   std::string name;
   EffectsConfig effects;
+  bool palette = false;  ///< 3 materials, every node a blend of two (features::kHeterogeneous)
 };
 
+/// Animation: two rest keyframes (a 5% swelling along z over 1 s); filled per lattice.
+AnimationConfig swelling(const Lattice& l) {
+  AnimationConfig a;
+  a.enabled = true;
+  RestKeyframe start, end;
+  end.time_s = 1.0;
+  for (std::int64_t n = 0; n < l.node_count(); ++n) {
+    const Vec3d p = l.geometry().rest_position(n);
+    start.rest_displacement_mm.push_back({0.0f, 0.0f, 0.0f});
+    end.rest_displacement_mm.push_back({0.0f, 0.0f, static_cast<float>(0.05 * p.z)});
+  }
+  a.rest_keyframes = {start, end};
+  return a;
+}
+
 std::vector<Variant> variants() {
-  EffectsConfig plastic, aniso, fluid, tear, all, disabled;
+  EffectsConfig plastic, aniso, fluid, tear, mask, animation, all, disabled;
   plastic.plasticity.enabled = true;
   plastic.plasticity.yield_strain = 0.02;
   plastic.plasticity.recovery_rate = 5;
@@ -48,20 +65,30 @@ std::vector<Variant> variants() {
   fluid.fluid.diffusion_rate = 100;
   tear.tearing.enabled = true;
   tear.tearing.strain_threshold = 0.5;
+  mask.tearing = tear.tearing;
+  mask.tearing.node_force_threshold_un = 1e5;
+  animation.animation.enabled = true;  // keyframes filled in make_solver
   all.plasticity = plastic.plasticity;
   all.anisotropy = aniso.anisotropy;
   all.fluid = fluid.fluid;
-  all.tearing = tear.tearing;
+  all.tearing = mask.tearing;
+  all.animation = animation.animation;
   disabled = all;
   disabled.plasticity.enabled = disabled.anisotropy.enabled = disabled.fluid.enabled =
-      disabled.tearing.enabled = false;
-  return {{"baseline", {}},        {"all configured, disabled", disabled},
-          {"plasticity", plastic}, {"anisotropy", aniso},
-          {"fluid", fluid},        {"tearing", tear},
-          {"all four", all}};
+      disabled.tearing.enabled = disabled.animation.enabled = false;
+  return {{"baseline", {}},
+          {"all configured, disabled", disabled},
+          {"palette (3 materials, 2-entry blends)", {}, true},
+          {"plasticity", plastic},
+          {"anisotropy", aniso},
+          {"fluid", fluid},
+          {"tearing (springs)", tear},
+          {"tearing + node masking", mask},
+          {"animation (rest keyframes)", animation},
+          {"all, with palette", all, true}};
 }
 
-std::unique_ptr<Solver> make_solver(int edge, Backend backend, const EffectsConfig& effects) {
+std::unique_ptr<Solver> make_solver(int edge, Backend backend, const Variant& variant) {
   BoxLatticeOptions o;
   o.size_mm = {double(edge), double(edge), double(edge)};
   o.spacing_mm = 1.0;
@@ -73,8 +100,21 @@ std::unique_ptr<Solver> make_solver(int edge, Backend backend, const EffectsConf
   m.youngs_modulus_pa = 10e3;
   m.viscosity_pa_s = 2.0;
   c.materials = {m};
+  if (variant.palette) {  // soft, stiff, fibrous; blends graded along y like a tissue layer
+    Material stiff = m, fibre = m;
+    stiff.youngs_modulus_pa = 30e3;
+    stiff.viscosity_pa_s = 6.0;
+    fibre.anisotropy_axis = {0, 0, 1};
+    fibre.anisotropy_factor = 2;
+    c.materials = {m, stiff, fibre};
+    for (std::int64_t n = 0; n < l.node_count(); ++n) {
+      const double f = std::clamp(l.geometry().rest_position(n).y / edge, 0.0, 1.0);
+      l.set_material(n, make_material_blend({0, n % 2 ? 1 : 2, 0, 0}, {1.0 - f, f, 0, 0}));
+    }
+  }
   c.gravity = {0, 0, -9810};
-  c.effects = effects;
+  c.effects = variant.effects;
+  if (c.effects.animation.enabled) c.effects.animation = swelling(l);
   auto s = std::make_unique<Solver>(std::move(l), c);
   // 3% compression along x: springs, cubes and plastic offsets all see strain.
   const auto count = static_cast<std::size_t>(s->lattice().node_count());
@@ -169,7 +209,7 @@ int main(int argc, char** argv) {
         steps = std::max(2, static_cast<int>((cuda ? 2e9 : 2e7) * 0.2 / nodes / 4) * 2);
       }
       std::vector<std::unique_ptr<Solver>> solvers;
-      for (const Variant& v : all) solvers.push_back(make_solver(edge, backend, v.effects));
+      for (const Variant& v : all) solvers.push_back(make_solver(edge, backend, v));
       const double dt = 0.5 * solvers.front()->stable_dt();  // the same dt for every variant
       for (auto& s : solvers) s->step(steps, dt);            // warm-up: graphs, caches, pages
       std::vector<std::vector<double>> times(all.size());

@@ -25,7 +25,8 @@ struct HostLattice {
   float rest[3];
   std::vector<std::uint8_t> flags;
   std::vector<float> inv_mass;
-  std::vector<std::uint8_t> material;
+  std::vector<std::uint8_t> material;  // one palette entry per node
+  mutable std::vector<std::uint32_t> material_index, material_weight;  // its blends for the view
   std::vector<float> u[3], v[3];
 
   HostLattice(Int3 d, float h) : dims(d), rest{h, h, h} {
@@ -60,7 +61,10 @@ struct HostLattice {
     for (int a = 0; a < 3; ++a) l.rest_length[a] = rest[a];
     l.flags = flags.data();
     l.inv_mass = inv_mass.data();
-    l.material = material.data();
+    material_index.assign(material.begin(), material.end());
+    material_weight.assign(material.size(), 255u);
+    l.material_index = material_index.data();
+    l.material_weight = material_weight.data();
     return l;
   }
   ConstStateView state() const {
@@ -325,7 +329,7 @@ struct DualHostStencil {
   Vec3<Scalar> u(int slot) const { return load(l.u, slot, 0); }
   Vec3<Scalar> v(int slot) const { return load(l.v, slot, 3); }
   unsigned flags(int slot) const { return l.flags[at(slot)]; }
-  int material(int slot) const { return l.material[at(slot)]; }
+  MaterialBlend material(int slot) const { return MaterialBlend::single(l.material[at(slot)]); }
 };
 
 template <unsigned F>

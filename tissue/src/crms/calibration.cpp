@@ -29,6 +29,14 @@ void validate_material(const Material& m, const char* prefix) {
                 "Pa");
   check_range(m.viscosity_pa_s, 0.0, 1e6, false, p + ".viscosity", "Pa·s");
   check_range(m.density_g_per_mm3, 1e-6, 1e-1, false, p + ".density", "g/mm³");
+  if (m.tear_strain != 0.0) check_range(m.tear_strain, 0.0, 100.0, true, p + ".tear_strain", "");
+  if (m.anisotropy_factor != 0.0) {
+    check_range(m.anisotropy_factor, 0.01, 100.0, false, p + ".anisotropy_factor", "");
+    const Vec3d a = m.anisotropy_axis;
+    const double len = std::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
+    require(std::isfinite(len) && len > 1e-12,
+            p + ".anisotropy_axis must be a finite non-zero vector with anisotropy_factor");
+  }
 }
 
 SpringConstants calibrate_springs(const Material& m, const Vec3d& h, bool symmetric_reactions) {

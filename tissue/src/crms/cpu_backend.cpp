@@ -101,10 +101,22 @@ class CpuBackend final : public SolverBackend {
   }
 
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
-                      const std::vector<std::uint8_t>& material) override {
+                      const std::vector<MaterialBlend>& material) override {
     flags_ = flags;
     inv_mass_ = inv_mass;
-    material_ = material;
+    material_index_.resize(material.size());
+    material_weight_.resize(material.size());
+    for (std::size_t n = 0; n < material.size(); ++n) {
+      material_index_[n] = material[n].index;
+      material_weight_[n] = material[n].weight;
+    }
+  }
+  void update_materials(const std::vector<std::int64_t>& nodes,
+                        const std::vector<MaterialBlend>& blends) override {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      material_index_[nodes[i]] = blends[i].index;
+      material_weight_[nodes[i]] = blends[i].weight;
+    }
   }
   void update_flags(const std::vector<std::int64_t>& nodes,
                     const std::vector<std::uint8_t>& flags) override {
@@ -218,7 +230,8 @@ class CpuBackend final : public SolverBackend {
     for (int a = 0; a < 3; ++a) l.rest_length[a] = static_cast<float>(geometry_.spacing[a]);
     l.flags = flags_.data();
     l.inv_mass = inv_mass_.data();
-    l.material = material_.empty() ? nullptr : material_.data();
+    l.material_index = material_index_.empty() ? nullptr : material_index_.data();
+    l.material_weight = material_weight_.empty() ? nullptr : material_weight_.data();
     for (int a = 0; a < 3; ++a)
       l.external_force[a] = external_force_[a].empty() ? nullptr : external_force_[a].data();
     return l;
@@ -251,7 +264,7 @@ class CpuBackend final : public SolverBackend {
 
   double bytes_per_node() const override {
     double b = 2 * 6 * sizeof(float) + sizeof(std::uint8_t) + sizeof(float);
-    if (!material_.empty()) b += 1;
+    if (!material_index_.empty()) b += 2 * sizeof(std::uint32_t);
     if (!external_force_[0].empty()) b += 3 * sizeof(float);
     return b;
   }
@@ -376,7 +389,8 @@ class CpuBackend final : public SolverBackend {
   std::vector<cpu::RowScratch> scratch_;
   std::array<std::array<std::vector<float>, 6>, 2> state_;  // [buffer][ux,uy,uz,vx,vy,vz]
   int current_ = 0;
-  std::vector<std::uint8_t> flags_, material_;
+  std::vector<std::uint8_t> flags_;
+  std::vector<std::uint32_t> material_index_, material_weight_;
   std::vector<float> inv_mass_;
   std::array<std::vector<float>, 3> external_force_;
   std::int64_t steps_started_ = 0;

@@ -29,8 +29,10 @@ void for_each_node(const LatticeView& lat, Body&& body) {
 
 class CpuEffects final : public EffectsEngine {
  public:
-  CpuEffects(const LatticeGeometry& g, unsigned enabled)
+  CpuEffects(const LatticeGeometry& g, unsigned enabled, const std::vector<RestOffsets>& keyframes)
       : count_(static_cast<std::size_t>(g.node_count())), enabled_(enabled) {
+    if (enabled & effect_bits::kRestAnimation) keyframes_ = keyframes;
+    if (enabled & effect_bits::kNodeMasking) mask_.assign(count_, 0);
     if (enabled & effect_bits::kPlasticity)
       for (auto& c : plastic_) c.assign(count_, 0.0f);
     if (enabled & effect_bits::kFluid) {
@@ -44,7 +46,7 @@ class CpuEffects final : public EffectsEngine {
   void before_step(const LatticeView& lat, const StateView& state,
                    const EffectParameters& p) override {
     if ((enabled_ & effect_bits::kForceEffects) == 0) return;
-    const EffectArrays a = arrays();
+    const EffectArrays a = arrays(p);
     const ConstStateView s = state;
     if (enabled_ & effect_bits::kFluid)
       for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
@@ -66,7 +68,7 @@ class CpuEffects final : public EffectsEngine {
 
   void after_step(const LatticeView& lat, const StateView& state,
                   const EffectParameters& p) override {
-    const EffectArrays a = arrays();
+    const EffectArrays a = arrays(p);
     const ConstStateView s = state;
     if (enabled_ & (effect_bits::kPlasticity | effect_bits::kFluid))
       for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
@@ -78,6 +80,14 @@ class CpuEffects final : public EffectsEngine {
       for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
         flags[n] = torn_flags(lat, s, p, n, i, j, k);
       });
+    }
+    if (enabled_ & effect_bits::kNodeMasking) {
+      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+        a.node_mask[n] = node_overloaded(lat, s, p, n, i, j, k);
+      });
+      auto* flags = const_cast<std::uint8_t*>(lat.flags);
+      for_each_node(lat,
+                    [&](std::int64_t n, int, int, int) { flags[n] = unmasked_flags(lat, a, n); });
     }
   }
 
@@ -102,11 +112,14 @@ class CpuEffects final : public EffectsEngine {
     if (enabled_ & effect_bits::kPlasticity) b += 3 * sizeof(float);
     if (enabled_ & effect_bits::kFluid) b += 2 * sizeof(float);
     if (enabled_ & effect_bits::kForceEffects) b += 3 * sizeof(float);
+    if (enabled_ & effect_bits::kRestAnimation)
+      b += 3 * sizeof(float) * static_cast<double>(keyframes_.size());
+    if (enabled_ & effect_bits::kNodeMasking) b += 1;
     return b;
   }
 
  private:
-  EffectArrays arrays() const {
+  EffectArrays arrays(const EffectParameters& p) const {
     EffectArrays a;
     auto data = [](const std::vector<float>& v) {
       return v.empty() ? nullptr : const_cast<float*>(v.data());
@@ -117,6 +130,12 @@ class CpuEffects final : public EffectsEngine {
     }
     a.fluid_content = data(content_);
     a.fluid_pressure = data(pressure_);
+    if (!keyframes_.empty())
+      for (int c = 0; c < 3; ++c) {
+        a.rest_from[c] = keyframes_[static_cast<std::size_t>(p.rest_from_key)][c].data();
+        a.rest_to[c] = keyframes_[static_cast<std::size_t>(p.rest_to_key)][c].data();
+      }
+    a.node_mask = mask_.empty() ? nullptr : const_cast<std::uint8_t*>(mask_.data());
     return a;
   }
 
@@ -124,12 +143,15 @@ class CpuEffects final : public EffectsEngine {
   unsigned enabled_;
   std::array<std::vector<float>, 3> plastic_, force_;
   std::vector<float> content_, pressure_;
+  std::vector<RestOffsets> keyframes_;
+  std::vector<std::uint8_t> mask_;
 };
 
 }  // namespace
 
-std::unique_ptr<EffectsEngine> make_cpu_effects(const LatticeGeometry& geometry, unsigned enabled) {
-  return std::make_unique<CpuEffects>(geometry, enabled);
+std::unique_ptr<EffectsEngine> make_cpu_effects(const LatticeGeometry& geometry, unsigned enabled,
+                                                const std::vector<RestOffsets>& keyframes) {
+  return std::make_unique<CpuEffects>(geometry, enabled, keyframes);
 }
 
 }  // namespace tsf::crms

@@ -87,17 +87,20 @@ struct Tile {
 /// row in the scalar epilogue; with 32-bit types only, a vector is 16 nodes.)
 struct RowScratch {
   static constexpr int kRows = 9;
-  std::int32_t* flags = nullptr;     ///< kRows × nx
-  std::int32_t* material = nullptr;  ///< kRows × nx
-  std::int32_t* bad = nullptr;       ///< nx
+  std::int32_t* flags = nullptr;            ///< kRows × nx
+  std::int32_t* material_index = nullptr;   ///< kRows × nx (MaterialBlend::index)
+  std::int32_t* material_weight = nullptr;  ///< kRows × nx (MaterialBlend::weight)
+  std::int32_t* bad = nullptr;              ///< nx
   static std::size_t ints(int nx) {
-    return (2 * std::size_t{kRows} + 1) * static_cast<std::size_t>(nx);
+    return (3 * std::size_t{kRows} + 1) * static_cast<std::size_t>(nx);
   }
   static RowScratch over(std::int32_t* storage, int nx) {
+    const std::size_t plane = std::size_t{kRows} * static_cast<std::size_t>(nx);
     RowScratch s;
     s.flags = storage;
-    s.material = storage + std::size_t{kRows} * static_cast<std::size_t>(nx);
-    s.bad = storage + 2 * std::size_t{kRows} * static_cast<std::size_t>(nx);
+    s.material_index = storage + plane;
+    s.material_weight = storage + 2 * plane;
+    s.bad = storage + 3 * plane;
     return s;
   }
 };
@@ -107,7 +110,8 @@ struct RowBlock {
   const float* u[3][9];
   const float* v[3][9];
   const std::int32_t* flags[9];
-  const std::int32_t* material[9];
+  const std::int32_t* material_index[9];
+  const std::int32_t* material_weight[9];
 };
 
 /// The row block of (j, k); flags (and material, when `material` is set) of the rows the stencil
@@ -128,15 +132,19 @@ inline RowBlock row_block(const LatticeView& lat, const ConstStateView& in, int 
         b.v[a][r] = in.v[a] + rb;
       }
       std::int32_t* flags = scratch.flags + static_cast<std::ptrdiff_t>(r) * nx;
-      std::int32_t* mat = scratch.material + static_cast<std::ptrdiff_t>(r) * nx;
+      std::int32_t* mat_index = scratch.material_index + static_cast<std::ptrdiff_t>(r) * nx;
+      std::int32_t* mat_weight = scratch.material_weight + static_cast<std::ptrdiff_t>(r) * nx;
       b.flags[r] = flags;
-      b.material[r] = mat;
+      b.material_index[r] = mat_index;
+      b.material_weight[r] = mat_weight;
       if (!edge_rows && dy != 0 && dz != 0) continue;
       const std::uint8_t* src = lat.flags + rb;
       for (int i = 0; i < nx; ++i) flags[i] = src[i];
       if (material) {
-        const std::uint8_t* m = lat.material + rb;
-        for (int i = 0; i < nx; ++i) mat[i] = m[i];
+        const std::uint32_t* index = lat.material_index + rb;
+        const std::uint32_t* weight = lat.material_weight + rb;
+        for (int i = 0; i < nx; ++i) mat_index[i] = static_cast<std::int32_t>(index[i]);
+        for (int i = 0; i < nx; ++i) mat_weight[i] = static_cast<std::int32_t>(weight[i]);
       }
     }
   return b;
@@ -162,7 +170,13 @@ struct RowStencil {
     return {b.v[0][r][x], b.v[1][r][x], b.v[2][r][x]};
   }
   unsigned flags(int slot) const { return b.flags[row(slot)][i + slot_offset(slot, 0)]; }
-  int material(int slot) const { return b.material[row(slot)][i + slot_offset(slot, 0)]; }
+  MaterialBlend material(int slot) const {
+    const int r = row(slot), x = i + slot_offset(slot, 0);
+    MaterialBlend m;
+    m.index = static_cast<std::uint32_t>(b.material_index[r][x]);
+    m.weight = static_cast<std::uint32_t>(b.material_weight[r][x]);
+    return m;
+  }
   float inv_mass() const { return inv_mass_row[i]; }
   Vec3f external_force() const {
     return {external_force_row[0][i], external_force_row[1][i], external_force_row[2][i]};

@@ -402,7 +402,8 @@ class CudaBackend final : public SolverBackend {
       for (auto* c : buffer) cudaFree(c);
     cudaFree(flags_);
     cudaFree(inv_mass_);
-    cudaFree(material_);
+    cudaFree(material_index_);
+    cudaFree(material_weight_);
     for (auto* c : external_force_) cudaFree(c);
     cudaFree(guard_);
     cudaFree(energy_device_);
@@ -425,17 +426,25 @@ class CudaBackend final : public SolverBackend {
   }
 
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
-                      const std::vector<std::uint8_t>& material) override {
+                      const std::vector<MaterialBlend>& material) override {
     const auto n = static_cast<std::size_t>(count_);
     TSF_CUDA_CHECK(cudaMemcpyAsync(flags_, flags.data(), n, cudaMemcpyHostToDevice, stream_));
     TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_, inv_mass.data(), n * sizeof(float),
                                    cudaMemcpyHostToDevice, stream_));
     if (!material.empty()) {
-      if (!material_) material_ = device_alloc<std::uint8_t>(n);
-      TSF_CUDA_CHECK(
-          cudaMemcpyAsync(material_, material.data(), n, cudaMemcpyHostToDevice, stream_));
+      if (!material_index_) material_index_ = device_alloc<std::uint32_t>(n);
+      if (!material_weight_) material_weight_ = device_alloc<std::uint32_t>(n);
+      host_material_ = material;
+      upload_materials();
     }
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  void update_materials(const std::vector<std::int64_t>& nodes,
+                        const std::vector<MaterialBlend>& blends) override {
+    // Rare (animation triggers): the host copy is edited and the arrays re-sent whole.
+    for (std::size_t i = 0; i < nodes.size(); ++i) host_material_[nodes[i]] = blends[i];
+    upload_materials();
   }
 
   void update_flags(const std::vector<std::int64_t>& nodes,
@@ -597,7 +606,8 @@ class CudaBackend final : public SolverBackend {
     for (int a = 0; a < 3; ++a) l.rest_length[a] = static_cast<float>(geometry_.spacing[a]);
     l.flags = flags_;
     l.inv_mass = inv_mass_;
-    l.material = material_;
+    l.material_index = material_index_;
+    l.material_weight = material_weight_;
     for (int a = 0; a < 3; ++a) l.external_force[a] = external_force_[a];
     return l;
   }
@@ -646,7 +656,7 @@ class CudaBackend final : public SolverBackend {
 
   double bytes_per_node() const override {
     double b = 2 * 6 * sizeof(float) + sizeof(std::uint8_t) + sizeof(float);
-    if (material_) b += 1;
+    if (material_index_) b += 2 * sizeof(std::uint32_t);
     if (external_force_[0]) b += 3 * sizeof(float);
     return b;
   }
@@ -779,7 +789,23 @@ class CudaBackend final : public SolverBackend {
   int current_ = 0;
   std::uint8_t* flags_ = nullptr;
   float* inv_mass_ = nullptr;
-  std::uint8_t* material_ = nullptr;
+  void upload_materials() {
+    const std::size_t n = host_material_.size();
+    std::vector<std::uint32_t> index(n), weight(n);
+    for (std::size_t m = 0; m < n; ++m) {
+      index[m] = host_material_[m].index;
+      weight[m] = host_material_[m].weight;
+    }
+    TSF_CUDA_CHECK(cudaMemcpyAsync(material_index_, index.data(), n * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(material_weight_, weight.data(), n * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));  // the staging vectors go out of scope
+  }
+
+  std::vector<MaterialBlend> host_material_;
+  std::uint32_t* material_index_ = nullptr;
+  std::uint32_t* material_weight_ = nullptr;
   float* external_force_[3] = {nullptr, nullptr, nullptr};
   Guard* guard_ = nullptr;
   Guard* guard_host_ = nullptr;

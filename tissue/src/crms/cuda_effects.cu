@@ -64,6 +64,22 @@ __global__ void update_kernel(LatticeView lat, ConstStateView s, EffectArrays a,
   if (p.enabled & effect_bits::kFluid) update_fluid_content(lat, a, p, n, i, j, k);
 }
 
+__global__ void node_mask_kernel(LatticeView lat, ConstStateView s, EffectArrays a,
+                                 EffectParameters p) {
+  std::int64_t n;
+  int i, j, k;
+  if (!node_of_thread(lat, n, i, j, k)) return;
+  a.node_mask[n] = node_overloaded(lat, s, p, n, i, j, k);
+}
+
+__global__ void unmask_kernel(LatticeView lat, EffectArrays a, std::uint8_t* flags) {
+  std::int64_t n;
+  int i, j, k;
+  if (!node_of_thread(lat, n, i, j, k)) return;
+  const std::uint8_t f = unmasked_flags(lat, a, n);
+  if (f != flags[n]) flags[n] = f;
+}
+
 __global__ void tear_kernel(LatticeView lat, ConstStateView s, EffectParameters p,
                             std::uint8_t* flags) {
   std::int64_t n;
@@ -75,7 +91,8 @@ __global__ void tear_kernel(LatticeView lat, ConstStateView s, EffectParameters 
 
 class CudaEffects final : public EffectsEngine {
  public:
-  CudaEffects(const LatticeGeometry& g, unsigned enabled, void* stream)
+  CudaEffects(const LatticeGeometry& g, unsigned enabled, const std::vector<RestOffsets>& keyframes,
+              void* stream)
       : count_(static_cast<std::size_t>(g.node_count())),
         enabled_(enabled),
         stream_(static_cast<cudaStream_t>(stream)) {
@@ -87,11 +104,26 @@ class CudaEffects final : public EffectsEngine {
     }
     if (enabled & effect_bits::kForceEffects)
       for (auto& c : arrays_.force) c = allocate();
+    if (enabled & effect_bits::kRestAnimation)
+      for (const RestOffsets& key : keyframes) {
+        std::array<float*, 3> device{};
+        for (int c = 0; c < 3; ++c) {
+          device[c] = allocate();
+          TSF_CUDA_CHECK(cudaMemcpyAsync(device[c], key[c].data(), count_ * sizeof(float),
+                                         cudaMemcpyHostToDevice, stream_));
+        }
+        keyframes_.push_back(device);
+      }
+    if (enabled & effect_bits::kNodeMasking) {
+      TSF_CUDA_CHECK(cudaMalloc(&arrays_.node_mask, count_));
+      TSF_CUDA_CHECK(cudaMemsetAsync(arrays_.node_mask, 0, count_, stream_));
+    }
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
   ~CudaEffects() override {
     cudaStreamSynchronize(stream_);
     for (float* p : owned_) cudaFree(p);
+    cudaFree(arrays_.node_mask);
   }
   CudaEffects(const CudaEffects&) = delete;
   CudaEffects& operator=(const CudaEffects&) = delete;
@@ -100,25 +132,34 @@ class CudaEffects final : public EffectsEngine {
                    const EffectParameters& p) override {
     if ((enabled_ & effect_bits::kForceEffects) == 0) return;
     const ConstStateView s = state;
+    const EffectArrays a = arrays(p);
     if (enabled_ & effect_bits::kFluid) {
-      cube_pressure_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, arrays_, p);
+      cube_pressure_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
       TSF_CUDA_CHECK_LAUNCH();
     }
-    effect_force_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, arrays_, p);
+    effect_force_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
     TSF_CUDA_CHECK_LAUNCH();
-    kick_kernel<<<grid(), kBlock, 0, stream_>>>(lat, state, arrays_, p);
+    kick_kernel<<<grid(), kBlock, 0, stream_>>>(lat, state, a, p);
     TSF_CUDA_CHECK_LAUNCH();
   }
 
   void after_step(const LatticeView& lat, const StateView& state,
                   const EffectParameters& p) override {
     const ConstStateView s = state;
+    const EffectArrays a = arrays(p);
+    auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
     if (enabled_ & (effect_bits::kPlasticity | effect_bits::kFluid)) {
-      update_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, arrays_, p);
+      update_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
       TSF_CUDA_CHECK_LAUNCH();
     }
     if (enabled_ & effect_bits::kTearing) {
-      tear_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, const_cast<std::uint8_t*>(lat.flags));
+      tear_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, flags);
+      TSF_CUDA_CHECK_LAUNCH();
+    }
+    if (enabled_ & effect_bits::kNodeMasking) {
+      node_mask_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
+      TSF_CUDA_CHECK_LAUNCH();
+      unmask_kernel<<<grid(), kBlock, 0, stream_>>>(lat, a, flags);
       TSF_CUDA_CHECK_LAUNCH();
     }
   }
@@ -151,10 +192,23 @@ class CudaEffects final : public EffectsEngine {
     if (enabled_ & effect_bits::kPlasticity) b += 3 * sizeof(float);
     if (enabled_ & effect_bits::kFluid) b += 2 * sizeof(float);
     if (enabled_ & effect_bits::kForceEffects) b += 3 * sizeof(float);
+    if (enabled_ & effect_bits::kRestAnimation)
+      b += 3 * sizeof(float) * static_cast<double>(keyframes_.size());
+    if (enabled_ & effect_bits::kNodeMasking) b += 1;
     return b;
   }
 
  private:
+  /// The arrays with the animation's keyframes around the current time.
+  EffectArrays arrays(const EffectParameters& p) const {
+    EffectArrays a = arrays_;
+    if (!keyframes_.empty())
+      for (int c = 0; c < 3; ++c) {
+        a.rest_from[c] = keyframes_[static_cast<std::size_t>(p.rest_from_key)][c];
+        a.rest_to[c] = keyframes_[static_cast<std::size_t>(p.rest_to_key)][c];
+      }
+    return a;
+  }
   unsigned grid() const { return static_cast<unsigned>((count_ + kBlock - 1) / kBlock); }
   float* allocate() {
     float* p = nullptr;
@@ -175,14 +229,16 @@ class CudaEffects final : public EffectsEngine {
   unsigned enabled_;
   cudaStream_t stream_;
   EffectArrays arrays_;
+  std::vector<std::array<float*, 3>> keyframes_;  // device rest offsets (entries in owned_)
   std::vector<float*> owned_;
 };
 
 }  // namespace
 
 std::unique_ptr<EffectsEngine> make_cuda_effects(const LatticeGeometry& geometry, unsigned enabled,
+                                                 const std::vector<RestOffsets>& keyframes,
                                                  void* stream) {
-  return std::make_unique<CudaEffects>(geometry, enabled, stream);
+  return std::make_unique<CudaEffects>(geometry, enabled, keyframes, stream);
 }
 
 }  // namespace tsf::crms

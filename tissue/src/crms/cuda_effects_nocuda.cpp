@@ -5,7 +5,8 @@
 
 namespace tsf::crms {
 
-std::unique_ptr<EffectsEngine> make_cuda_effects(const LatticeGeometry&, unsigned, void*) {
+std::unique_ptr<EffectsEngine> make_cuda_effects(const LatticeGeometry&, unsigned,
+                                                 const std::vector<RestOffsets>&, void*) {
   throw Error("the CUDA effect passes are not available: " + cuda_status().reason);
 }
 

@@ -4,6 +4,7 @@
 // engine allocates only the arrays of the enabled effects.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -32,11 +33,16 @@ class EffectsEngine {
   virtual double bytes_per_node() const = 0;
 };
 
-/// `enabled`: effect_bits.
-std::unique_ptr<EffectsEngine> make_cpu_effects(const LatticeGeometry& geometry, unsigned enabled);
+/// Rest offsets of one animation keyframe: per axis, #nodes floats (mm), the spring n → n+axis.
+using RestOffsets = std::array<std::vector<float>, 3>;
+
+/// `enabled`: effect_bits; `keyframes`: the animation's rest offsets (kRestAnimation).
+std::unique_ptr<EffectsEngine> make_cpu_effects(const LatticeGeometry& geometry, unsigned enabled,
+                                                const std::vector<RestOffsets>& keyframes);
 /// `stream`: the CUDA backend's stream (cudaStream_t), so the passes order with its steps.
 /// Throws tsf::Error without CUDA.
 std::unique_ptr<EffectsEngine> make_cuda_effects(const LatticeGeometry& geometry, unsigned enabled,
+                                                 const std::vector<RestOffsets>& keyframes,
                                                  void* stream);
 
 }  // namespace tsf::crms

@@ -45,7 +45,7 @@ struct DualStencil {
   Vec3<Scalar> u(int slot) const { return load(u_arrays, slot, 0); }
   Vec3<Scalar> v(int slot) const { return load(v_arrays, slot, 3); }
   unsigned flags(int slot) const { return lattice.flags[slot_nodes[slot]]; }
-  int material(int slot) const { return lattice.material[slot_nodes[slot]]; }
+  MaterialBlend material(int slot) const { return node_material(lattice, slot_nodes[slot]); }
 };
 
 struct Block {

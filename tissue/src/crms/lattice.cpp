@@ -21,9 +21,17 @@ Lattice::Lattice(const LatticeGeometry& geometry) : geometry_(geometry) {
   fixed_.assign(n, 0);
   broken_.assign(n, 0);
   label_.assign(n, 0);
-  material_.assign(n, 0);
+  material_.assign(n, MaterialBlend{});
   mass_.assign(n, 0.0f);
   occupancy_.assign(n, 0.0f);
+}
+
+int Lattice::dominant_material(std::int64_t n) const {
+  const MaterialBlend b = material_[n];
+  int best = 0;
+  for (int c = 1; c < 4; ++c)
+    if (b.weight_of(c) > b.weight_of(best)) best = c;
+  return b.entry(best);
 }
 
 std::int64_t Lattice::alive_count() const {
@@ -84,6 +92,12 @@ void Lattice::validate() const {
               occupancy_.size() == n && label_.size() == n && material_.size() == n,
           "lattice arrays do not match its " + std::to_string(n) + " nodes");
   for (std::size_t i = 0; i < n; ++i) {
+    const MaterialBlend b = material_[i];
+    unsigned weight_sum = 0;
+    for (int c = 0; c < 4; ++c) weight_sum += b.weight_of(c);
+    if (weight_sum != 255u)
+      throw Error("lattice node " + std::to_string(i) + " has material weights summing to " +
+                  std::to_string(weight_sum) + ", expected 255");
     if (!(occupancy_[i] >= 0.0f && occupancy_[i] <= 1.0f))
       throw Error("lattice node " + std::to_string(i) + " has occupancy " +
                   std::to_string(occupancy_[i]) + ", expected a value in [0,1]");

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "tsf/common/error.h"
 #include "tsf/volume/tissue_labels.h"
@@ -43,6 +44,18 @@ Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLattice
   g.origin = vg.index_to_tissue({c, c, c});
   Lattice lattice(g);
 
+  if (options.material_blends) {
+    require(volume.has_material_weights(),
+            "material_blends: the volume carries no material weights (segment writes them as "
+            "PREFIX-weights.nrrd)");
+    for (int ch = 0; ch < 4; ++ch) {
+      require(options.channel_material[ch] >= 0 && options.channel_material[ch] < kMaxMaterials,
+              "channel_material[" + std::to_string(ch) + "] = " +
+                  std::to_string(options.channel_material[ch]) + ", expected 0.." +
+                  std::to_string(kMaxMaterials - 1));
+      check_density(options.channel_density_g_per_mm3[ch], "channel_density");
+    }
+  }
   const auto& density = volume.density_data();
   const auto& labels = volume.label_data();
   const double cell_volume = g.cell_volume();
@@ -53,6 +66,7 @@ Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLattice
     const Int3 nc = g.coordinates(n);
     double sum = 0.0;
     std::array<double, 256> label_weight{};
+    std::array<double, 4> channel_weight{};
     for (int z = nc.z * k; z < std::min((nc.z + 1) * k, vd.z); ++z)
       for (int y = nc.y * k; y < std::min((nc.y + 1) * k, vd.y); ++y)
         for (int x = nc.x * k; x < std::min((nc.x + 1) * k, vd.x); ++x) {
@@ -60,6 +74,9 @@ Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLattice
           const double d = density[v];
           sum += d;
           label_weight[labels[v]] += d;
+          if (options.material_blends)
+            for (int ch = 0; ch < 4; ++ch)
+              channel_weight[ch] += d * volume.material_weight_data()[v][ch];
         }
     const double occupancy = std::clamp(sum * inv_block, 0.0, 1.0);
     lattice.set_occupancy(n, static_cast<float>(occupancy));
@@ -74,15 +91,74 @@ Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLattice
       }
     lattice.set_alive(n, true);
     lattice.set_label(n, static_cast<std::uint8_t>(best));
-    lattice.set_mass(
-        n, static_cast<float>(options.density_g_per_mm3 * cell_volume *
-                              std::max(occupancy, static_cast<double>(options.mass_floor))));
+    double rho = options.density_g_per_mm3;
+    if (options.material_blends) {
+      const MaterialBlend blend = make_material_blend(options.channel_material, channel_weight);
+      lattice.set_material(n, blend);
+      rho = 0.0;
+      for (int ch = 0; ch < 4; ++ch)  // the blend's density, channel by channel
+        rho += channel_weight[ch] * options.channel_density_g_per_mm3[ch];
+      const double total = channel_weight[0] + channel_weight[1] + channel_weight[2] +
+                           channel_weight[3];
+      rho = total > 0.0 ? rho / total : options.channel_density_g_per_mm3[0];
+    }
+    lattice.set_mass(n, static_cast<float>(rho * cell_volume *
+                                           std::max(occupancy,
+                                                    static_cast<double>(options.mass_floor))));
   }
   require(lattice.alive_count() > 0,
           "no lattice node reaches occupancy " + std::to_string(options.occupancy_threshold) +
               ": the volume holds no tissue at node spacing " + std::to_string(k));
   if (!options.fixed_labels.empty()) fix_nodes_with_labels(lattice, options.fixed_labels);
   return lattice;
+}
+
+MaterialBlend make_material_blend(const std::array<int, 4>& entries,
+                                  const std::array<double, 4>& fractions) {
+  // Merge components naming the same entry.
+  std::array<int, 4> entry{};
+  std::array<double, 4> share{};
+  int used = 0;
+  double total = 0.0;
+  for (int c = 0; c < 4; ++c) {
+    const double f = std::isfinite(fractions[c]) && fractions[c] > 0.0 ? fractions[c] : 0.0;
+    total += f;
+    int slot = 0;
+    while (slot < used && entry[slot] != entries[c]) ++slot;
+    if (slot == used) entry[used++] = entries[c];
+    share[slot] += f;
+  }
+  if (!(total > 0.0)) return MaterialBlend::single(entries[0]);
+  // Largest remainders: floor every share of 255, hand the rest out by fractional part.
+  std::array<int, 4> weight{};
+  std::array<double, 4> remainder{};
+  int given = 0;
+  for (int s = 0; s < used; ++s) {
+    const double exact = 255.0 * share[s] / total;
+    weight[s] = static_cast<int>(std::floor(exact));
+    remainder[s] = exact - weight[s];
+    given += weight[s];
+  }
+  for (; given < 255; ++given) {
+    int best = 0;
+    for (int s = 1; s < used; ++s)
+      if (remainder[s] > remainder[best]) best = s;
+    ++weight[best];
+    remainder[best] = -1.0;
+  }
+  // Heaviest component first: pure() then catches single-material nodes with one test.
+  std::array<int, 4> order{0, 1, 2, 3};
+  for (int s = 1; s < used; ++s)  // insertion sort of ≤ 4 components, heaviest first
+    for (int t = s; t > 0 && weight[order[t]] > weight[order[t - 1]]; --t)
+      std::swap(order[t], order[t - 1]);
+  MaterialBlend b;
+  b.index = 0;
+  b.weight = 0;
+  for (int s = 0; s < used; ++s) {
+    b.index |= (static_cast<std::uint32_t>(entry[order[s]]) & 0xffu) << (8 * s);
+    b.weight |= static_cast<std::uint32_t>(weight[order[s]]) << (8 * s);
+  }
+  return b;
 }
 
 Lattice build_box_lattice(const BoxLatticeOptions& options) {

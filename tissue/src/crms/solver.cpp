@@ -13,6 +13,7 @@
 #include "tsf/crms/crms_math.h"
 #include "tsf/crms/effects.h"
 #include "tsf/crms/implicit_euler.h"
+#include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/stencil.h"
 
 namespace tsf::crms {
@@ -34,22 +35,45 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   lattice_.validate();
   const LatticeGeometry& g = lattice_.geometry();
   for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
-    require(lattice_.material(n) < config_.materials.size(),
-            "lattice node " + std::to_string(n) + " uses material " +
-                std::to_string(lattice_.material(n)) + " but only " +
-                std::to_string(config_.materials.size()) + " material(s) are configured");
+    for (int c = 0; c < 4; ++c) {
+      const MaterialBlend b = lattice_.material(n);
+      require(b.weight_of(c) == 0u ||
+                  static_cast<std::size_t>(b.entry(c)) < config_.materials.size(),
+              "lattice node " + std::to_string(n) + " uses material " +
+                  std::to_string(b.entry(c)) + " but only " +
+                  std::to_string(config_.materials.size()) + " material(s) are configured");
+    }
 
   const bool symmetric = config_.angular_reactions == AngularReactions::kSymmetric;
   palette_.count = static_cast<int>(config_.materials.size());
   for (int m = 0; m < palette_.count; ++m)
     palette_.entry[m] = calibrate_springs(config_.materials[m], g.spacing, symmetric);
+  std::vector<RestOffsets> keyframes;
+  if (config_.effects.animation.enabled) prepare_animation(keyframes);
   stable_ = estimate_stable_time_step(lattice_, palette_, symmetric);
+  const AnimationConfig& animation = config_.effects.animation;
+  if (animation.enabled &&
+      (!animation.material_tracks.empty() || !animation.cut_triggers.empty())) {
+    // Tracks and triggers may move nodes to stiffer entries: the step must hold for their
+    // targets too (blends in between are no stiffer than both ends).
+    Lattice target = lattice_;
+    for (const MaterialTrack& t : animation.material_tracks)
+      for (std::int64_t n : t.nodes) target.set_material(n, t.entry);
+    for (const CutTrigger& t : animation.cut_triggers)
+      for (std::int64_t n : t.nodes) target.set_material(n, t.entry);
+    const StableTimeStep at_targets = estimate_stable_time_step(target, palette_, symmetric);
+    if (at_targets.symplectic_euler_s < stable_.symplectic_euler_s) stable_ = at_targets;
+  }
   // Effects that add stiffness lower the stable step: anisotropy scales the linear springs by up
   // to the factor; the fluid adds at most 3K/E to the top mode's stiffness (checkerboard along
   // all three axes: 12·K·h against the linear springs' 4·E·h per axis, effect_physics.h).
   double stiffening = 1.0;
-  if (config_.effects.anisotropy.enabled)
-    stiffening *= std::max(1.0, config_.effects.anisotropy.stiffness_factor);
+  if (config_.effects.anisotropy.enabled) {
+    double factor = config_.effects.anisotropy.stiffness_factor;
+    if (palette_.count > 1)
+      for (const Material& m : config_.materials) factor = std::max(factor, m.anisotropy_factor);
+    stiffening *= std::max(1.0, factor);
+  }
   if (config_.effects.fluid.enabled) {
     double youngs_min = config_.materials.front().youngs_modulus_pa;
     for (const Material& m : config_.materials)
@@ -79,7 +103,7 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   std::vector<float> inv_mass(static_cast<std::size_t>(lattice_.node_count()), 0.0f);
   for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
     if (lattice_.alive(n)) inv_mass[n] = 1.0f / lattice_.mass(n);
-  std::vector<std::uint8_t> material;
+  std::vector<MaterialBlend> material;
   if (palette_.count > 1) {
     material.resize(static_cast<std::size_t>(lattice_.node_count()));
     for (std::int64_t n = 0; n < lattice_.node_count(); ++n) material[n] = lattice_.material(n);
@@ -90,9 +114,140 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   if (config_.effects.anisotropy.enabled) effect_bits_ |= effect_bits::kAnisotropy;
   if (config_.effects.fluid.enabled) effect_bits_ |= effect_bits::kFluid;
   if (config_.effects.tearing.enabled) effect_bits_ |= effect_bits::kTearing;
+  if (config_.effects.tearing.enabled && config_.effects.tearing.node_force_threshold_un > 0)
+    effect_bits_ |= effect_bits::kNodeMasking;
+  if (!keyframes.empty()) effect_bits_ |= effect_bits::kRestAnimation;
   if (effect_bits_ != 0)
-    effects_ = on_cuda_ ? make_cuda_effects(g, effect_bits_, backend_->native_stream())
-                        : make_cpu_effects(g, effect_bits_);
+    effects_ = on_cuda_ ? make_cuda_effects(g, effect_bits_, keyframes, backend_->native_stream())
+                        : make_cpu_effects(g, effect_bits_, keyframes);
+}
+
+void Solver::prepare_animation(std::vector<RestOffsets>& keyframes) {
+  const AnimationConfig& a = config_.effects.animation;
+  const std::int64_t count = lattice_.node_count();
+  const auto materials = static_cast<int>(config_.materials.size());
+  require(
+      (a.material_tracks.empty() && a.cut_triggers.empty()) || palette_.count > 1,
+      "effects.animation: material tracks and cut triggers need a heterogeneous palette (at least "
+      "2 materials), the scene has 1");
+  auto check_nodes = [&](const std::vector<std::int64_t>& nodes, const std::string& field) {
+    for (std::int64_t n : nodes)
+      require(n >= 0 && n < count, "effects.animation." + field + ": node " + std::to_string(n) +
+                                       " is outside the lattice's " + std::to_string(count) +
+                                       " nodes");
+  };
+  for (std::size_t t = 0; t < a.material_tracks.size(); ++t) {
+    const std::string field = "material_tracks[" + std::to_string(t) + "]";
+    check_nodes(a.material_tracks[t].nodes, field);
+    require(a.material_tracks[t].entry < materials,
+            "effects.animation." + field + ".entry = " +
+                std::to_string(a.material_tracks[t].entry) + " but only " +
+                std::to_string(materials) + " materials are configured");
+  }
+  for (std::size_t t = 0; t < a.cut_triggers.size(); ++t) {
+    const std::string field = "cut_triggers[" + std::to_string(t) + "]";
+    check_nodes(a.cut_triggers[t].nodes, field);
+    require(a.cut_triggers[t].entry < materials,
+            "effects.animation." + field + ".entry = " + std::to_string(a.cut_triggers[t].entry) +
+                " but only " + std::to_string(materials) + " materials are configured");
+    std::vector<std::int64_t> sorted = a.cut_triggers[t].nodes;
+    std::sort(sorted.begin(), sorted.end());
+    trigger_nodes_.push_back(std::move(sorted));
+  }
+  trigger_fired_.assign(a.cut_triggers.size(), false);
+  track_origin_.resize(a.material_tracks.size());
+  track_done_.assign(a.material_tracks.size(), false);
+
+  // Rest keyframes → per-spring rest-length offsets |h·e + Δr| − h (the spring n → n+axis).
+  if (a.rest_keyframes.empty()) return;
+  const LatticeGeometry& g = lattice_.geometry();
+  auto offsets_of = [&](const std::vector<Vec3f>& r) {
+    RestOffsets o;
+    for (auto& c : o) c.assign(static_cast<std::size_t>(count), 0.0f);
+    if (r.empty()) return o;
+    for (std::int64_t n = 0; n < count; ++n)
+      for (int ax = 0; ax < 3; ++ax) {
+        const std::int64_t m = lattice_.neighbour(n, make_direction(ax, 1));
+        if (m < 0) continue;
+        Vec3d edge = to_double(r[m]) - to_double(r[n]);
+        edge[ax] += g.spacing[ax];
+        o[ax][n] = static_cast<float>(std::sqrt(dot(edge, edge)) - g.spacing[ax]);
+      }
+    return o;
+  };
+  if (a.rest_keyframes.front().time_s > 0.0) {  // the grid's own rest shape until the first one
+    keyframes.push_back(offsets_of({}));
+    rest_times_.push_back(0.0);
+  }
+  for (std::size_t k = 0; k < a.rest_keyframes.size(); ++k) {
+    const std::vector<Vec3f>& r = a.rest_keyframes[k].rest_displacement_mm;
+    require(r.empty() || static_cast<std::int64_t>(r.size()) == count,
+            "effects.animation.rest_keyframes[" + std::to_string(k) + "] has " +
+                std::to_string(r.size()) + " rest displacements, expected " +
+                std::to_string(count) + " (one per lattice node)");
+    keyframes.push_back(offsets_of(r));
+    rest_times_.push_back(a.rest_keyframes[k].time_s);
+  }
+  rest_offsets_ = keyframes;  // host copy for the effects' energy
+}
+
+void Solver::set_animation_time(EffectParameters& p, double time_s) const {
+  if (rest_times_.empty()) return;
+  std::size_t to = 0;
+  while (to < rest_times_.size() && rest_times_[to] <= time_s) ++to;
+  if (to == 0 || to == rest_times_.size()) {  // before the first / after the last: hold it
+    const int k = to == 0 ? 0 : static_cast<int>(rest_times_.size()) - 1;
+    p.rest_from_key = p.rest_to_key = k;
+    p.rest_blend = 0.0f;
+    return;
+  }
+  p.rest_from_key = static_cast<int>(to) - 1;
+  p.rest_to_key = static_cast<int>(to);
+  p.rest_blend = static_cast<float>((time_s - rest_times_[to - 1]) /
+                                    (rest_times_[to] - rest_times_[to - 1]));
+}
+
+void Solver::apply_material_tracks() {
+  const auto& tracks = config_.effects.animation.material_tracks;
+  for (std::size_t t = 0; t < tracks.size(); ++t) {
+    const MaterialTrack& track = tracks[t];
+    if (track_done_[t] || time_s_ < track.start_s) continue;
+    if (track_origin_[t].empty())
+      for (std::int64_t n : track.nodes) track_origin_[t].push_back(lattice_.material(n));
+    const double s = track.end_s > track.start_s
+                         ? std::min(1.0, (time_s_ - track.start_s) / (track.end_s - track.start_s))
+                         : 1.0;
+    std::vector<MaterialBlend> blends(track.nodes.size());
+    for (std::size_t i = 0; i < track.nodes.size(); ++i) {
+      // The target entry plus the origin's 3 heaviest components (make_material_blend sorts).
+      const MaterialBlend o = track_origin_[t][i];
+      const std::array<int, 4> entries{track.entry, o.entry(0), o.entry(1), o.entry(2)};
+      const std::array<double, 4> shares{255.0 * s, (1.0 - s) * o.weight_of(0),
+                                         (1.0 - s) * o.weight_of(1), (1.0 - s) * o.weight_of(2)};
+      blends[i] = make_material_blend(entries, shares);
+      lattice_.set_material(track.nodes[i], blends[i]);
+    }
+    backend_->update_materials(track.nodes, blends);
+    track_done_[t] = s >= 1.0;
+  }
+}
+
+void Solver::fire_cut_triggers(const std::vector<std::int64_t>& edited) {
+  const auto& triggers = config_.effects.animation.cut_triggers;
+  for (std::size_t t = 0; t < triggers.size(); ++t) {
+    if (trigger_fired_[t]) continue;
+    bool hit = false;
+    for (std::int64_t n : edited)
+      hit = hit || std::binary_search(trigger_nodes_[t].begin(), trigger_nodes_[t].end(), n);
+    if (!hit) continue;
+    std::vector<MaterialBlend> blends(triggers[t].nodes.size(),
+                                      MaterialBlend::single(triggers[t].entry));
+    for (std::int64_t n : triggers[t].nodes) lattice_.set_material(n, blends.front());
+    backend_->update_materials(triggers[t].nodes, blends);
+    trigger_fired_[t] = true;
+    fired_triggers_.push_back(triggers[t].name.empty() ? "cut trigger " + std::to_string(t)
+                                                       : triggers[t].name);
+  }
 }
 
 BackendOptions backend_options(const SolverConfig& config) {
@@ -165,12 +320,14 @@ void Solver::step_async(int n, double dt) {
   require(config_.integrator != Integrator::kImplicitEuler,
           "step_async: implicit Euler steps synchronously, use step()");
   if (instability_ || n == 0) return;
+  if (!track_done_.empty()) apply_material_tracks();
   if (effects_) {
     step_with_effects(n, dt);
   } else {
     backend_->step(n, step_parameters(dt), features());
   }
   steps_done_ += n;
+  time_s_ += n * dt;
   backend_->poll_snapshot();
 }
 
@@ -192,6 +349,21 @@ EffectParameters Solver::effect_parameters(double dt) const {
   p.bulk_modulus = static_cast<float>(e.fluid.bulk_modulus_pa);
   p.diffusion_step = static_cast<float>(-std::expm1(-6.0 * e.fluid.diffusion_rate * dt) / 6.0);
   p.tear_strain = static_cast<float>(e.tearing.strain_threshold);
+  p.node_force_limit = static_cast<float>(e.tearing.node_force_threshold_un);
+  if (p.heterogeneous)  // per-material tear strains and anisotropy (calibration.h)
+    for (int m = 0; m < palette_.count; ++m) {
+      const Material& mat = config_.materials[static_cast<std::size_t>(m)];
+      p.material_tear_strain[m] =
+          static_cast<float>(mat.tear_strain > 0.0 ? mat.tear_strain : e.tearing.strain_threshold);
+      const bool own = mat.anisotropy_factor > 0.0;
+      const Vec3d axis = own ? mat.anisotropy_axis : e.anisotropy.axis;
+      const double factor = own ? mat.anisotropy_factor : e.anisotropy.stiffness_factor;
+      const double len2 = axis.x * axis.x + axis.y * axis.y + axis.z * axis.z;
+      for (int ax = 0; ax < 3; ++ax)
+        p.material_aniso_extra[ax][m] =
+            len2 > 0.0 ? static_cast<float>((factor - 1.0) * axis[ax] * axis[ax] / len2) : 0.0f;
+    }
+  set_animation_time(p, time_s_);
   return p;
 }
 
@@ -200,10 +372,11 @@ void Solver::step_with_effects(int n, double dt) {
   // CPU (free) and every 64 steps on CUDA (a host wait): after a hit the effect passes stop and
   // the backend, halted, leaves the state as it was.
   const StepParameters p = step_parameters(dt);
-  const EffectParameters e = effect_parameters(dt);
+  EffectParameters e = effect_parameters(dt);
   const int check_every = on_cuda_ ? 64 : 1;
   int s = 0;
   for (; s < n; ++s) {
+    set_animation_time(e, time_s_ + s * dt);
     effects_->before_step(backend_->lattice_view(), backend_->state_view(), e);
     backend_->step(1, p, features());
     effects_->after_step(backend_->lattice_view(), backend_->state_view(), e);
@@ -245,9 +418,7 @@ void Solver::sync_torn_links() {
 }
 
 double Solver::effects_energy_nj() const {
-  if ((effect_bits_ &
-       (effect_bits::kPlasticity | effect_bits::kAnisotropy | effect_bits::kFluid)) == 0)
-    return 0.0;
+  if ((effect_bits_ & (effect_bits::kSpringEffects | effect_bits::kFluid)) == 0) return 0.0;
   // Host copies of what the effect energies read.
   std::vector<Vec3f> u;
   backend_->read_state(&u, nullptr);
@@ -260,12 +431,16 @@ double Solver::effects_energy_nj() const {
   const std::vector<std::uint8_t> flags = (effect_bits_ & effect_bits::kTearing)
                                               ? effects_->read_flags(backend_->lattice_view())
                                               : lattice_.packed_flags();
-  std::vector<std::uint8_t> material(count);
-  for (std::size_t n = 0; n < count; ++n)
-    material[n] = lattice_.material(static_cast<std::int64_t>(n));
+  std::vector<std::uint32_t> material_index(count), material_weight(count);
+  for (std::size_t n = 0; n < count; ++n) {
+    const MaterialBlend b = lattice_.material(static_cast<std::int64_t>(n));
+    material_index[n] = b.index;
+    material_weight[n] = b.weight;
+  }
   LatticeView lat = backend_->lattice_view();
   lat.flags = flags.data();
-  lat.material = material.data();
+  lat.material_index = material_index.data();
+  lat.material_weight = material_weight.data();
   lat.inv_mass = nullptr;
   for (auto& f : lat.external_force) f = nullptr;
   ConstStateView st;
@@ -282,7 +457,7 @@ double Solver::effects_energy_nj() const {
     const Int3 c = g.coordinates(n);
     const IndexedStencil s{lat, st, n, c.x, c.y, c.z};
     const unsigned links = flags[n] & kLinkBits;
-    if (p.enabled & (effect_bits::kPlasticity | effect_bits::kAnisotropy))
+    if (p.enabled & effect_bits::kSpringEffects)
       for (int ax = 0; ax < 3; ++ax) {
         const int d = make_direction(ax, 1);
         if (((links >> d) & 1u) == 0) continue;
@@ -290,11 +465,17 @@ double Solver::effects_energy_nj() const {
         float ks = 0, kd = 0;
         linear_constants(s, p, d, ks, kd);
         const double stretch = static_cast<double>(arm.stretch);
-        const double delta = effects.plastic_offset.empty()
-                                 ? 0.0
-                                 : static_cast<double>(effects.plastic_offset[n][ax]);
-        const double extra =
-            (p.enabled & effect_bits::kAnisotropy) ? static_cast<double>(p.aniso_extra[ax]) : 0.0;
+        double delta = effects.plastic_offset.empty()
+                           ? 0.0
+                           : static_cast<double>(effects.plastic_offset[n][ax]);
+        if (!rest_offsets_.empty()) {
+          const double from = rest_offsets_[static_cast<std::size_t>(p.rest_from_key)][ax][n];
+          const double to = rest_offsets_[static_cast<std::size_t>(p.rest_to_key)][ax][n];
+          delta += from + static_cast<double>(p.rest_blend) * (to - from);
+        }
+        const double extra = (p.enabled & effect_bits::kAnisotropy)
+                                 ? static_cast<double>(spring_aniso_extra(s, p, d))
+                                 : 0.0;
         const double k_per_l = static_cast<double>(ks) / static_cast<double>(lat.rest_length[ax]);
         energy += 0.5 * k_per_l *
                   ((1.0 + extra) * (stretch - delta) * (stretch - delta) - stretch * stretch);
@@ -445,6 +626,7 @@ void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
     lattice_.set_alive(n, false);
   }
   refresh_flags(nodes);
+  if (!trigger_nodes_.empty()) fire_cut_triggers(nodes);
 }
 
 void Solver::break_springs(const std::vector<SpringRef>& springs) {
@@ -456,8 +638,11 @@ void Solver::break_springs(const std::vector<SpringRef>& springs) {
                 std::to_string(s.direction) + ") is out of range");
     lattice_.break_spring(s.node, s.direction);
     touched.push_back(s.node);
+    const std::int64_t other = lattice_.neighbour(s.node, s.direction);
+    if (other >= 0) touched.push_back(other);
   }
   refresh_flags(touched);
+  if (!trigger_nodes_.empty()) fire_cut_triggers(touched);
 }
 
 void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {

@@ -35,7 +35,10 @@ class SolverBackend {
   /// Copies the lattice arrays (#nodes each); `material` may be empty (homogeneous).
   virtual void upload_lattice(const std::vector<std::uint8_t>& flags,
                               const std::vector<float>& inv_mass,
-                              const std::vector<std::uint8_t>& material) = 0;
+                              const std::vector<MaterialBlend>& material) = 0;
+  /// Overwrites the material blends of some nodes (heterogeneous lattices only).
+  virtual void update_materials(const std::vector<std::int64_t>& nodes,
+                                const std::vector<MaterialBlend>& blends) = 0;
   /// Overwrites the flags of some nodes (topology edits, anchors).
   virtual void update_flags(const std::vector<std::int64_t>& nodes,
                             const std::vector<std::uint8_t>& flags) = 0;

@@ -42,7 +42,7 @@ StableTimeStep estimate_stable_time_step(const Lattice& lattice, const MaterialP
 
   for (std::int64_t n = 0; n < lattice.node_count(); ++n) {
     if (!lattice.alive(n) || lattice.fixed(n)) continue;
-    const SpringConstants& own = palette.entry[lattice.material(n)];
+    const SpringConstants own = blend_constants(palette, lattice.material(n));
     const double mass = lattice.mass(n);
     bool link[6];
     for (int d = 0; d < 6; ++d) link[d] = lattice.link(n, d);
@@ -51,7 +51,8 @@ StableTimeStep estimate_stable_time_step(const Lattice& lattice, const MaterialP
       for (int sign = -1; sign <= 1; sign += 2) {
         const int d = make_direction(a, sign);
         if (!link[d]) continue;
-        const SpringConstants& other = palette.entry[lattice.material(lattice.neighbour(n, d))];
+        const SpringConstants other =
+            blend_constants(palette, lattice.material(lattice.neighbour(n, d)));
         lambda += 2.0 * series(double(own.ks_linear[a]), double(other.ks_linear[a])) / g.spacing[a];
         damping +=
             2.0 * series(double(own.kd_linear[a]), double(other.kd_linear[a])) / g.spacing[a];

@@ -80,7 +80,9 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
   for (std::int64_t n = 0; n < lattice.node_count(); ++n)
     anchored_[static_cast<std::size_t>(n)] = lattice.alive(n) && lattice.fixed(n);
   const crms::LatticeGeometry geometry = lattice.geometry();
-  solver_ = std::make_unique<crms::Solver>(std::move(lattice), options_.solver);
+  crms::SolverConfig solver_config = options_.solver;
+  if (options_.configure_effects) options_.configure_effects(lattice, solver_config);
+  solver_ = std::make_unique<crms::Solver>(std::move(lattice), solver_config);
   dt_ = options_.dt_s > 0 ? options_.dt_s : options_.dt_safety * solver_->stable_dt();
   require(dt_ > 0 && std::isfinite(dt_),
           "tissue model: the stable time step of this material is 0 (explicit Euler needs "

@@ -56,7 +56,8 @@ LatticeHexMesh hex_mesh_from_lattice(const crms::Lattice& lattice) {
   for (std::int64_t n = 0; n < g.node_count(); ++n) {
     if (!lattice.alive(n)) continue;
     m.active[static_cast<std::size_t>(n)] = 1;
-    m.material[static_cast<std::size_t>(n)] = lattice.material(n);
+    m.material[static_cast<std::size_t>(n)] =
+        static_cast<std::uint8_t>(lattice.dominant_material(n));
     if (lattice.fixed(n)) out.anchored_cells.push_back(n);
   }
   m.validate();

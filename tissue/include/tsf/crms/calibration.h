@@ -34,6 +34,11 @@ struct Material {
   double shear_modulus_pa = 0.0;      ///< G, Pa; 0 = E/2 (isotropic); range (0, 10·E]
   double viscosity_pa_s = 0.0;        ///< Kelvin–Voigt η, Pa·s; range [0, 1e6]
   double density_g_per_mm3 = 1.0e-3;  ///< ρ, g/mm³; range [1e-6, 1e-1]
+  // Per-material limits and axes of the optional effects (effects_config.h), used where the
+  // lattice is heterogeneous (blended per node like the spring constants); 0 = the effect's own.
+  double tear_strain = 0.0;        ///< tearing threshold of this material; 0 or (0, 100]
+  double anisotropy_factor = 0.0;  ///< stiffness factor along anisotropy_axis; 0 or [0.01, 100]
+  Vec3d anisotropy_axis{0.0, 0.0, 0.0};  ///< fibre direction (normalised); needed with a factor
   double effective_shear_modulus() const {
     return shear_modulus_pa > 0.0 ? shear_modulus_pa : 0.5 * youngs_modulus_pa;
   }

@@ -8,17 +8,22 @@
 //   4. the core step (node_update.h)
 //   5. update pass  (plastic, fluid)      rest offsets creep/recover, fluid flows  per node/cube
 //   6. tear pass    (tearing)             over-strained links are cleared          per node
+//      (node masking: 6a marks nodes whose largest spring tension exceeds the limit, 6b clears
+//      every link with a marked end, so both ends of a spring agree)
 // Passes 2 and 3 are separate so that no pass writes what a neighbour reads (the force pass
 // reads neighbours' velocities for the anisotropic damping). Each pass writes only its own
 // node's (or cube's) entries, so the result does not depend on execution order.
 //
 // Linear springs (spring d of node n, rest length L, stiffness ks, damping kd of node_force.h):
-//   plastic: rest length L + δ, δ stored once per spring at its lower end (plastic_offset[axis]):
+//   plastic: rest length L + δ, δ stored once per spring at its lower end (plastic_offset[axis]);
+//            the animation's rest offset (blend of two keyframes' offsets) adds to δ:
 //            F_n −= (1 + a_d)·ks·δ/L·dir  (the change of the core force for that rest length);
 //            after the step: ε = (l − L − δ)/L; if |ε| > ε_y: δ += min(creep·dt, 1)·(|ε| −
 //            ε_y)·L·sgn ε; then δ ← δ·exp(−recovery·dt) (visco-elastic recovery, exact decay).
 //   aniso:   F_n += a_d·(ks·x + kd·ẋ)·x̂ with a_d = (factor − 1)·axis_d², i.e. the spring is
-//            (1 + a_d) times stiffer and more damped.
+//            (1 + a_d) times stiffer and more damped. Heterogeneous lattices blend a_d per node
+//            from each material's own axis and factor; a spring takes the mean of its two ends
+//            (so both ends see the same spring: action = reaction).
 // Cubes (lower corner node c, corners c + {0,1}³, all alive): edge vectors averaged over the 4
 // parallel edges, e_x = h_x·x̂ + ¼Σ(u_{1bc} − u_{0bc}) (likewise y, z), V = e_x·(e_y × e_z)
 // (exact for parallelepipeds, V0 = h_x·h_y·h_z at rest exactly). Corner (a,b,c) gets
@@ -46,8 +51,14 @@ constexpr unsigned kPlasticity = 1u << 0;
 constexpr unsigned kAnisotropy = 1u << 1;
 constexpr unsigned kFluid = 1u << 2;
 constexpr unsigned kTearing = 1u << 3;
+/// Rest-shape keyframes (animation); material tracks and cut triggers run on the host.
+constexpr unsigned kRestAnimation = 1u << 4;
+/// Tearing by node: overloaded nodes lose all their springs.
+constexpr unsigned kNodeMasking = 1u << 5;
 /// Effects that add a force (passes 2 and 3).
-constexpr unsigned kForceEffects = kPlasticity | kAnisotropy | kFluid;
+constexpr unsigned kForceEffects = kPlasticity | kAnisotropy | kFluid | kRestAnimation;
+/// Effects whose force goes through the linear springs' rest lengths or stiffness.
+constexpr unsigned kSpringEffects = kPlasticity | kAnisotropy | kRestAnimation;
 }  // namespace effect_bits
 
 /// Effect arrays (device memory on CUDA); null when their effect is off.
@@ -56,6 +67,10 @@ struct EffectArrays {
   float* fluid_content = nullptr;                          ///< #nodes (cube at lower corner), 1
   float* fluid_pressure = nullptr;                         ///< #nodes (cube at lower corner), Pa
   float* force[3] = {nullptr, nullptr, nullptr};           ///< #nodes each, µN (pass 2 → 3)
+  /// Animation: rest offsets of the keyframes around the current time, mm (#nodes each).
+  const float* rest_from[3] = {nullptr, nullptr, nullptr};
+  const float* rest_to[3] = {nullptr, nullptr, nullptr};
+  std::uint8_t* node_mask = nullptr;  ///< #nodes: 1 = overloaded this step (node masking)
 };
 
 /// Scalars of the effect passes, by value to kernels.
@@ -71,7 +86,54 @@ struct EffectParameters {
   float bulk_modulus = 0;            ///< K, Pa = µN/mm²
   float diffusion_step = 0;          ///< α
   float tear_strain = 0;
+  int rest_from_key = 0;       ///< animation: keyframes around the current time (engine side)
+  int rest_to_key = 0;
+  float rest_blend = 0;        ///< animation: offset = (1 − s)·rest_from + s·rest_to
+  float node_force_limit = 0;  ///< µN, node masking
+  /// Heterogeneous lattices: per palette entry a_axis and tear strain (see header).
+  float material_aniso_extra[3][kMaxMaterials] = {};
+  float material_tear_strain[kMaxMaterials] = {};
 };
+
+/// A per-entry table blended over a node's material (weighted mean).
+TSF_HD_INLINE float blend_table(const float* table, MaterialBlend b) {
+  if (b.pure()) return table[b.entry(0)];
+  float sum = 0.0f;
+  for (int c = 0; c < 4; ++c) {
+    const unsigned w = b.weight_of(c);
+    if (w != 0u) sum += static_cast<float>(w) * table[b.entry(c)];
+  }
+  return sum * (1.0f / 255.0f);
+}
+
+/// Anisotropic extra stiffness fraction a of node n's spring d (mean of both ends' blends on a
+/// heterogeneous lattice).
+template <class St>
+TSF_HD_INLINE float spring_aniso_extra(const St& st, const EffectParameters& p, int d) {
+  const int ax = direction_axis(d);
+  if (!p.heterogeneous) return axis_value(p.aniso_extra, ax);
+  const float* table = ax == 0 ? p.material_aniso_extra[0]
+                               : (ax == 1 ? p.material_aniso_extra[1] : p.material_aniso_extra[2]);
+  return 0.5f * (blend_table(table, st.material(0)) + blend_table(table, st.material(face_slot(d))));
+}
+
+/// Tear strain of node n's spring d (the weaker end's on a heterogeneous lattice).
+template <class St>
+TSF_HD_INLINE float spring_tear_strain(const St& st, const EffectParameters& p, int d) {
+  if (!p.heterogeneous) return p.tear_strain;
+  return crms_min(blend_table(p.material_tear_strain, st.material(0)),
+                  blend_table(p.material_tear_strain, st.material(face_slot(d))));
+}
+
+/// Rest-length offset of the spring whose lower end is `owner`, along `ax`: plastic + animation.
+TSF_HD_INLINE float rest_offset(const EffectArrays& a, const EffectParameters& p, int ax,
+                                std::int64_t owner) {
+  float delta = 0.0f;
+  if ((p.enabled & effect_bits::kPlasticity) != 0) delta += a.plastic_offset[ax][owner];
+  if ((p.enabled & effect_bits::kRestAnimation) != 0)
+    delta += a.rest_from[ax][owner] + p.rest_blend * (a.rest_to[ax][owner] - a.rest_from[ax][owner]);
+  return delta;
+}
 
 /// Linear spring constants of node n's spring d (series across a material interface, as in
 /// node_spring_terms()).
@@ -79,14 +141,16 @@ template <class St>
 TSF_HD_INLINE void linear_constants(const St& st, const EffectParameters& p, int d, float& ks,
                                     float& kd) {
   const int ax = direction_axis(d);
-  const SpringConstants& own = p.palette.entry[p.heterogeneous ? st.material(0) : 0];
-  ks = axis_value(own.ks_linear, ax);
-  kd = axis_value(own.kd_linear, ax);
-  if (p.heterogeneous) {
-    const SpringConstants& other = p.palette.entry[st.material(face_slot(d))];
-    ks = series_stiffness(ks, axis_value(other.ks_linear, ax));
-    kd = series_stiffness(kd, axis_value(other.kd_linear, ax));
+  if (!p.heterogeneous) {
+    ks = axis_value(p.palette.entry[0].ks_linear, ax);
+    kd = axis_value(p.palette.entry[0].kd_linear, ax);
+    return;
   }
+  blend_linear(p.palette, st.material(0), ax, ks, kd);
+  float other_ks = 0.0f, other_kd = 0.0f;
+  blend_linear(p.palette, st.material(face_slot(d)), ax, other_ks, other_kd);
+  ks = series_stiffness(ks, other_ks);
+  kd = series_stiffness(kd, other_kd);
 }
 
 /// True when the cube with lower corner (i, j, k) lies inside the lattice with 8 live corners.
@@ -145,7 +209,7 @@ TSF_HD_INLINE Vec3f effect_force(const LatticeView& lat, const ConstStateView& s
   const unsigned flags = lat.flags[n];
   if ((flags & kAliveBit) == 0) return force;
   const IndexedStencil st{lat, s, n, i, j, k};
-  if ((p.enabled & (effect_bits::kPlasticity | effect_bits::kAnisotropy)) != 0) {
+  if ((p.enabled & effect_bits::kSpringEffects) != 0) {
     const unsigned links = flags & kLinkBits;
     const Vec3f u0 = st.u(0), v0 = st.v(0);
     for (int d = 0; d < 6; ++d) {
@@ -156,12 +220,12 @@ TSF_HD_INLINE Vec3f effect_force(const LatticeView& lat, const ConstStateView& s
       float ks = 0, kd = 0;
       linear_constants(st, p, d, ks, kd);
       const float extra =
-          (p.enabled & effect_bits::kAnisotropy) != 0 ? axis_value(p.aniso_extra, ax) : 0.0f;
+          (p.enabled & effect_bits::kAnisotropy) != 0 ? spring_aniso_extra(st, p, d) : 0.0f;
       force += linear_spring_force(arm, ks, kd, rest) * extra;
-      if ((p.enabled & effect_bits::kPlasticity) != 0) {
+      if ((p.enabled & (effect_bits::kPlasticity | effect_bits::kRestAnimation)) != 0) {
         // The spring's offset lives at its lower end: n for +axis, the neighbour for −axis.
         const std::int64_t owner = direction_sign(d) > 0 ? n : st.slot_index(face_slot(d));
-        const float delta = arrays.plastic_offset[ax][owner];
+        const float delta = rest_offset(arrays, p, ax, owner);
         force -= arm.dir * ((1.0f + extra) * ks * delta / rest);
       }
     }
@@ -207,7 +271,8 @@ TSF_HD_INLINE void update_plastic_offsets(const LatticeView& lat, const ConstSta
     if (((links >> d) & 1u) != 0) {
       const float rest = axis_value(lat.rest_length, ax);
       const Arm<float> arm = arm_of(st, links, u0, v0, lat.rest_length, d);
-      const float strain = (arm.stretch - delta) / rest;
+      // Elastic strain against the current rest length (plastic and animated offsets).
+      const float strain = (arm.stretch - rest_offset(arrays, p, ax, n)) / rest;
       const float excess = crms_abs(strain) - p.yield_strain;
       if (excess > 0.0f) delta += p.creep_step * excess * rest * (strain > 0.0f ? 1.0f : -1.0f);
     }
@@ -245,8 +310,46 @@ TSF_HD_INLINE std::uint8_t torn_flags(const LatticeView& lat, const ConstStateVi
   for (int d = 0; d < 6; ++d) {
     if (((links >> d) & 1u) == 0) continue;
     const Arm<float> arm = arm_of(st, links, u0, v0, lat.rest_length, d);
-    if (arm.stretch > p.tear_strain * axis_value(lat.rest_length, direction_axis(d)))
+    if (arm.stretch > spring_tear_strain(st, p, d) * axis_value(lat.rest_length, direction_axis(d)))
       keep &= ~(1u << d);
+  }
+  return static_cast<std::uint8_t>(keep);
+}
+
+/// Pass 6a, node masking: 1 when the largest tension among node n's linear springs exceeds the
+/// limit (ks·(l − L)/L, µN; compression does not count).
+TSF_HD_INLINE std::uint8_t node_overloaded(const LatticeView& lat, const ConstStateView& s,
+                                           const EffectParameters& p, std::int64_t n, int i,
+                                           int j, int k) {
+  const unsigned links = lat.flags[n] & kLinkBits;
+  if (links == 0 || (lat.flags[n] & kAliveBit) == 0) return 0;
+  const IndexedStencil st{lat, s, n, i, j, k};
+  const Vec3f u0 = st.u(0), v0 = st.v(0);
+  float largest = 0.0f;
+  for (int d = 0; d < 6; ++d) {
+    if (((links >> d) & 1u) == 0) continue;
+    const Arm<float> arm = arm_of(st, links, u0, v0, lat.rest_length, d);
+    float ks = 0, kd = 0;
+    linear_constants(st, p, d, ks, kd);
+    largest = crms_max(largest, ks * arm.stretch / axis_value(lat.rest_length, direction_axis(d)));
+  }
+  return largest > p.node_force_limit ? 1 : 0;
+}
+
+/// Pass 6b, node masking: node n's flags without the links that have a masked end.
+/// (A link bit implies the neighbour is inside the lattice.)
+TSF_HD_INLINE std::uint8_t unmasked_flags(const LatticeView& lat, const EffectArrays& arrays,
+                                          std::int64_t n) {
+  const unsigned flags = lat.flags[n];
+  const unsigned links = flags & kLinkBits;
+  if (links == 0) return static_cast<std::uint8_t>(flags);
+  if (arrays.node_mask[n] != 0) return static_cast<std::uint8_t>(flags & ~kLinkBits);
+  unsigned keep = flags;
+  for (int d = 0; d < 6; ++d) {
+    if (((links >> d) & 1u) == 0) continue;
+    const Int3 o = direction_offset(d);
+    const std::int64_t m = n + o.x + o.y * lat.stride_y + o.z * lat.stride_z;
+    if (arrays.node_mask[m] != 0) keep &= ~(1u << d);
   }
   return static_cast<std::uint8_t>(keep);
 }

@@ -10,6 +10,7 @@
 // Units: mm, g, s; stiffness as Pa (like Young's modulus), rates in 1/s, strains dimensionless.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -48,10 +49,51 @@ struct FluidConfig {
 };
 
 /// Tearing: a linear spring whose strain (l − L)/L exceeds the threshold breaks (both ends'
-/// link bits cleared, so its angles vanish too). No per-node array.
+/// link bits cleared, so its angles vanish too); no per-node array. On a heterogeneous lattice a
+/// material's own `tear_strain` (calibration.h) replaces the threshold for its springs.
+/// Node masking (node_force_threshold_un > 0): a node whose largest linear spring tension
+/// exceeds the threshold is masked: all its springs break at once, it goes on as a free node
+/// (one uint8 per node while on).
 struct TearingConfig {
   bool enabled = false;
-  double strain_threshold = 0.5;  ///< (0, 100]
+  double strain_threshold = 0.5;      ///< (0, 100]
+  double node_force_threshold_un = 0;  ///< µN; 0 = no node masking, else (0, 1e12]
+};
+
+/// A rest shape of the animation: at time_s the lattice's rest shape is its regular rest grid
+/// displaced by rest_displacement_mm (#nodes). The linear springs' rest lengths follow the
+/// blended shape (plastic-offset mechanism: |h·e + Δr| − h per spring); rest angles stay right.
+struct RestKeyframe {
+  double time_s = 0;                        ///< ≥ 0, strictly increasing over keyframes
+  std::vector<Vec3f> rest_displacement_mm;  ///< #nodes, mm
+};
+
+/// Palette-weight animation: from start_s to end_s the blends of `nodes` move linearly from what
+/// they were at start_s to palette entry `entry` alone.
+struct MaterialTrack {
+  double start_s = 0;
+  double end_s = 0;  ///< ≥ start_s (equal: a switch)
+  std::vector<std::int64_t> nodes;
+  int entry = 0;
+};
+
+/// When one of `nodes` is deleted or loses a spring through the solver's topology edits (a cut,
+/// an ablation), all its nodes switch to palette entry `entry`: a severed artery goes flaccid.
+struct CutTrigger {
+  std::string name;  ///< for reports
+  std::vector<std::int64_t> nodes;
+  int entry = 0;
+};
+
+/// Animation: rest-shape keyframes blended over time (linear between keyframes; the grid's own
+/// rest shape before the first keyframe when it starts after 0; the last one held after it),
+/// palette-weight tracks and cut triggers. Tracks and triggers need a heterogeneous palette
+/// (≥ 2 materials). Rest offsets take 3 floats per node per keyframe, only while on.
+struct AnimationConfig {
+  bool enabled = false;
+  std::vector<RestKeyframe> rest_keyframes;
+  std::vector<MaterialTrack> material_tracks;
+  std::vector<CutTrigger> cut_triggers;
 };
 
 struct EffectsConfig {
@@ -59,11 +101,14 @@ struct EffectsConfig {
   AnisotropyConfig anisotropy;
   FluidConfig fluid;
   TearingConfig tearing;
+  AnimationConfig animation;
 
   bool any() const {
-    return plasticity.enabled || anisotropy.enabled || fluid.enabled || tearing.enabled;
+    return plasticity.enabled || anisotropy.enabled || fluid.enabled || tearing.enabled ||
+           animation.enabled;
   }
-  /// Names of the enabled effects ("plasticity", "anisotropy", "fluid", "tearing").
+  /// Names of the enabled effects ("plasticity", "anisotropy", "fluid", "tearing",
+  /// "node-masking", "animation").
   std::vector<std::string> active() const;
 };
 

@@ -9,7 +9,7 @@
 //   mass        float, g
 //   occupancy   float in [0,1]: tissue fraction of the node's cell (1 for analytic shapes)
 //   label       uint8 TissueLabel: density-weighted majority label of the cell
-//   material    uint8 palette index (features::kHeterogeneous)
+//   material    MaterialBlend: up to 4 palette entries and their weights (kHeterogeneous)
 // A spring between n and its neighbour in direction d exists when both are alive and in range
 // and it is not broken; link_bits() packs that for the kernels (node_state_view.h).
 #pragma once
@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "tsf/crms/lattice_geometry.h"
+#include "tsf/crms/spring_constants.h"
 
 namespace tsf::crms {
 
@@ -36,7 +37,9 @@ class Lattice {
   float mass(std::int64_t n) const { return mass_[n]; }
   float occupancy(std::int64_t n) const { return occupancy_[n]; }
   std::uint8_t label(std::int64_t n) const { return label_[n]; }
-  std::uint8_t material(std::int64_t n) const { return material_[n]; }
+  MaterialBlend material(std::int64_t n) const { return material_[n]; }
+  /// The palette entry with the largest weight in n's blend.
+  int dominant_material(std::int64_t n) const;
   /// 6-bit mask of broken springs at n.
   std::uint8_t broken_mask(std::int64_t n) const { return broken_[n]; }
 
@@ -45,7 +48,9 @@ class Lattice {
   void set_mass(std::int64_t n, float mass_g) { mass_[n] = mass_g; }
   void set_occupancy(std::int64_t n, float occupancy) { occupancy_[n] = occupancy; }
   void set_label(std::int64_t n, std::uint8_t label) { label_[n] = label; }
-  void set_material(std::int64_t n, std::uint8_t material) { material_[n] = material; }
+  /// One palette entry for the whole node.
+  void set_material(std::int64_t n, int entry) { material_[n] = MaterialBlend::single(entry); }
+  void set_material(std::int64_t n, MaterialBlend blend) { material_[n] = blend; }
 
   /// Index of the face neighbour of n in direction d, or −1 outside the lattice.
   std::int64_t neighbour(std::int64_t n, int d) const;
@@ -66,7 +71,8 @@ class Lattice {
 
  private:
   LatticeGeometry geometry_;
-  std::vector<std::uint8_t> alive_, fixed_, broken_, label_, material_;
+  std::vector<std::uint8_t> alive_, fixed_, broken_, label_;
+  std::vector<MaterialBlend> material_;
   std::vector<float> mass_, occupancy_;
 };
 

@@ -8,8 +8,12 @@
 // Mass = ρ · cell volume · max(occupancy, mass_floor): the floor keeps thin surface cells from
 // becoming so light that they set the stable time step (ω ∝ 1/√m); it adds at most
 // (mass_floor − threshold) of a cell's mass per surface node, reported by total_mass().
+// Heterogeneous tissue (material_blends): each node's MaterialBlend is the density-weighted mean
+// of its cell's voxel material weights (segment's 4 channels), channel c standing for palette
+// entry channel_material[c]; ρ is then the same blend of the channels' densities.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -25,7 +29,17 @@ struct VolumeLatticeOptions {
   float mass_floor = 0.5f;                 ///< see header; in [0,1]
   double density_g_per_mm3 = 1.0e-3;       ///< tissue mass density (water 1e-3)
   std::vector<std::uint8_t> fixed_labels;  ///< nodes whose label is listed are anchored
+  /// Per-node blends from the volume's material weights (it must carry them; see header).
+  bool material_blends = false;
+  std::array<int, 4> channel_material{0, 1, 2, 3};  ///< palette entry of each channel, 0..15
+  std::array<double, 4> channel_density_g_per_mm3{1.0e-3, 1.0e-3, 1.0e-3, 1.0e-3};
 };
+
+/// The blend of up to 4 palette entries with the given non-negative fractions (any positive sum):
+/// entries named twice merge, weights are rounded to 1/255 keeping the sum exactly 255 (largest
+/// remainders first). All-zero fractions give entries[0] alone.
+MaterialBlend make_material_blend(const std::array<int, 4>& entries,
+                                  const std::array<double, 4>& fractions);
 
 /// Throws tsf::Error naming the option when a value is out of range or the volume is empty.
 Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLatticeOptions& options);

@@ -161,10 +161,15 @@ struct NodeSpringTerms {
   Vec3<S> reaction[6];  ///< force of this vertex's angles on face neighbour d (symmetric form)
 };
 
+/// The centre node's constants: palette entry 0 (a reference into the palette) for homogeneous
+/// tissue, its blend of palette entries (a value) for heterogeneous tissue.
 template <unsigned kF, class St>
-TSF_HD_INLINE const SpringConstants& own_constants(const St& st, const MaterialPalette& palette) {
-  constexpr bool kHetero = (kF & features::kHeterogeneous) != 0;
-  return palette.entry[kHetero ? st.material(0) : 0];
+TSF_HD_INLINE decltype(auto) own_constants(const St& st, const MaterialPalette& palette) {
+  if constexpr ((kF & features::kHeterogeneous) != 0) {
+    return blend_constants(palette, st.material(0));
+  } else {
+    return (palette.entry[0]);
+  }
 }
 
 /// Linear springs + the 12 angles of the stencil's centre node, each evaluated once (7-node
@@ -189,9 +194,10 @@ TSF_HD_INLINE void node_spring_terms(const St& st, const float rest_length[3],
     float ks = own.ks_linear[ax];
     float kd = own.kd_linear[ax];
     if constexpr (kHetero) {
-      const SpringConstants& other = palette.entry[st.material(face_slot(d))];
-      ks = series_stiffness(ks, other.ks_linear[ax]);
-      kd = series_stiffness(kd, other.kd_linear[ax]);
+      float other_ks = 0.0f, other_kd = 0.0f;
+      blend_linear(palette, st.material(face_slot(d)), ax, other_ks, other_kd);
+      ks = series_stiffness(ks, other_ks);
+      kd = series_stiffness(kd, other_kd);
     }
     self += linear_spring_force(arms.arm[d], ks, kd, rest_length[ax]);
   }
@@ -280,7 +286,7 @@ struct NeighbourStencil {
   TSF_HD_INLINE Vec3<Scalar> u(int s) const { return st.u(slot(s)); }
   TSF_HD_INLINE Vec3<Scalar> v(int s) const { return st.v(slot(s)); }
   TSF_HD_INLINE unsigned flags(int s) const { return st.flags(slot(s)); }
-  TSF_HD_INLINE int material(int s) const { return st.material(slot(s)); }
+  TSF_HD_INLINE MaterialBlend material(int s) const { return st.material(slot(s)); }
 };
 
 /// Spring force on the stencil's centre node, µN (no gravity, no external force), evaluated from
@@ -325,7 +331,9 @@ TSF_HD_INLINE typename St::Scalar elastic_energy(const St& st, const float rest_
     const int d = make_direction(ax, +1);
     float ks = own.ks_linear[ax];
     if constexpr (kHetero) {
-      ks = series_stiffness(ks, palette.entry[st.material(face_slot(d))].ks_linear[ax]);
+      float other_ks = 0.0f, other_kd = 0.0f;
+      blend_linear(palette, st.material(face_slot(d)), ax, other_ks, other_kd);
+      ks = series_stiffness(ks, other_ks);
     }
     const S stretch = arms.arm[d].stretch;
     energy += S(0.5f * ks / rest_length[ax]) * stretch * stretch * arms.arm[d].w;

@@ -8,7 +8,8 @@
 //   inv_mass          float, 1/g (0 for fixed nodes is not required: the fixed bit decides)
 //   u[3]              float ×3 arrays, displacement from the rest position, mm
 //   v[3]              float ×3 arrays, velocity, mm/s
-//   material          uint8 palette index            (features::kHeterogeneous only)
+//   material_index    uint32: 4 palette indices      (features::kHeterogeneous only)
+//   material_weight   uint32: their 4 uint8 weights  (features::kHeterogeneous only)
 //   external_force[3] float ×3 arrays, µN            (features::kExternalForces only)
 // State is the displacement, not the position: springs see rest vector + (u_A − u_B) with the
 // rest vector exact, so a lattice at rest has exactly zero force and float precision is spent on
@@ -34,9 +35,18 @@ struct LatticeView {
   float rest_length[3] = {1, 1, 1};  ///< spring rest lengths hx, hy, hz, mm
   const std::uint8_t* flags = nullptr;
   const float* inv_mass = nullptr;
-  const std::uint8_t* material = nullptr;
+  const std::uint32_t* material_index = nullptr;   ///< MaterialBlend::index per node
+  const std::uint32_t* material_weight = nullptr;  ///< MaterialBlend::weight per node
   const float* external_force[3] = {nullptr, nullptr, nullptr};
 };
+
+/// Node n's material blend (heterogeneous lattices: material_index/weight are set).
+TSF_HD_INLINE MaterialBlend node_material(const LatticeView& lattice, std::int64_t n) {
+  MaterialBlend b;
+  b.index = lattice.material_index[n];
+  b.weight = lattice.material_weight[n];
+  return b;
+}
 
 struct StateView {
   float* u[3] = {nullptr, nullptr, nullptr};  ///< displacement, mm

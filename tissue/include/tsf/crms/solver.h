@@ -20,6 +20,7 @@
 // Not thread-safe: one thread owns the solver; readers use snapshots() from any thread.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -164,6 +165,10 @@ class Solver {
   EffectsState effects_state() const;
   /// Springs broken by tearing since construction (synchronises).
   std::int64_t torn_springs() const;
+  /// Names of the animation's cut triggers that have fired, in firing order.
+  const std::vector<std::string>& fired_triggers() const { return fired_triggers_; }
+  /// Simulated time since construction, s (Σ n·dt over the steps).
+  double time_s() const { return time_s_; }
 
  private:
   StepParameters step_parameters(double dt) const;
@@ -176,6 +181,14 @@ class Solver {
   void sync_torn_links();
   /// Elastic energy the effects add to the core's (plastic rest lengths, anisotropy, fluid), nJ.
   double effects_energy_nj() const;
+  /// Animation: validates tracks and triggers, turns rest keyframes into rest offsets.
+  void prepare_animation(std::vector<std::array<std::vector<float>, 3>>& keyframes);
+  /// Animation: the rest keyframes around time_s into p.
+  void set_animation_time(EffectParameters& p, double time_s) const;
+  /// Animation: moves the blends of the tracks' nodes to where they are at time_s_.
+  void apply_material_tracks();
+  /// Animation: fires the cut triggers that watch one of `edited`.
+  void fire_cut_triggers(const std::vector<std::int64_t>& edited);
 
   Lattice lattice_;
   SolverConfig config_;
@@ -189,6 +202,15 @@ class Solver {
   unsigned effect_bits_ = 0;
   std::unique_ptr<EffectsEngine> effects_;
   std::int64_t torn_synced_ = 0;  // springs already cleared on the host lattice by sync_torn_links
+  double time_s_ = 0.0;
+  // Animation (effects.animation): keyframe times and host rest offsets, track state, triggers.
+  std::vector<double> rest_times_;
+  std::vector<std::array<std::vector<float>, 3>> rest_offsets_;
+  std::vector<std::vector<MaterialBlend>> track_origin_;
+  std::vector<bool> track_done_;
+  std::vector<std::vector<std::int64_t>> trigger_nodes_;  // sorted
+  std::vector<bool> trigger_fired_;
+  std::vector<std::string> fired_triggers_;
 };
 
 }  // namespace tsf::crms

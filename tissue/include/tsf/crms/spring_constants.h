@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 
 #include "tsf/common/hd.h"
 
@@ -27,13 +28,73 @@ struct SpringConstants {
   float c_angular[3] = {0, 0, 0};  ///< µN·mm·s/rad, per plane
 };
 
-/// Up to 16 materials indexed per node (features::kHeterogeneous); entry 0 is the default. Small
-/// enough to travel as a kernel argument (constant memory on CUDA).
+/// Up to 16 materials (features::kHeterogeneous); entry 0 is the default. Small enough to travel
+/// as a kernel argument (constant memory on CUDA): only the blend below is stored per node.
 constexpr int kMaxMaterials = 16;
 struct MaterialPalette {
   SpringConstants entry[kMaxMaterials];
   int count = 1;
 };
+
+/// A node's material as a blend of up to 4 palette entries (8 bytes per node, two 32-bit words so
+/// that the CPU row loops keep 32-bit lanes): byte c of `index` is the palette entry of component
+/// c, byte c of `weight` its weight in 1/255 (the 4 weights sum to 255). Segment's 4 material
+/// channels averaged over the node's cell give the weights (lattice_builders.h); a node of one
+/// material is {entry, 255}.
+struct MaterialBlend {
+  std::uint32_t index = 0;
+  std::uint32_t weight = 255;
+  TSF_HD_INLINE int entry(int c) const { return static_cast<int>((index >> (8 * c)) & 0xffu); }
+  TSF_HD_INLINE unsigned weight_of(int c) const { return (weight >> (8 * c)) & 0xffu; }
+  /// True when component 0 carries all the weight (the common case: one load, no blending).
+  TSF_HD_INLINE bool pure() const { return (weight & 0xffu) == 255u; }
+  TSF_HD_INLINE static MaterialBlend single(int entry) {
+    MaterialBlend b;
+    b.index = static_cast<std::uint32_t>(entry) & 0xffu;
+    b.weight = 255u;
+    return b;
+  }
+};
+
+/// All constants of a blend: the weighted mean of its entries' (rule of mixtures, the Voigt
+/// bound: stiff inclusions dominate a mixed cell).
+TSF_HD_INLINE SpringConstants blend_constants(const MaterialPalette& palette, MaterialBlend b) {
+  if (b.pure()) return palette.entry[b.entry(0)];
+  SpringConstants r;
+  for (int c = 0; c < 4; ++c) {
+    const unsigned w = b.weight_of(c);
+    if (w == 0u) continue;
+    const float f = static_cast<float>(w) * (1.0f / 255.0f);
+    const SpringConstants& e = palette.entry[b.entry(c)];
+    for (int a = 0; a < 3; ++a) {
+      r.ks_linear[a] += f * e.ks_linear[a];
+      r.kd_linear[a] += f * e.kd_linear[a];
+      r.k_angular[a] += f * e.k_angular[a];
+      r.c_angular[a] += f * e.c_angular[a];
+    }
+  }
+  return r;
+}
+
+/// Linear stiffness and damping of a blend along one axis.
+TSF_HD_INLINE void blend_linear(const MaterialPalette& palette, MaterialBlend b, int axis,
+                                float& ks, float& kd) {
+  if (b.pure()) {
+    const SpringConstants& e = palette.entry[b.entry(0)];
+    ks = e.ks_linear[axis];
+    kd = e.kd_linear[axis];
+    return;
+  }
+  ks = 0.0f;
+  kd = 0.0f;
+  for (int c = 0; c < 4; ++c) {
+    const unsigned w = b.weight_of(c);
+    if (w == 0u) continue;
+    const float f = static_cast<float>(w) * (1.0f / 255.0f);
+    ks += f * palette.entry[b.entry(c)].ks_linear[axis];
+    kd += f * palette.entry[b.entry(c)].kd_linear[axis];
+  }
+}
 
 /// Thesis angular constant ks2 (µN per rad, force at the vertex) for a plane whose arms have rest
 /// lengths hu and hv, from the torsional stiffness kθ.

@@ -78,7 +78,9 @@ struct IndexedStencil {
     return {state.v[0][m], state.v[1][m], state.v[2][m]};
   }
   TSF_HD_INLINE unsigned flags(int slot) const { return lattice.flags[slot_index(slot)]; }
-  TSF_HD_INLINE int material(int slot) const { return lattice.material[slot_index(slot)]; }
+  TSF_HD_INLINE MaterialBlend material(int slot) const {
+    return node_material(lattice, slot_index(slot));
+  }
   TSF_HD_INLINE float inv_mass() const { return lattice.inv_mass[n]; }
   TSF_HD_INLINE Vec3f external_force() const {
     return {lattice.external_force[0][n], lattice.external_force[1][n],

@@ -72,6 +72,9 @@ struct TissueModelOptions {
   collision::ContactOptions contact;
   /// Extra anchors applied to the lattice before the solver is made (scene anchors).
   std::function<void(crms::Lattice&)> anchor;
+  /// Fills what the effects need from the built lattice (animation regions → node lists and
+  /// rest shapes) into the solver configuration, after the anchors, before the solver is made.
+  std::function<void(const crms::Lattice&, crms::SolverConfig&)> configure_effects;
 
   /// Throws tsf::Error naming the field when a value is out of range.
   void validate() const;
