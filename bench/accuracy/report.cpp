@@ -261,7 +261,8 @@ void write_markdown(const fs::path& path, const RunInfo& info,
         "`accuracy_report --only my-id --quick --markdown /tmp/r.md` runs one study alone.\n\n"
         "\n";
   md << "## Not in this report: CRMS effects, the lattice haptic model\n\n"
-     << "* **Each CRMS effect** (fluid pressure, plasticity, …) has no accuracy knob of its own "
+     << "* **Each CRMS effect** (plasticity, anisotropy, fluid dispersion, tearing) has no "
+        "accuracy knob of its own "
         "here: what it costs per step, and that a disabled effect costs nothing, is measured by "
         "`bench_effects` (bench/tissue/) and documented in [docs/effects.md](effects.md).\n"
         "* **The lattice haptic model** reads the reactions the simulation's contact pass sums "
@@ -290,7 +291,8 @@ void write_json(const fs::path& path, const RunInfo& info,
               {"plots", info.plots},
               {"repeats", info.repeats},
               {"total_seconds", info.total_seconds},
-              {"command", info.command}};
+              {"command", info.command},
+              {"only", info.only}};
   j["markdown"] = fs::absolute(markdown).string();
   nlohmann::json studies = nlohmann::json::array();
   for (const auto& o : outcomes) {
@@ -335,7 +337,7 @@ void write_json(const fs::path& path, const RunInfo& info,
   write_text_atomically(path, j.dump(2) + "\n");
 }
 
-int verify_report(const fs::path& json_path) {
+int verify_report(const fs::path& json_path, const std::vector<std::string>& registered) {
   int problems = 0;
   auto problem = [&](const std::string& what) {
     std::cerr << "accuracy_report --verify: " << what << "\n";
@@ -391,6 +393,10 @@ int verify_report(const fs::path& json_path) {
           problem("study '" + id + "': check failed: " + c.value("claim", std::string("?")) + " (" +
                   c.value("detail", std::string()) + ")");
   }
+  const bool selected = j["run"].contains("only") && !j["run"]["only"].empty();
+  if (!selected)
+    for (const auto& id : registered)
+      if (!ids.count(id)) problem("study '" + id + "' is registered but missing from the report");
   return problems;
 }
 

@@ -212,7 +212,8 @@ StudyResult run(const RunOptions& options) {
       " at h = " + fine_tri.cells[0] + "; local frame " + coarse_loc.cells[3] + " → " +
       fine_loc.cells[3] +
       ". The local frame is affine in each cube (its origin corner and three edges), so it cannot "
-      "follow the bend inside a cube, where trilinear's bilinear terms partly do: its mean error is " +
+      "follow the bend inside a cube, where trilinear's bilinear terms partly do: its mean error "
+      "is " +
       format_number(ratio_coarse, 2) + "× trilinear's mean error at the coarsest spacing and " +
       format_number(ratio_fine, 2) + "× at the finest; its normals are off by " +
       fine_loc.cells[6] + " against trilinear's " + fine_tri.cells[6] +
