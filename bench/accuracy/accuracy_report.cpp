@@ -60,7 +60,9 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (!verify.empty()) {
-      const int problems = verify_report(verify);
+      std::vector<std::string> registered;
+      for (const auto& s : studies) registered.push_back(s.id);
+      const int problems = verify_report(verify, registered);
       if (problems == 0) std::printf("accuracy report %s: OK\n", verify.c_str());
       return problems == 0 ? 0 : 1;
     }
@@ -78,6 +80,7 @@ int main(int argc, char** argv) {
     info.repeats = options.repeats;
     info.commit = commit;
     info.command = "accuracy_report";
+    info.only = only;
     for (int i = 1; i < argc; ++i) info.command += " " + std::string(argv[i]);
 
     const fs::path md_path = fs::absolute(markdown);
@@ -118,6 +121,12 @@ int main(int argc, char** argv) {
                              study.id.c_str(), name.c_str());
                 ++failures;
               }
+        for (const auto& c : o.result.checks)
+          if (!c.passed) {
+            std::fprintf(stderr, "accuracy_report: study %s: check failed: %s (%s)\n",
+                         study.id.c_str(), c.claim.c_str(), c.detail.c_str());
+            ++failures;
+          }
         const fs::path png = image_dir / ("accuracy-" + study.id + ".png");
         if (plots && write_plot(study, o.result, data_dir, png)) o.plot_png = png;
       }

@@ -65,11 +65,21 @@ struct KeyRow {
   std::string setting, error, time;
 };
 
+/// A property the study's numbers must have (the finer setting beats the coarsest, a measured lag
+/// matches its formula, …): printed in the report, written to the JSON, and a failed one makes
+/// --verify (the AccuracyReport.* ctest) fail.
+struct StudyCheck {
+  std::string claim;  ///< what must hold, as printed
+  bool passed = false;
+  std::string detail;  ///< the numbers compared
+};
+
 struct StudyResult {
   std::vector<StudyTable> tables;
   PlotSpec plot;
   std::string findings;  ///< markdown paragraph(s) that read the numbers
   std::vector<KeyRow> key_rows;
+  std::vector<StudyCheck> checks;
 };
 
 struct KnobStudy {

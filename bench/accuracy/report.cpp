@@ -190,8 +190,8 @@ void write_markdown(const fs::path& path, const RunInfo& info,
   md << "\n## Studies\n\n";
   for (const auto& o : outcomes)
     md << "- [" << o.study.title << "](#" << anchor_of(o.study) << ")\n";
-  md << "- [Pending: coupler mode, haptic model and filter]"
-        "(#pending-coupler-mode-haptic-model-and-filter)\n"
+  md << "- [Not in this report: CRMS effects, the lattice haptic model]"
+        "(#not-in-this-report-crms-effects-the-lattice-haptic-model)\n"
      << "- [Adding a knob study](#adding-a-knob-study)\n\n";
 
   md << "## Conventions\n\n"
@@ -231,6 +231,12 @@ void write_markdown(const fs::path& path, const RunInfo& info,
       md << "![" << o.study.title << "](" << rel.generic_string() << ")\n\n";
     }
     if (!o.result.findings.empty()) md << o.result.findings << "\n\n";
+    if (!o.result.checks.empty()) {
+      md << "*Checked in this run* (`accuracy_report --verify` fails otherwise):\n\n";
+      for (const auto& c : o.result.checks)
+        md << "- " << (c.passed ? "✓ " : "✗ **FAILED** ") << c.claim << " (" << c.detail << ")\n";
+      md << "\n";
+    }
   }
 
   md << "## Adding a knob study\n\n"
@@ -241,7 +247,9 @@ void write_markdown(const fs::path& path, const RunInfo& info,
         "product itself) and the time **in the same run** (`median_seconds()` in `scenes.h`), and "
         "fills one or more `StudyTable`s, a `PlotSpec` (error against time by default, one "
         "series per variant, points labelled with the knob value), a findings paragraph "
-        "computed from the numbers, and one to three `key_rows` for the table at the top.\n"
+        "computed from the numbers, one to three `key_rows` for the table at the top, and "
+        "`checks`: properties the numbers must have (the finest setting beats the coarsest, …) "
+        "that `--verify` and the `AccuracyReport.*` ctests enforce.\n"
         "2. Register it: `TSF_REGISTER_KNOB_STUDY(kMyStudy, {\"my-id\", \"Title\", \"what is "
         "varied\", \"what the error is against\", \"what the time measures\", order, run});` "
         "(`knob_study.h`). The order places the section; the id names the plot "
@@ -252,20 +260,16 @@ void write_markdown(const fs::path& path, const RunInfo& info,
         "4. Run `scripts/accuracy-report.sh` and commit the regenerated markdown and PNGs. "
         "`accuracy_report --only my-id --quick --markdown /tmp/r.md` runs one study alone.\n\n"
         "\n";
-  md << "## Pending: coupler mode, haptic model and filter\n\n"
-     << "**Not measured yet.** These knobs are being built on other branches; their studies "
-        "will be added here as `study_*.cpp` files when those branches land, and nothing below "
-        "is a measurement:\n\n"
-     << "| knob | reference it will be measured against | time it will report | status |\n"
-     << "| --- | --- | --- | --- |\n"
-     << "| coupler mode (local frame vs trilinear) | the lattice's trilinear displacement field "
-        "at each surface vertex | coupling time per vertex | pending (deform-cut branch) |\n"
-     << "| haptic force model | the analytic sphere–sphere (tool–tissue) intersection volume "
-        "and its force law | force evaluation per haptic frame | pending (haptics branch) |\n"
-     << "| haptic filter window | force jitter and lag against the unfiltered signal | latency "
-        "added per frame | pending (haptics branch) |\n"
-     << "| each CRMS effect | the baseline step with the effect off (cost within the noise "
-        "band when disabled) | time per step | pending (CRMS effects branch) |\n\n";
+  md << "## Not in this report: CRMS effects, the lattice haptic model\n\n"
+     << "* **Each CRMS effect** (plasticity, anisotropy, fluid dispersion, tearing) has no "
+        "accuracy knob of its own "
+        "here: what it costs per step, and that a disabled effect costs nothing, is measured by "
+        "`bench_effects` (bench/tissue/) and documented in [docs/effects.md](effects.md).\n"
+        "* **The lattice haptic model** reads the reactions the simulation's contact pass sums "
+        "(no intersection volume, O(1) per evaluation), so the force-law reference of the "
+        "[haptic model study](#haptics-force-model-and-resolution) does not apply to it; its "
+        "accuracy is the lattice's (the CRMS studies above) and its cost is the contact pass's "
+        "(docs/haptics.md).\n\n";
   md << "## Reproducing\n\n```\nscripts/accuracy-report.sh            # full report (~10 min "
         "on 2 cores)\nscripts/accuracy-report.sh --quick    # CI-sized check, writes to "
         "build/accuracy-quick/\n```\n";
@@ -287,7 +291,8 @@ void write_json(const fs::path& path, const RunInfo& info,
               {"plots", info.plots},
               {"repeats", info.repeats},
               {"total_seconds", info.total_seconds},
-              {"command", info.command}};
+              {"command", info.command},
+              {"only", info.only}};
   j["markdown"] = fs::absolute(markdown).string();
   nlohmann::json studies = nlohmann::json::array();
   for (const auto& o : outcomes) {
@@ -322,13 +327,17 @@ void write_json(const fs::path& path, const RunInfo& info,
       tables.push_back(jt);
     }
     s["tables"] = tables;
+    nlohmann::json checks = nlohmann::json::array();
+    for (const auto& c : o.result.checks)
+      checks.push_back({{"claim", c.claim}, {"passed", c.passed}, {"detail", c.detail}});
+    s["checks"] = checks;
     studies.push_back(s);
   }
   j["studies"] = studies;
   write_text_atomically(path, j.dump(2) + "\n");
 }
 
-int verify_report(const fs::path& json_path) {
+int verify_report(const fs::path& json_path, const std::vector<std::string>& registered) {
   int problems = 0;
   auto problem = [&](const std::string& what) {
     std::cerr << "accuracy_report --verify: " << what << "\n";
@@ -378,7 +387,16 @@ int verify_report(const fs::path& json_path) {
             problem("study '" + id + "': time '" + name + "' is not a positive number");
       }
     if (rows == 0) problem("study '" + id + "' has no rows");
+    if (s.contains("checks"))
+      for (const auto& c : s["checks"])
+        if (!c.value("passed", false))
+          problem("study '" + id + "': check failed: " + c.value("claim", std::string("?")) + " (" +
+                  c.value("detail", std::string()) + ")");
   }
+  const bool selected = j["run"].contains("only") && !j["run"]["only"].empty();
+  if (!selected)
+    for (const auto& id : registered)
+      if (!ids.count(id)) problem("study '" + id + "' is registered but missing from the report");
   return problems;
 }
 

@@ -23,7 +23,8 @@ struct RunInfo {
   bool plots = true;  ///< false with --no-plots (no gnuplot): studies carry no PNG
   int repeats = 0;
   double total_seconds = 0;
-  std::string command;  ///< the command line that produced the report
+  std::string command;            ///< the command line that produced the report
+  std::vector<std::string> only;  ///< --only selection; empty = every registered study ran
 };
 RunInfo collect_run_info();
 
@@ -45,9 +46,11 @@ void write_markdown(const std::filesystem::path& path, const RunInfo& info,
 void write_json(const std::filesystem::path& path, const RunInfo& info,
                 const std::vector<StudyOutcome>& outcomes, const std::filesystem::path& markdown);
 
-/// Re-reads a report's JSON: every study present and not failed, every row's errors finite and
-/// times positive, the markdown and every plot file present and non-empty. Prints each problem;
-/// returns the number found.
-int verify_report(const std::filesystem::path& json_path);
+/// Re-reads a report's JSON: every study of `registered` present (unless the run used --only) and
+/// not failed, every row's errors finite and times positive, every study check passed, the
+/// markdown and every plot file present and non-empty. Prints each problem; returns the number
+/// found.
+int verify_report(const std::filesystem::path& json_path,
+                  const std::vector<std::string>& registered);
 
 }  // namespace tsf::accuracy

@@ -90,6 +90,9 @@ StudyResult run_resolution(const RunOptions& options) {
   out.key_rows.push_back({"IMT surface, sphere at h = " + fine.cells[0],
                           fine.cells[3] + " mean distance, volume " + fine.cells[5],
                           fine.cells[8]});
+  out.checks.push_back({"the finest voxels give a smaller mean distance than the coarsest",
+                        fine.errors[0].second < coarse.errors[0].second,
+                        fine.cells[3] + " vs " + coarse.cells[3]});
   out.findings = "The surface converges to the sphere as the voxels shrink: mean vertex distance " +
                  coarse.cells[3] + " at h = " + coarse.cells[0] + ", " + fine.cells[3] +
                  " at h = " + fine.cells[0] + "; enclosed volume " + coarse.cells[5] + " → " +
@@ -186,6 +189,12 @@ StudyResult run_optimisation(const RunOptions& options) {
                           bin_t20.cells[4] + " vs " + bin_def.cells[4] + " mean distance",
                           bin_t20.cells[8] + " vs " + bin_def.cells[8]});
   const StudyRow& ramp_t20 = t.rows[4];
+  out.checks.push_back({"binary mask (sphere): 20 Taubin pairs reduce the mean distance",
+                        bin_t20.errors[0].second < bin_def.errors[0].second,
+                        bin_t20.cells[4] + " vs " + bin_def.cells[4]});
+  out.checks.push_back({"ramp sphere: merging (ε = 0.1) leaves fewer slivers than none",
+                        std::stoll(ramp_def.cells[6]) < std::stoll(ramp_weld.cells[6]),
+                        ramp_def.cells[6] + " vs " + ramp_weld.cells[6]});
   out.findings =
       "Vertex merging (ε = 0.1) removes most slivers (" + ramp_weld.cells[6] + " → " +
       ramp_def.cells[6] + " on the ramp sphere) and " + ramp_weld.cells[3] + " → " +
