@@ -33,10 +33,10 @@ def stage(r; p): [r.stages[] | select(.stage | startswith(p)) | .seconds] | add 
 "",
 "Step cost on each run's final lattice (after the script), interleaved repetitions; median (min – max):",
 "",
-"| scene | configuration | µs per step | ratio to off | bytes per node |",
-"| --- | --- | ---: | ---: | ---: |",
+"| scene | configuration | µs per step | ratio to off (medians) | ratio to off (minima) | bytes per node |",
+"| --- | --- | ---: | ---: | ---: | ---: |",
 (.[] | . as $r | .instances[0].effect_cost as $c | $c.configurations[] |
-  "| \($r.scene.name) | \(.name) | \(g(.median_us_per_step)) (\(g(.min_us_per_step)) – \(g(.max_us_per_step))) | \(g(.ratio_to_off)) | \(.bytes_per_node) |"),
+  "| \($r.scene.name) | \(.name) | \(g(.median_us_per_step)) (\(g(.min_us_per_step)) – \(g(.max_us_per_step))) | \(g(.ratio_to_off)) | \(g(.ratio_to_off_min)) | \(.bytes_per_node) |"),
 "",
 (.[] | .instances[0].effect_cost as $c |
   "Noise band, \(.scene.name): \"off\" vs \"off again\" \(g($c.noise_off_vs_off_again * 100)) %, largest spread of the repetitions \(g($c.noise_largest_spread * 100)) % (\($c.alive_nodes) nodes, \($c.repetitions) × \($c.steps_per_repetition) steps, \($c.backend)).")

@@ -43,6 +43,7 @@ crms::EffectsConfig only(const crms::EffectsConfig& all, const std::string& name
 
 json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCostOptions& options) {
   require(options.repetitions >= 3, "effect cost: repetitions must be at least 3");
+  require(options.seconds_per_repetition > 0, "effect cost: seconds_per_repetition must be > 0");
   require(dt > 0, "effect cost: the time step must be > 0");
   const crms::SolverConfig base = solver.config();
   const std::vector<std::string> active = base.effects.active();
@@ -65,10 +66,19 @@ json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCost
     c.solver = std::make_unique<crms::Solver>(crms::Lattice(solver.lattice()), cfg);
     c.solver->set_state(u, v);
   }
-  const std::int64_t alive = std::max<std::int64_t>(1, solver.lattice().alive_count());
-  const int steps =
-      static_cast<int>(std::clamp<std::int64_t>(options.node_steps_per_repetition / alive, 2, 200));
-  for (Configuration& c : configs) c.solver->step(steps, dt);  // warm-up: caches, threads, graphs
+  const std::int64_t alive = solver.lattice().alive_count();
+  // Warm-up (caches, threads, CUDA graphs), timed on the slowest configuration to size the
+  // repetitions (the second round: the first pays for first touches and thread start-up).
+  double warm_us = 0;
+  constexpr int kWarmSteps = 4;
+  for (int round = 0; round < 2; ++round)
+    for (Configuration& c : configs) {
+      Stopwatch clock;
+      c.solver->step(kWarmSteps, dt);
+      if (round == 1) warm_us = std::max(warm_us, clock.seconds() * 1e6 / kWarmSteps);
+    }
+  const int steps = static_cast<int>(std::clamp(
+      std::lround(options.seconds_per_repetition * 1e6 / std::max(warm_us, 1e-3)), 2L, 200L));
   for (int r = 0; r < options.repetitions; ++r)
     for (Configuration& c : configs) {
       Stopwatch clock;
@@ -82,6 +92,8 @@ json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCost
     }
 
   const double off = median(configs[0].us_per_step);
+  const double off_min =
+      *std::min_element(configs[0].us_per_step.begin(), configs[0].us_per_step.end());
   json rows = json::array();
   double spread = 0;
   for (const Configuration& c : configs) {
@@ -94,6 +106,8 @@ json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCost
                     {"min_us_per_step", *lo},
                     {"max_us_per_step", *hi},
                     {"ratio_to_off", off > 0 ? m / off : 0.0},
+                    // Minima: the least disturbed repetition of each (a loaded machine only adds).
+                    {"ratio_to_off_min", off_min > 0 ? *lo / off_min : 0.0},
                     {"bytes_per_node", c.solver->bytes_per_node()},
                     {"unstable", c.unstable}});
   }

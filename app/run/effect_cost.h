@@ -10,8 +10,6 @@
 //   cost["configurations"][k]["median_us_per_step"], ["ratio_to_off"], ["bytes_per_node"]
 #pragma once
 
-#include <cstdint>
-
 #include <nlohmann/json.hpp>
 
 #include "tsf/crms/solver.h"
@@ -20,14 +18,14 @@ namespace tsf::app {
 
 struct EffectCostOptions {
   int repetitions = 7;  ///< interleaved repetitions per configuration, ≥ 3
-  /// Steps per repetition = this / alive nodes, clamped to [2, 200]: about the same wall time on
-  /// every lattice size.
-  std::int64_t node_steps_per_repetition = 1'000'000;
+  /// Wall time one repetition aims at, s: the steps per repetition come from a timed warm-up
+  /// (clamped to [2, 200]), so small and large lattices cost about the same.
+  double seconds_per_repetition = 0.05;
 };
 
 /// Step time per configuration (µs per step: median, min, max over the repetitions), its ratio
-/// to "off", bytes per node, and the noise band. `dt` is the run's step (s). Uses the solver's
-/// backend; the solver itself is not stepped.
+/// to "off" (of the medians, and of the minima), bytes per node, and the noise band. `dt` is the
+/// run's step (s). Uses the solver's backend; the solver itself is not stepped.
 nlohmann::json measure_effect_cost(const crms::Solver& solver, double dt,
                                    const EffectCostOptions& options);
 
