@@ -24,27 +24,27 @@ done
 
 read -r -d '' JQ <<'PROGRAM' || true
 def s(x): if x >= 1 then "\(x * 1000 | round / 1000) s" elif x >= 0.001 then "\(x * 1e5 | round / 100) ms" else "\(x * 1e8 | round / 100) µs" end;
-def g(x): x * 1000 | round / 1000;
+def g(x): x * 100 | round / 100;
 def stage(r; p): [r.stages[] | select(.stage | startswith(p)) | .seconds] | add // 0;
-"| scene | effects active | dt | steps | surface + lattice + coupler | scripted interaction | stepping | µs per step (run) | bytes per node | run total |",
+"| scene | effects active | dt | steps | surface + lattice + coupler | scripted interaction | stepping | time per step (run) | bytes per node | run total |",
 "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
 (.[] | . as $r | .instances[0] as $i |
-  "| \($r.scene.name) | \(if ($i.effects_active | length) == 0 then "none" else ($i.effects_active | join(", ")) end) | \(s($i.dt_s)) | \($i.steps) | \(s(stage($r; "surface + lattice"))) | \(s(stage($r; "scripted interaction"))) | \(s($i.timings_s.stepping)) | \(g($i.timings_s.stepping * 1e6 / $i.steps)) | \($i.bytes_per_node) | \(s($r.total_seconds)) |"),
+  "| \($r.scene.name) | \(if ($i.effects_active | length) == 0 then "none" else ($i.effects_active | join(", ")) end) | \(s($i.dt_s)) | \($i.steps) | \(s(stage($r; "surface + lattice"))) | \(s(stage($r; "scripted interaction"))) | \(s($i.timings_s.stepping)) | \(s($i.timings_s.stepping / $i.steps)) | \($i.bytes_per_node) | \(s($r.total_seconds)) |"),
 "",
 "Step cost on each run's final lattice (after the script), interleaved repetitions; median (min – max):",
 "",
-"| scene | configuration | µs per step | ratio to off (medians) | ratio to off (minima) | bytes per node |",
+"| scene | configuration | time per step | ratio to off (medians) | ratio to off (minima) | bytes per node |",
 "| --- | --- | ---: | ---: | ---: | ---: |",
 (.[] | . as $r | .instances[0].effect_cost as $c | $c.configurations[] |
-  "| \($r.scene.name) | \(.name) | \(g(.median_us_per_step)) (\(g(.min_us_per_step)) – \(g(.max_us_per_step))) | \(g(.ratio_to_off)) | \(g(.ratio_to_off_min)) | \(.bytes_per_node) |"),
+  "| \($r.scene.name) | \(.name) | \(s(.median_us_per_step * 1e-6)) (\(s(.min_us_per_step * 1e-6)) – \(s(.max_us_per_step * 1e-6))) | \(g(.ratio_to_off)) | \(g(.ratio_to_off_min)) | \(.bytes_per_node) |"),
 "",
 (.[] | .instances[0].effect_cost as $c |
-  "Noise band, \(.scene.name): \"off\" vs \"off again\" \(g($c.noise_off_vs_off_again * 100)) %, largest spread of the repetitions \(g($c.noise_largest_spread * 100)) % (\($c.alive_nodes) nodes, \($c.repetitions) × \($c.steps_per_repetition) steps, \($c.backend)).")
+  "Noise band, \(.scene.name): \"off\" vs \"off again\" \(g($c.noise_off_vs_off_again * 100)) % (medians), largest spread of the repetitions \(g($c.noise_largest_spread * 100)) % (\($c.alive_nodes) nodes, \($c.repetitions) × \($c.steps_per_repetition) steps, \($c.backend)).")
 PROGRAM
 table="$(jq -r -s "$JQ" "$OUT/sinus/run-report.json" "$OUT/sinus-effects/run-report.json")"
 machine="$(nproc) cores, load average $(cut -d' ' -f1 /proc/loadavg) at the end, $(date -u +%Y-%m-%d)"
-block="$(printf '<!-- effects-pair:begin (written by scripts/effects-pair.sh; do not edit by hand) -->\nCommand: `scripts/effects-pair.sh %s` (%s; tsf %s).\n\n%s\n<!-- effects-pair:end -->' \
-  "$*" "$machine" "$(jq -r .tsf_version "$OUT/sinus/run-report.json")" "$table")"
+block="$(printf '<!-- effects-pair:begin (written by scripts/effects-pair.sh; do not edit by hand) -->\nCommand: `scripts/effects-pair.sh%s` = `tsf run scenes/sinus.yaml %s` and the same on `scenes/sinus-effects.yaml` (%s; tsf %s).\n\n%s\n<!-- effects-pair:end -->' \
+  "${*:+ $*}" "${args[*]}" "$machine" "$(jq -r .tsf_version "$OUT/sinus/run-report.json")" "$table")"
 if ! grep -q '<!-- effects-pair:begin' "$DOC"; then
   printf '\n%s\n' "$block" >>"$DOC"
 else

@@ -187,6 +187,60 @@ TEST(SceneInstances, TheSameTissueAtACoarserSpacingHasFewerNodes) {
   EXPECT_LT(fine / coarse, 16.0) << fine << " vs " << coarse;
 }
 
+TEST(SceneInstances, SimulateRunsBoxInstancesAndWritesEachOnesOutputs) {
+  TSF_NEED_EXECUTABLE();
+  // No pipeline: two box lattices (inline and library material, 2 and 1 mm spacing) side by
+  // side, a blade cutting through both. `tsf simulate` writes X-<instance>.ply per instance.
+  const fs::path dir = test::scratch_dir("simulate-two-boxes");
+  const fs::path scene = dir / "two-boxes.yaml";
+  std::ofstream(scene) << R"(name: two-boxes
+solver: {dt: auto}
+tissues:
+  - name: coarse
+    lattice: {source: box, size: [12, 8, 8], spacing: 2, origin: [0, 0, 0]}
+    material: {youngs_modulus: 50000, viscosity: 5, density: 0.001}
+    anchors: [{box: {min: [-1, -1, -1], max: [1, 9, 9]}}]
+  - name: fine
+    lattice: {source: box, size: [12, 8, 8], spacing: 1, origin: [0, 10, 0]}
+    material: fat
+    anchors: [{box: {min: [-1, 9, -1], max: [1, 19, 9]}}]
+    tissue: {voxels_per_node: 2}
+tools:
+  - {name: scalpel, shape: blade, size: [30, 30, 1]}
+script:
+  frame_rate: 200
+  duration: 0.02
+  events:
+    - time: 0.005           # thickness along x: rotated a quarter turn about y
+      tool: scalpel
+      mode: cut
+      from: {position: [8, 9, 24], rotation: {axis: [0, 1, 0], angle_deg: 90}}
+      to: {position: [8, 9, -14], rotation: {axis: [0, 1, 0], angle_deg: 90}}
+outputs: {mesh: out.ply, rest_mesh: rest.ply, report: report.json}
+)";
+  const CommandResult r = run_command(
+      test::tsf_executable_path().string() + " simulate " + scene.string() + " --backend cpu",
+      dir / "log.txt");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json j = json::parse(read_text(dir / "report.json"));
+  ASSERT_EQ(j["instances"].size(), 2u);
+  for (const std::string name : {"coarse", "fine"}) {
+    expect_closed_mesh(dir / ("out-" + name + ".ply"));
+    expect_closed_mesh(dir / ("rest-" + name + ".ply"));
+  }
+  const json& coarse = j["instances"][0];
+  const json& fine = j["instances"][1];
+  EXPECT_NEAR(coarse["lattice"]["spacing_mm"][0].get<double>(), 2.0, 1e-9);
+  EXPECT_NEAR(fine["lattice"]["spacing_mm"][0].get<double>(), 1.0, 1e-9);
+  // Same box size, half the spacing: (12+1)(8+1)(8+1) vs (6+1)(4+1)(4+1) nodes.
+  EXPECT_GT(fine["lattice"]["alive_nodes_start"].get<double>(),
+            4.0 * coarse["lattice"]["alive_nodes_start"].get<double>());
+  EXPECT_EQ(fine["material"]["id"], "fat");
+  // The blade sweeps through both boxes: both were edited.
+  EXPECT_GT(coarse["totals"]["edits"].get<int>(), 0);
+  EXPECT_GT(fine["totals"]["edits"].get<int>(), 0);
+}
+
 /// The scene's lines without comments and without its top-level `effects:` block.
 std::vector<std::string> lines_without_effects(const fs::path& file, bool& had_effects) {
   std::istringstream in(read_text(file));
