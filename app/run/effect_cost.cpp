@@ -78,7 +78,7 @@ json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCost
       if (round == 1) warm_us = std::max(warm_us, clock.seconds() * 1e6 / kWarmSteps);
     }
   const int steps = static_cast<int>(std::clamp(
-      std::lround(options.seconds_per_repetition * 1e6 / std::max(warm_us, 1e-3)), 5L, 200L));
+      std::lround(options.seconds_per_repetition * 1e6 / std::max(warm_us, 1e-3)), 2L, 200L));
   for (int r = 0; r < options.repetitions; ++r)
     for (Configuration& c : configs) {
       Stopwatch clock;

@@ -19,7 +19,7 @@ namespace tsf::app {
 struct EffectCostOptions {
   int repetitions = 7;  ///< interleaved repetitions per configuration, ≥ 3
   /// Wall time one repetition aims at, s: the steps per repetition come from a timed warm-up
-  /// (clamped to [5, 200]), so small and large lattices cost about the same.
+  /// (clamped to [2, 200]), so small and large lattices cost about the same.
   double seconds_per_repetition = 0.1;
 };
 

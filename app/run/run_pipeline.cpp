@@ -311,6 +311,7 @@ json run_pipeline(const RunOptions& options) {
                          {"alive_nodes_start", ir["lattice"].value("alive_nodes_start", 0)},
                          {"alive_nodes_end", ir["lattice"].value("alive_nodes_end", 0)},
                          {"fixed_nodes", ir["lattice"].value("fixed_nodes", 0)},
+                         {"integrator", ir.value("integrator", "")},
                          {"dt_s", ir.value("dt_s", 0.0)},
                          {"steps", n_steps},
                          {"timings_s", ir["timings_s"]},

@@ -196,7 +196,8 @@ fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
   if (instances.size() > 1) {
     md << "## Tissue instances\n\nEvery tool acts on each instance; each has its own lattice, "
           "material, time step and outputs.\n\n"
-       << "| instance | labels | spacing | alive nodes (start → end) | anchored | material | dt | "
+       << "| instance | labels | spacing | alive nodes (start → end) | anchored | material | "
+          "integrator, dt | "
           "steps | stepping | node-steps/s | surface end |\n"
        << "| --- | --- | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | --- |\n";
     for (const json& in : instances) {
@@ -209,8 +210,8 @@ fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
          << in.value("alive_nodes_start", 0) << " → " << in.value("alive_nodes_end", 0) << " | "
          << in.value("fixed_nodes", 0) << " | "
          << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline") << " (E "
-         << number(m.value("youngs_modulus_pa", 0.0)) << " Pa) | " << seconds(in.value("dt_s", 0.0))
-         << " | " << in.value("steps", 0.0) << " | "
+         << number(m.value("youngs_modulus_pa", 0.0)) << " Pa) | " << in.value("integrator", "")
+         << ", " << seconds(in.value("dt_s", 0.0)) << " | " << in.value("steps", 0.0) << " | "
          << seconds(in["timings_s"].value("stepping", 0.0)) << " | "
          << number(in.value("node_steps_per_s", 0.0)) << " | "
          << in["surface"].value("triangles_end", 0) << " triangles, "

@@ -432,6 +432,7 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
           {"youngs_modulus_pa", inst.material.youngs_modulus_pa},
           {"density_g_per_mm3", inst.material.density_g_per_mm3}}},
         {"backend", solver.backend_name()},
+        {"integrator", crms::to_string(solver.config().integrator)},
         {"effects_active", solver.active_effects()},
         {"kernel_features", kernel_feature_list(solver.features())},
         {"bytes_per_node", solver.bytes_per_node()},

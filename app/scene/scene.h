@@ -125,6 +125,13 @@ struct SceneInstance {
   std::vector<SceneAnchor> anchors;
   SceneTissue tissue;
   crms::EffectsConfig effects;
+  /// Time integration (`tissues[i].solver`; default the scene's `solver`): a stiff instance (bone)
+  /// may step with implicit Euler at a frame-sized dt while soft tissue steps explicitly.
+  crms::Integrator integrator = crms::Integrator::kSymplecticEuler;
+  double dt_s = 0.0;  ///< 0 = automatic
+  double dt_safety = 0.9;
+  int newton_iterations = 8;
+  double newton_tolerance = 1e-7;
 };
 
 struct Scene {

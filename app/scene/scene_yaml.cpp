@@ -449,12 +449,42 @@ bool is_file_name_safe(const std::string& n) {
   return true;
 }
 
-/// One entry of `tissues:`. `default_effects` is the scene's top-level `effects:`.
+/// The scene-wide time integration an instance starts from.
+void inherit_integration(const Scene& s, SceneInstance& inst) {
+  inst.integrator = s.solver.integrator;
+  inst.dt_s = s.dt_s;
+  inst.dt_safety = s.dt_safety;
+  inst.newton_iterations = s.solver.implicit_newton_iterations;
+  inst.newton_tolerance = s.solver.implicit_tolerance;
+}
+
+/// `tissues[i].solver`: the instance's own integrator and step (the rest of `solver` is
+/// scene-wide).
+void read_instance_solver(const Field& f, const Scene& s, SceneInstance& inst) {
+  if (!f.defined()) return;
+  f.expect_keys({"integrator", "dt", "dt_safety", "newton_iterations", "newton_tolerance"});
+  using crms::Integrator;
+  inst.integrator =
+      f["integrator"].choice(inst.integrator, {{"explicit-euler", Integrator::kExplicitEuler},
+                                               {"symplectic-euler", Integrator::kSymplecticEuler},
+                                               {"implicit-euler", Integrator::kImplicitEuler}});
+  if (f["dt"].defined()) inst.dt_s = f["dt"].is_auto() ? 0.0 : f["dt"].number(0.0, 0.0, 1.0, true);
+  inst.dt_safety = f["dt_safety"].number(inst.dt_safety, 0.0, 10.0, true);
+  inst.newton_iterations =
+      static_cast<int>(f["newton_iterations"].integer(inst.newton_iterations, 1, 50));
+  inst.newton_tolerance = f["newton_tolerance"].number(inst.newton_tolerance, 0.0, 1.0);
+  if (inst.integrator == Integrator::kImplicitEuler && s.solver.backend == crms::Backend::kCuda)
+    f["integrator"].fail("implicit-euler runs on the CPU only: set solver.backend to cpu or auto");
+}
+
+/// One entry of `tissues:`. `s` holds the scene-wide solver and effects read so far.
 SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
-                            bool volume_from_pipeline, const crms::EffectsConfig& default_effects,
-                            LibraryRef& library) {
-  f.expect_keys({"name", "lattice", "material", "anchors", "tissue", "effects"});
+                            bool volume_from_pipeline, const Scene& s, LibraryRef& library) {
+  const crms::EffectsConfig& default_effects = s.solver.effects;
+  f.expect_keys({"name", "lattice", "material", "anchors", "tissue", "effects", "solver"});
   SceneInstance inst;
+  inherit_integration(s, inst);
+  read_instance_solver(f["solver"], s, inst);
   if (!f["name"].defined()) f["name"].fail("is required (names the instance's outputs)");
   inst.name = f["name"].text();
   if (!is_file_name_safe(inst.name))
@@ -484,6 +514,11 @@ Scene scene_for_instance(const Scene& scene, std::size_t index) {
   const bool present = scene.tissue.present;
   s.tissue = inst.tissue;
   s.tissue.present = present;
+  s.solver.integrator = inst.integrator;
+  s.solver.implicit_newton_iterations = inst.newton_iterations;
+  s.solver.implicit_tolerance = inst.newton_tolerance;
+  s.dt_s = inst.dt_s;
+  s.dt_safety = inst.dt_safety;
   s.instances = {inst};
   return s;
 }
@@ -551,8 +586,8 @@ Scene read_scene(const std::filesystem::path& file) {
   }
   if (s.multi_instance) {
     for (std::size_t i = 0; i < tissues.size(); ++i) {
-      SceneInstance inst = read_instance(tissues.at(i), file.parent_path(),
-                                         top["pipeline"].defined(), s.solver.effects, library);
+      SceneInstance inst =
+          read_instance(tissues.at(i), file.parent_path(), top["pipeline"].defined(), s, library);
       for (const SceneInstance& other : s.instances)
         if (other.name == inst.name)
           tissues.at(i)["name"].fail("'" + inst.name + "' is used twice");
@@ -575,6 +610,7 @@ Scene read_scene(const std::filesystem::path& file) {
     single.anchors = s.anchors;
     single.tissue = s.tissue;
     single.effects = s.solver.effects;
+    inherit_integration(s, single);
     s.instances.push_back(std::move(single));
   }
   // Cross-field checks with the library's own messages (they name material.* fields).
