@@ -20,7 +20,7 @@ struct EffectCostOptions {
   int repetitions = 7;  ///< interleaved repetitions per configuration, ≥ 3
   /// Wall time one repetition aims at, s: the steps per repetition come from a timed warm-up
   /// (clamped to [2, 200]), so small and large lattices cost about the same.
-  double seconds_per_repetition = 0.1;
+  double seconds_per_repetition = 0.05;
 };
 
 /// Step time per configuration (µs per step: median, min, max over the repetitions), its ratio
