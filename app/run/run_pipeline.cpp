@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <vector>
 
+#include "run/effect_cost.h"
 #include "run/material_library.h"
 #include "run/repo_paths.h"
 #include "run/run_report.h"
@@ -15,7 +17,6 @@
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
-#include "tsf/crms/effects.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/version.h"
 #ifdef TSF_HAVE_EXPORT
@@ -37,16 +38,6 @@ fs::path default_scene_path() {
 }
 
 namespace {
-
-json feature_list(unsigned features) {
-  namespace ft = crms::features;
-  json list = json::array();
-  if (features & ft::kSymmetricReactions) list.push_back("symmetric angular reactions");
-  if (features & ft::kCosineAngular) list.push_back("cosine angular form");
-  if (features & ft::kExternalForces) list.push_back("external forces");
-  if (features & ft::kHeterogeneous) list.push_back("per-node materials");
-  return list;
-}
 
 struct Stage {
   std::string name;
@@ -80,29 +71,48 @@ json run_pipeline(const RunOptions& options) {
                                                          : fs::path("out") / scene.name;
   fs::create_directories(folder);
 
-  // Material from the library.
-  json material_json = nullptr;
-  if (!spec.material.empty()) {
-    const fs::path lib_path =
-        spec.material_library.empty() ? default_material_library_path() : spec.material_library;
-    const MaterialLibrary lib = read_material_library(lib_path);
-    const LibraryMaterial* m = lib.find(spec.material);
+  // Materials from the library: pipeline.material (single form) or each instance's id.
+  const fs::path lib_path =
+      spec.material_library.empty() ? default_material_library_path() : spec.material_library;
+  std::optional<MaterialLibrary> library;
+  auto library_material = [&](const std::string& id, const std::string& key) {
+    if (!library) library = read_material_library(lib_path);
+    const LibraryMaterial* m = library->find(id);
     if (!m) {
       std::string known;
-      for (const auto& k : lib.materials) known += (known.empty() ? "" : ", ") + k.id;
-      throw Error(options.scene.string() + ": pipeline.material: no material '" + spec.material +
-                  "' in " + lib_path.string() + " (known: " + known + ")");
+      for (const auto& k : library->materials) known += (known.empty() ? "" : ", ") + k.id;
+      throw Error(options.scene.string() + ": " + key + ": no material '" + id + "' in " +
+                  lib_path.string() + " (known: " + known + ")");
     }
-    scene.solver.materials.at(0) = m->crms_material();
+    return *m;
+  };
+  if (!spec.material.empty()) {
+    const LibraryMaterial m = library_material(spec.material, "pipeline.material");
+    scene.solver.materials.at(0) = m.crms_material();
+    scene.instances.at(0).material = m.crms_material();
+    scene.instances.at(0).material_id = m.id;
+  }
+  json materials = json::array();
+  for (const SceneInstance& inst : scene.instances) {
+    if (inst.material_id.empty()) {
+      materials.push_back({{"instance", inst.name},
+                           {"id", nullptr},
+                           {"name", "inline (scene file)"},
+                           {"youngs_modulus_pa", inst.material.youngs_modulus_pa},
+                           {"density_g_per_mm3", inst.material.density_g_per_mm3}});
+      continue;
+    }
+    const LibraryMaterial m = library_material(inst.material_id, "material");
     json sources = json::array();
-    for (const auto& s : m->sources) sources.push_back(s.citation);
-    material_json = {{"id", m->id},
-                     {"name", m->name},
-                     {"library", lib_path.string()},
-                     {"youngs_modulus_pa", m->youngs_modulus_pa},
-                     {"damping_time_s", m->damping_time_s},
-                     {"density_g_per_mm3", m->density_g_per_mm3},
-                     {"sources", sources}};
+    for (const auto& src : m.sources) sources.push_back(src.citation);
+    materials.push_back({{"instance", inst.name},
+                         {"id", m.id},
+                         {"name", m.name},
+                         {"library", lib_path.string()},
+                         {"youngs_modulus_pa", m.youngs_modulus_pa},
+                         {"damping_time_s", m.damping_time_s},
+                         {"density_g_per_mm3", m.density_g_per_mm3},
+                         {"sources", sources}});
   }
   if (!options.backend.empty()) {
     if (options.backend == "cpu")
@@ -114,16 +124,19 @@ json run_pipeline(const RunOptions& options) {
     else
       throw Error("--backend: expected cpu, cuda or auto, got '" + options.backend + "'");
   }
-  crms::validate_solver_config(scene.solver);
+  for (std::size_t i = 0; i < scene.instances.size(); ++i)
+    crms::validate_solver_config(scene_for_instance(scene, i).solver);
   stages.push_back({"read scene", clock.seconds(), scene.file.string()});
 
   // import → segment (one job: tsf import's reader, then the preset's stages).
   json segmentation = nullptr;
   if (spec.present) {
-    if (scene.lattice.source != SceneLattice::Source::kVolume)
-      throw Error(options.scene.string() +
-                  ": lattice.source: a scene with a pipeline section builds its lattice from the "
-                  "segmented CT: expected source: volume");
+    for (const SceneInstance& inst : scene.instances)
+      if (inst.lattice.source != SceneLattice::Source::kVolume)
+        throw Error(options.scene.string() + ": " +
+                    (scene.multi_instance ? "tissues[" + inst.name + "]." : std::string()) +
+                    "lattice.source: a scene with a pipeline section builds its lattice from the "
+                    "segmented CT: expected source: volume");
 #ifdef TSF_HAVE_SEGMENT
     if (!fs::exists(spec.ct))
       throw Error(options.scene.string() + ": pipeline.source.ct: '" + spec.ct.string() +
@@ -156,6 +169,7 @@ json run_pipeline(const RunOptions& options) {
     stages.push_back({"write segmented volumes", write_s,
                       seg.volume_paths.density.filename().string() + ", labels, weights"});
     scene.lattice.volume = seg.volume_paths.density;
+    for (SceneInstance& inst : scene.instances) inst.lattice.volume = seg.volume_paths.density;
 #else
     throw Error(options.scene.string() +
                 ": pipeline: import and segmentation need a build with ITK "
@@ -175,22 +189,30 @@ json run_pipeline(const RunOptions& options) {
     scene.outputs.rest_mesh.clear();
   }
   scene.outputs.report.clear();
-  json energy = json::array();
-  std::int64_t frame = 0;
-  unsigned features = 0;
-  std::int64_t alive_nodes = 0;
-  run.on_frame = [&](double time_s, const interaction::TissueModel& model) {
-    if (frame++ == 0) {
-      features = model.solver().features();
-      alive_nodes = model.alive_nodes();
-    }
-    if ((frame - 1) % spec.energy_every != 0) return;
+  const std::size_t instance_count = scene.instances.size();
+  std::vector<json> energy(instance_count, json::array());
+  std::vector<std::int64_t> frames_seen(instance_count, 0), alive_nodes(instance_count, 0);
+  run.on_frame = [&](double time_s, std::size_t i, const interaction::TissueModel& model) {
+    if (frames_seen[i]++ == 0) alive_nodes[i] = model.alive_nodes();
+    if ((frames_seen[i] - 1) % spec.energy_every != 0) return;
     const crms::EnergyReport e = model.solver().energy();
-    energy.push_back({{"time_s", time_s},
-                      {"kinetic_nj", e.kinetic_nj},
-                      {"elastic_nj", e.elastic_nj},
-                      {"gravitational_nj", e.gravitational_nj},
-                      {"total_nj", e.total_nj()}});
+    energy[i].push_back({{"time_s", time_s},
+                         {"kinetic_nj", e.kinetic_nj},
+                         {"elastic_nj", e.elastic_nj},
+                         {"gravitational_nj", e.gravitational_nj},
+                         {"total_nj", e.total_nj()}});
+  };
+  // After the script: what the effects cost on each instance's final lattice (effect_cost.h).
+  double cost_s = 0;
+  run.extra_key = "effect_cost";
+  run.after_script = [&](std::size_t i, interaction::TissueModel& model) {
+    Stopwatch cost_clock;
+    if (!options.quiet)
+      std::printf("tsf run: measuring the effects' step cost on %s's lattice\n",
+                  scene.instances[i].name.c_str());
+    json cost = measure_effect_cost(model.solver(), model.dt(), EffectCostOptions{});
+    cost_s += cost_clock.seconds();
+    return cost;
   };
   clock.restart();
   json interaction;
@@ -207,30 +229,49 @@ json run_pipeline(const RunOptions& options) {
   }
   const double interaction_wall = clock.seconds();
   const json& timings = interaction["timings_s"];
-  const double setup_s = timings.value("setup", 0.0);
+  // One report per instance (a single-instance scene's report is the instance's).
+  const json instance_reports =
+      interaction.contains("instances") ? interaction["instances"] : json::array({interaction});
+  double setup_total = 0;
+  for (std::size_t i = 0; i < instance_reports.size(); ++i) {
+    const json& ir = instance_reports[i];
+    const double setup_s = ir["timings_s"].value("setup", 0.0);
+    setup_total += setup_s;
+    stages.push_back(
+        {"surface + lattice + coupler" +
+             (scene.multi_instance ? " (" + ir.value("instance", "") + ")" : std::string()),
+         setup_s,
+         std::to_string(ir["lattice"].value("alive_nodes_start", 0)) + " nodes at " +
+             std::to_string(ir["lattice"]["spacing_mm"][0].get<double>()).substr(0, 4) + " mm, " +
+             std::to_string(ir["surface"].value("triangles_start", 0)) + " triangles"});
+  }
   stages.push_back(
-      {"surface + lattice + coupler", setup_s,
-       std::to_string(interaction["lattice"].value("alive_nodes_start", 0)) + " nodes, " +
-           std::to_string(interaction["surface"].value("triangles_start", 0)) + " triangles"});
-  stages.push_back({"scripted interaction", timings.value("script", 0.0),
-                    std::to_string(interaction.value("frames", 0)) + " frames, " +
-                        std::to_string(interaction.value("steps", 0)) + " steps"});
-  stages.push_back({"write meshes",
-                    std::max(0.0, interaction_wall - setup_s - timings.value("script", 0.0)),
-                    run.mesh.empty() ? "none" : run.mesh.filename().string()});
+      {"scripted interaction", timings.value("script", 0.0),
+       std::to_string(interaction.value("frames", 0)) + " frames, " +
+           std::to_string(interaction.value("steps", 0)) + " steps" +
+           (scene.multi_instance ? " over " + std::to_string(instance_count) + " instances"
+                                 : std::string())});
+  stages.push_back({"effect cost measurement", cost_s,
+                    "step time with the scene's effects vs all off, interleaved"});
+  stages.push_back(
+      {"write meshes",
+       std::max(0.0, interaction_wall - setup_total - timings.value("script", 0.0) - cost_s),
+       run.mesh.empty() ? "none" : run.mesh.filename().string()});
 
   // Export formats (glTF binary) of the final surface when the export module is built.
   json exported = json::array();
 #ifdef TSF_HAVE_EXPORT
-  if (!run.mesh.empty() && fs::exists(run.mesh)) {
-    clock.restart();
+  clock.restart();
+  for (std::size_t i = 0; i < instance_reports.size(); ++i) {
+    const fs::path mesh = instance_output_path(run.mesh, scene, i);
+    if (mesh.empty() || !fs::exists(mesh)) continue;
     // The surface is in the tissue space of the (uncropped) volume: its geometry maps it to the
     // patient frame. Box scenes have an axis-aligned volume at the origin.
     VolumeGeometry geometry;
-    if (scene.lattice.source == SceneLattice::Source::kVolume) {
-      geometry = import::read_tissue_volume(scene.lattice.volume).geometry();
+    if (scene.instances[i].lattice.source == SceneLattice::Source::kVolume) {
+      geometry = import::read_tissue_volume(scene.instances[i].lattice.volume).geometry();
     } else {
-      const json& v = interaction["volume"];
+      const json& v = instance_reports[i]["volume"];
       for (int a = 0; a < 3; ++a) {
         geometry.dims[a] = v["dims"][a].get<int>();
         geometry.spacing[a] = v["spacing_mm"][a].get<double>();
@@ -239,15 +280,54 @@ json run_pipeline(const RunOptions& options) {
     }
     exporter::ExportOptions eo;
     eo.format = exporter::ExportFormat::glb;
-    eo.name = scene.name;
+    eo.name = scene.multi_instance ? scene.name + "-" + scene.instances[i].name : scene.name;
     eo.source = "tsf run " + scene.file.string();
-    const fs::path glb = folder / (scene.name + "-final.glb");
+    const fs::path glb = mesh.parent_path() / (mesh.stem().string() + ".glb");
     const exporter::ExportReport er =
-        exporter::export_surface(imt::read_surface_ply(run.mesh), geometry, glb, eo);
+        exporter::export_surface(imt::read_surface_ply(mesh), geometry, glb, eo);
     for (const auto& f : er.files) exported.push_back(f.path.filename().string());
-    stages.push_back({"export (glTF)", clock.seconds(), glb.filename().string()});
   }
+  if (!exported.empty()) stages.push_back({"export (glTF)", clock.seconds(), exported.dump()});
 #endif
+  // Per instance: material, effects, nodes, rates, energy, effect cost. Scene-wide energy is the
+  // sum over instances frame by frame (every instance advances every frame).
+  json instances = json::array();
+  std::set<std::string> effects_union;
+  double node_steps = 0;
+  for (std::size_t i = 0; i < instance_reports.size(); ++i) {
+    const json& ir = instance_reports[i];
+    const double st = ir["timings_s"].value("stepping", 0.0);
+    const double n_steps = ir.value("steps", 0.0);
+    node_steps += n_steps * double(alive_nodes[i]);
+    for (const auto& e : ir.value("effects_active", json::array()))
+      effects_union.insert(e.get<std::string>());
+    instances.push_back({{"name", scene.instances[i].name},
+                         {"material", materials[i]},
+                         {"effects_active", ir.value("effects_active", json::array())},
+                         {"kernel_features", ir.value("kernel_features", json::array())},
+                         {"bytes_per_node", ir.value("bytes_per_node", 0.0)},
+                         {"labels", ir["lattice"].value("labels", json::array())},
+                         {"lattice_spacing_mm", ir["lattice"]["spacing_mm"]},
+                         {"alive_nodes_start", ir["lattice"].value("alive_nodes_start", 0)},
+                         {"alive_nodes_end", ir["lattice"].value("alive_nodes_end", 0)},
+                         {"fixed_nodes", ir["lattice"].value("fixed_nodes", 0)},
+                         {"integrator", ir.value("integrator", "")},
+                         {"dt_s", ir.value("dt_s", 0.0)},
+                         {"steps", n_steps},
+                         {"timings_s", ir["timings_s"]},
+                         {"steps_per_s", st > 0 ? n_steps / st : 0.0},
+                         {"node_steps_per_s", st > 0 ? n_steps * double(alive_nodes[i]) / st : 0.0},
+                         {"surface", ir["surface"]},
+                         {"totals", ir["totals"]},
+                         {"outputs", ir["outputs"]},
+                         {"effect_cost", ir.value("effect_cost", json(nullptr))},
+                         {"energy", energy[i]}});
+  }
+  json energy_total = energy[0];
+  for (std::size_t i = 1; i < energy.size(); ++i)
+    for (std::size_t k = 0; k < energy_total.size() && k < energy[i].size(); ++k)
+      for (const char* key : {"kinetic_nj", "elastic_nj", "gravitational_nj", "total_nj"})
+        energy_total[k][key] = energy_total[k][key].get<double>() + energy[i][k][key].get<double>();
   const double stepping = timings.value("stepping", 0.0);
   const double steps = interaction.value("steps", 0.0);
   const double simulated = interaction.value("simulated_s", 0.0);
@@ -255,12 +335,14 @@ json run_pipeline(const RunOptions& options) {
       {"tsf_version", TSF_VERSION_STRING},
       {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
       {"output_folder", folder.string()},
-      {"material", material_json},
+      {"material", materials[0]},
       {"backend", interaction.value("backend", "")},
-      {"effects_active", feature_list(features)},
+      {"effects_active", json(effects_union)},
       {"effects_note",
-       "kernel features compiled into this run's step (crms/effects.h); a feature that is off is "
-       "not in the kernel and costs nothing"},
+       "effects the solver ran (crms::Solver::active_effects(), the scene's effects: section); "
+       "an effect that is off launches no pass and allocates no array. effect_cost per instance: "
+       "step time on the final lattice with the scene's effects vs all off, interleaved"},
+      {"instances", instances},
       {"stages", stages_json(stages)},
       {"rates",
        {{"steps", steps},
@@ -268,12 +350,12 @@ json run_pipeline(const RunOptions& options) {
         {"simulated_s", simulated},
         {"stepping_s", stepping},
         {"steps_per_s", stepping > 0 ? steps / stepping : 0.0},
-        {"node_steps_per_s", stepping > 0 ? steps * double(alive_nodes) / stepping : 0.0},
+        {"node_steps_per_s", stepping > 0 ? node_steps / stepping : 0.0},
         {"real_time_factor",
          timings.value("script", 0.0) > 0 ? simulated / timings.value("script", 0.0) : 0.0}}},
       {"segmentation", segmentation},
       {"interaction", interaction},
-      {"energy", energy},
+      {"energy", energy_total},
       {"exported", exported},
       {"failure", failure.empty() ? json(nullptr) : json(failure)},
   };

@@ -173,45 +173,120 @@ fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
     }
   }
 
-  // ---- edits, effects, material, outputs ----
-  const json& totals = interaction["totals"];
-  md << "## Edits\n\n"
-     << totals.value("edits", 0) << " edits removed " << number(totals.value("removed_mm3", 0.0))
-     << " mm³ of tissue, deleted " << totals.value("nodes_deleted", 0)
-     << " lattice nodes and broke " << totals.value("springs_broken", 0)
-     << " springs; edit → render-buffer latency p50 "
-     << number(interaction["edit_latency_us"].value("p50", 0.0)) << " µs, p99 "
-     << number(interaction["edit_latency_us"].value("p99", 0.0)) << " µs. The final surface is "
-     << (interaction["surface"].value("closed_manifold_end", false) ? "a closed manifold"
-                                                                    : "**not** a closed manifold")
-     << " (" << interaction["surface"].value("triangles_end", 0) << " triangles).\n\n";
+  // ---- edits ----
+  const json instances = r.value("instances", json::array());
+  md << "## Edits\n\n";
+  for (const json& in : instances) {
+    const json& totals = in["totals"];
+    const json& surface = in["surface"];
+    md << (instances.size() > 1 ? "- `" + in.value("name", "") + "`: " : std::string())
+       << totals.value("edits", 0) << " edits removed " << number(totals.value("removed_mm3", 0.0))
+       << " mm³ of tissue, deleted " << totals.value("nodes_deleted", 0)
+       << " lattice nodes and broke " << totals.value("springs_broken", 0)
+       << " springs. The final surface is "
+       << (surface.value("closed_manifold_end", false) ? "a closed manifold"
+                                                       : "**not** a closed manifold")
+       << " (" << surface.value("triangles_end", 0) << " triangles).\n";
+  }
+  const json latency = interaction.value("edit_latency_us", json::object());
+  md << "\nEdit → render-buffer latency p50 " << number(latency.value("p50", 0.0)) << " µs, p99 "
+     << number(latency.value("p99", 0.0)) << " µs.\n\n";
 
-  md << "## Effects active\n\n";
-  if (r["effects_active"].empty()) {
-    md << "None beyond the base lattice (exact angles, gather reactions).\n\n";
-  } else {
-    for (const json& e : r["effects_active"]) md << "- " << e.get<std::string>() << "\n";
+  // ---- tissue instances ----
+  if (instances.size() > 1) {
+    md << "## Tissue instances\n\nEvery tool acts on each instance; each has its own lattice, "
+          "material, time step and outputs.\n\n"
+       << "| instance | labels | spacing | alive nodes (start → end) | anchored | material | "
+          "integrator, dt | "
+          "steps | stepping | node-steps/s | surface end |\n"
+       << "| --- | --- | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | --- |\n";
+    for (const json& in : instances) {
+      std::string labels;
+      for (const json& l : in.value("labels", json::array()))
+        labels += (labels.empty() ? "" : ", ") + std::to_string(l.get<int>());
+      const json& m = in["material"];
+      md << "| " << in.value("name", "") << " | " << (labels.empty() ? "all" : labels) << " | "
+         << number(in["lattice_spacing_mm"][0].get<double>()) << " mm | "
+         << in.value("alive_nodes_start", 0) << " → " << in.value("alive_nodes_end", 0) << " | "
+         << in.value("fixed_nodes", 0) << " | "
+         << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline") << " (E "
+         << number(m.value("youngs_modulus_pa", 0.0)) << " Pa) | " << in.value("integrator", "")
+         << ", " << seconds(in.value("dt_s", 0.0)) << " | " << in.value("steps", 0.0) << " | "
+         << seconds(in["timings_s"].value("stepping", 0.0)) << " | "
+         << number(in.value("node_steps_per_s", 0.0)) << " | "
+         << in["surface"].value("triangles_end", 0) << " triangles, "
+         << (in["surface"].value("closed_manifold_end", false) ? "closed" : "**not closed**")
+         << " |\n";
+    }
     md << "\n";
   }
-  md << r.value("effects_note", "") << ". Scene-level effects (`effects:` in a scene: "
-     << "fluid pressure, plasticity, …) come with the CRMS effects work and will be listed here "
-     << "with their cost.\n\n";
 
-  if (r["material"].is_object()) {
-    const json& m = r["material"];
-    md << "## Material\n\n`" << m.value("id", "") << "` (" << m.value("name", "")
+  // ---- effects and their cost ----
+  md << "## Effects active\n\n";
+  for (const json& in : instances) {
+    const json active = in.value("effects_active", json::array());
+    std::string list;
+    for (const json& e : active) list += (list.empty() ? "" : ", ") + e.get<std::string>();
+    md << "- " << (instances.size() > 1 ? "`" + in.value("name", "") + "`: " : std::string())
+       << (list.empty() ? "none (the base lattice only)" : list) << "; "
+       << in.value("bytes_per_node", 0.0) << " bytes per node; kernel features: ";
+    std::string features;
+    for (const json& f : in.value("kernel_features", json::array()))
+      features += (features.empty() ? "" : ", ") + f.get<std::string>();
+    md << (features.empty() ? "none" : features) << "\n";
+  }
+  md << "\n" << r.value("effects_note", "") << ".\n\n";
+  for (const json& in : instances) {
+    const json& cost = in["effect_cost"];
+    if (!cost.is_object()) continue;
+    md << "### Effect cost" << (instances.size() > 1 ? ": " + in.value("name", "") : std::string())
+       << "\n\n"
+       << "Step time on the final lattice (" << cost.value("alive_nodes", 0) << " alive nodes, "
+       << cost.value("backend", "") << "), " << cost.value("repetitions", 0)
+       << " interleaved repetitions of " << cost.value("steps_per_repetition", 0)
+       << " steps each; median (min – max).\n\n"
+       << "| configuration | µs per step | ratio to off (medians) | ratio to off (minima) | bytes "
+          "per node |\n"
+       << "| --- | ---: | ---: | ---: | ---: |\n";
+    for (const json& c : cost["configurations"])
+      md << "| " << c.value("name", "") << (c.value("unstable", false) ? " (went unstable)" : "")
+         << " | " << number(c.value("median_us_per_step", 0.0)) << " ("
+         << number(c.value("min_us_per_step", 0.0)) << " – "
+         << number(c.value("max_us_per_step", 0.0)) << ") | "
+         << number(c.value("ratio_to_off", 0.0)) << " | "
+         << number(c.value("ratio_to_off_min", 0.0)) << " | "
+         << number(c.value("bytes_per_node", 0.0)) << " |\n";
+    md << "\nNoise band: the two identical \"off\" configurations differ by "
+       << number(100.0 * cost.value("noise_off_vs_off_again", 0.0), 2)
+       << " %; the repetitions of one configuration spread by up to "
+       << number(100.0 * cost.value("noise_largest_spread", 0.0), 2)
+       << " % (max − min over median). A ratio inside that band is no measurable cost; a disabled "
+          "effect allocates no bytes and launches no pass.\n\n";
+  }
+
+  bool any_material = false;
+  for (const json& in : instances) {
+    const json& m = in["material"];
+    if (!m.is_object() || !m["id"].is_string()) continue;
+    if (!any_material) md << "## Material\n\n";
+    any_material = true;
+    md << (instances.size() > 1 ? "`" + in.value("name", "") + "`: " : std::string()) << "`"
+       << m.value("id", "") << "` (" << m.value("name", "")
        << ") from the material library: E = " << number(m.value("youngs_modulus_pa", 0.0))
        << " Pa, damping time " << seconds(m.value("damping_time_s", 0.0)) << ", density "
        << number(m.value("density_g_per_mm3", 0.0)) << " g/mm³. Sources:\n\n";
-    for (const json& s : m["sources"]) md << "- " << s.get<std::string>() << "\n";
+    for (const json& src : m["sources"]) md << "- " << src.get<std::string>() << "\n";
     md << "\n";
   }
   md << "## Outputs\n\n";
-  const json& outs = interaction["outputs"];
-  for (const char* k : {"rest_mesh", "mesh"})
-    if (outs.contains(k) && outs[k].is_string())
-      md << "- " << (std::string(k) == "mesh" ? "final deformed, cut surface" : "rest surface")
-         << ": `" << fs::path(outs[k].get<std::string>()).filename().string() << "` (binary PLY)\n";
+  for (const json& in : instances) {
+    const json& outs = in["outputs"];
+    for (const char* k : {"rest_mesh", "mesh"})
+      if (outs.contains(k) && outs[k].is_string())
+        md << "- " << (instances.size() > 1 ? "`" + in.value("name", "") + "` " : std::string())
+           << (std::string(k) == "mesh" ? "final deformed, cut surface" : "rest surface") << ": `"
+           << fs::path(outs[k].get<std::string>()).filename().string() << "` (binary PLY)\n";
+  }
   if (r["segmentation"].is_object())
     md << "- segmented volume: `" << name << "-density.nrrd`, `" << name << "-labels.nrrd`, `"
        << name << "-weights.nrrd`, segmentation report `" << name << "-report.json`\n";

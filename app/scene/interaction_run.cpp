@@ -11,6 +11,7 @@
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/crms/effects.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/imt/mesh_topology.h"
 #include "tsf/imt/surface_ply.h"
@@ -19,6 +20,7 @@
 #include "tsf/io/mesh_sequence.h"
 #include "tsf/version.h"
 #include "tsf/volume/analytic_volumes.h"
+#include "tsf/volume/tissue_labels.h"
 #include "tsf/volume/volume_edits.h"
 #ifdef TSF_HAVE_IMPORT
 #include "tsf/import/tissue_volume_io.h"
@@ -61,6 +63,32 @@ VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
   return out;
 }
 
+/// Empties every voxel whose label is not in `labels` (density 0, label outside): the instance's
+/// surface and lattice are then built from its own segment classes only.
+[[maybe_unused]] void keep_labels(VoxelVolume& v, const std::vector<std::uint8_t>& labels,
+                                  const Scene& scene) {
+  bool keep[256] = {};
+  for (std::uint8_t l : labels) keep[l] = true;
+  float* d = v.density_for_tracked_write();
+  std::uint8_t* l = v.labels_for_tracked_write();
+  std::size_t kept = 0;
+  const auto n = static_cast<std::size_t>(v.geometry().dims.volume());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (keep[l[i]]) {
+      kept += d[i] > 0.0f;
+      continue;
+    }
+    d[i] = 0.0f;
+    l[i] = kLabelOutside;
+  }
+  v.mark_all_modified();
+  if (kept == 0)
+    throw Error(scene.file.string() + ": " +
+                (scene.multi_instance ? "tissues[" + scene.instances.at(0).name + "]." : "") +
+                "lattice.labels: no voxel of the volume" +
+                (scene.lattice.cropped ? " (after the crop)" : "") + " has these labels");
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -70,6 +98,13 @@ double percentile(std::vector<double> v, double p) {
 }
 
 }  // namespace
+
+std::filesystem::path instance_output_path(const std::filesystem::path& path, const Scene& scene,
+                                           std::size_t instance) {
+  if (path.empty() || !scene.multi_instance) return path;
+  return path.parent_path() / (path.stem().string() + "-" + scene.instances.at(instance).name +
+                               path.extension().string());
+}
 
 void apply_scene_anchors(crms::Lattice& lattice, const Scene& scene) {
   for (const SceneAnchor& a : scene.anchors) {
@@ -110,6 +145,7 @@ VoxelVolume scene_tissue_volume(const Scene& scene) {
 #ifdef TSF_HAVE_IMPORT
   VoxelVolume v = import::read_tissue_volume(sl.volume);
   if (sl.cropped) v = crop_volume(v, sl.crop_min_mm, sl.crop_max_mm, scene.file.string());
+  if (!sl.labels.empty()) keep_labels(v, sl.labels, scene);
   return v;
 #else
   throw Error(scene.file.string() +
@@ -150,13 +186,53 @@ interaction::TissueModelOptions tissue_model_options(const Scene& scene) {
   return o;
 }
 
-json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run) {
-  Stopwatch setup_clock;
-  const interaction::TissueModelOptions o = tissue_model_options(scene);
+namespace {
 
+json kernel_feature_list(unsigned features) {
+  namespace ft = crms::features;
+  json list = json::array();
+  if (features & ft::kSymmetricReactions) list.push_back("symmetric angular reactions");
+  if (features & ft::kCosineAngular) list.push_back("cosine angular form");
+  if (features & ft::kExternalForces) list.push_back("external forces");
+  if (features & ft::kHeterogeneous) list.push_back("per-node materials");
+  return list;
+}
+
+/// One tissue instance's model and what its run measured.
+struct InstanceRun {
+  Scene scene;  ///< scene_for_instance: the top-level fields are this instance's
+  std::string name;
+  std::unique_ptr<interaction::TissueModel> model;
+  VolumeGeometry vg;
+  double setup_s = 0;
+  imt::MeshTopology start_topology;
+  std::size_t start_components = 0;
+  std::int64_t start_alive = 0;
+  std::filesystem::path mesh_path, rest_mesh_path, states_path;
+  std::optional<io::MeshSequenceWriter> states;
+  json edits = json::array();
+  json contact_series = json::array();
+  std::vector<double> latencies_us;
+  double stepping_s = 0, couple_s = 0, contact_s = 0, max_force = 0;
+  std::int64_t steps = 0;
+  json extra;
+};
+
+/// Builds the instance's model, applies loads and the initial state, writes the rest mesh and
+/// opens the states file.
+void build_instance(InstanceRun& r) {
+  Stopwatch clock;
+  const Scene& scene = r.scene;
   VoxelVolume volume = scene_tissue_volume(scene);
-  const VolumeGeometry vg = volume.geometry();
-  interaction::TissueModel model(std::move(volume), o);
+  r.vg = volume.geometry();
+  try {
+    r.model =
+        std::make_unique<interaction::TissueModel>(std::move(volume), tissue_model_options(scene));
+  } catch (const Error& e) {
+    if (!scene.multi_instance) throw;
+    throw Error(scene.file.string() + ": tissues[" + r.name + "]: " + e.what());
+  }
+  interaction::TissueModel& model = *r.model;
   crms::Solver& solver = model.solver();
   const crms::Lattice& lattice = solver.lattice();
   if (!scene.loads.empty()) {
@@ -172,7 +248,7 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
           forces.push_back(to_float(load.force_un));
         }
       }
-    solver.set_external_forces(nodes, forces);
+    if (!nodes.empty()) solver.set_external_forces(nodes, forces);
   }
   if (scene.initial.scaled) {
     std::vector<Vec3f> u(static_cast<std::size_t>(lattice.node_count())), v(u.size());
@@ -186,21 +262,58 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
     solver.set_state(u, v);
     model.couple();
   }
-  const double setup_s = setup_clock.seconds();
+  r.setup_s = clock.seconds();
+  if (!r.rest_mesh_path.empty()) imt::write_surface_ply(r.rest_mesh_path, model.deformed_mesh());
+  // Streams to a temporary beside the file; it appears only when the run finishes.
+  if (!r.states_path.empty()) r.states.emplace(r.states_path, r.vg, model.deformed_mesh(), 0.0);
+  r.start_topology = imt::analyse_topology(model.surface().compact());
+  r.start_components = model.lattice_components();
+  r.start_alive = model.alive_nodes();
+}
 
+json edit_json(double t, const std::string& tool, const interaction::EditReport& r) {
+  return {{"time_s", t},
+          {"tool", tool},
+          {"mode", interaction::to_string(r.mode)},
+          {"removed_mm3", r.removed_mm3},
+          {"nodes_deleted", r.nodes_deleted},
+          {"springs_broken", r.springs_broken},
+          {"vertices_rebound", r.vertices_rebound},
+          {"vertices_added", r.vertices_added},
+          {"vertices_freed", r.vertices_freed},
+          {"triangles_changed", r.triangles_changed},
+          {"timings_us",
+           {{"map", r.map_us},
+            {"voxel_edit", r.edit_us},
+            {"remesh", r.remesh_us},
+            {"topology", r.topology_us},
+            {"rebind", r.rebind_us},
+            {"couple", r.couple_us},
+            {"total", r.total_us}}}};
+}
+
+}  // namespace
+
+json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run) {
+  if (scene.instances.empty())
+    throw Error(scene.file.string() + ": the scene has no tissue instance");
   // Outputs named by the command line win over the scene's.
   const std::filesystem::path mesh_path = !run.mesh.empty() ? run.mesh : scene.outputs.mesh;
   const std::filesystem::path report_path = !run.report.empty() ? run.report : scene.outputs.report;
-  if (!scene.outputs.rest_mesh.empty())
-    imt::write_surface_ply(scene.outputs.rest_mesh, model.deformed_mesh());
   const std::filesystem::path states_path = !run.states.empty() ? run.states : scene.outputs.states;
-  // Streams to a temporary beside the file; it appears only when the run finishes.
-  std::optional<io::MeshSequenceWriter> states;
-  if (!states_path.empty()) states.emplace(states_path, vg, model.deformed_mesh(), 0.0);
 
-  const imt::MeshTopology start_topology = imt::analyse_topology(model.surface().compact());
-  const std::size_t start_components = model.lattice_components();
-  const std::int64_t start_alive = model.alive_nodes();
+  std::vector<std::unique_ptr<InstanceRun>> runs;
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    auto r = std::make_unique<InstanceRun>();
+    r->scene = scene_for_instance(scene, i);
+    r->scene.multi_instance = scene.multi_instance;
+    r->name = scene.instances[i].name;
+    r->mesh_path = instance_output_path(mesh_path, scene, i);
+    r->rest_mesh_path = instance_output_path(scene.outputs.rest_mesh, scene, i);
+    r->states_path = instance_output_path(states_path, scene, i);
+    build_instance(*r);
+    runs.push_back(std::move(r));
+  }
 
   // The script: frames of 1/frame_rate s; events at the first frame at or after their time.
   const SceneScript& script = scene.script;
@@ -217,36 +330,19 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
   const auto frames = static_cast<std::int64_t>(std::ceil(duration / frame - 1e-9));
   std::vector<bool> event_done(script.events.size(), false);
 
-  json edits = json::array(), contact_series = json::array();
-  std::vector<double> latencies_us;
-  double max_force = 0, stepping_s = 0, couple_s = 0, contact_s = 0;
-  std::int64_t steps = 0;
+  json contact_series = json::array();  // the tool's force: the sum over instances
+  double max_force = 0;
   std::optional<crms::Instability> instability;
+  std::string unstable_instance;
   Stopwatch run_clock;
   Progress progress("simulate " + scene.name,
                     static_cast<std::uint64_t>(std::max<std::int64_t>(frames, 0)),
                     !run.quiet && Progress::stderr_is_terminal());
-  auto record_edit = [&](double t, const std::string& tool, const interaction::EditReport& r) {
-    if (!r.edited) return;
-    latencies_us.push_back(r.total_us);
-    edits.push_back({{"time_s", t},
-                     {"tool", tool},
-                     {"mode", interaction::to_string(r.mode)},
-                     {"removed_mm3", r.removed_mm3},
-                     {"nodes_deleted", r.nodes_deleted},
-                     {"springs_broken", r.springs_broken},
-                     {"vertices_rebound", r.vertices_rebound},
-                     {"vertices_added", r.vertices_added},
-                     {"vertices_freed", r.vertices_freed},
-                     {"triangles_changed", r.triangles_changed},
-                     {"timings_us",
-                      {{"map", r.map_us},
-                       {"voxel_edit", r.edit_us},
-                       {"remesh", r.remesh_us},
-                       {"topology", r.topology_us},
-                       {"rebind", r.rebind_us},
-                       {"couple", r.couple_us},
-                       {"total", r.total_us}}}});
+  auto record_edit = [](InstanceRun& r, double t, const std::string& tool,
+                        const interaction::EditReport& e) {
+    if (!e.edited) return;
+    r.latencies_us.push_back(e.total_us);
+    r.edits.push_back(edit_json(t, tool, e));
   };
   for (std::int64_t f = 0; f < frames && !instability; ++f) {
     const double t = static_cast<double>(f) * frame;
@@ -255,10 +351,12 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
       if (event_done[e] || ev.time_s > t + 1e-12) continue;
       event_done[e] = true;
       const interaction::Tool& tool = scene.find_tool(ev.tool)->tool;
-      model.release_tool();
-      model.apply_tool(tool, ev.from, ev.mode);
-      record_edit(t, ev.tool, model.apply_tool(tool, ev.to, ev.mode));
-      model.release_tool();
+      for (auto& r : runs) {
+        r->model->release_tool();
+        r->model->apply_tool(tool, ev.from, ev.mode);
+        record_edit(*r, t, ev.tool, r->model->apply_tool(tool, ev.to, ev.mode));
+        r->model->release_tool();
+      }
     }
     for (std::size_t i = 0; i < trajectories.size(); ++i) {
       const interaction::TrajectorySample s = trajectories[i].sample(t);
@@ -266,123 +364,214 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
       if (!active) continue;
       const std::string& name = script.trajectories[i].tool;
       const interaction::Tool& tool = scene.find_tool(name)->tool;
-      record_edit(t, name, model.apply_tool(tool, s.pose, s.mode));
+      for (auto& r : runs) record_edit(*r, t, name, r->model->apply_tool(tool, s.pose, s.mode));
     }
-    const interaction::AdvanceReport a = model.advance(frame);
-    steps += a.steps;
-    stepping_s += a.step_us * 1e-6;
-    contact_s += a.contact_us * 1e-6;
-    couple_s += a.couple_us * 1e-6;
-    if (a.instability) instability = a.instability;
-    if (run.on_frame) run.on_frame(t + frame, model);
-    const collision::ContactForce& c = model.contact();
-    max_force = std::max(max_force, length(c.force_un));
-    if (c.nodes_held > 0 || !contact_series.empty())
+    Vec3d force{0, 0, 0}, torque{0, 0, 0};
+    std::int64_t held = 0;
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      InstanceRun& r = *runs[i];
+      const interaction::AdvanceReport a = r.model->advance(frame);
+      r.steps += a.steps;
+      r.stepping_s += a.step_us * 1e-6;
+      r.contact_s += a.contact_us * 1e-6;
+      r.couple_s += a.couple_us * 1e-6;
+      if (a.instability && !instability) {
+        instability = a.instability;
+        unstable_instance = r.name;
+      }
+      if (run.on_frame) run.on_frame(t + frame, i, *r.model);
+      const collision::ContactForce& c = r.model->contact();
+      r.max_force = std::max(r.max_force, length(c.force_un));
+      if (c.nodes_held > 0 || !r.contact_series.empty())
+        r.contact_series.push_back({{"time_s", t + frame},
+                                    {"force_un", vec(c.force_un)},
+                                    {"torque_un_mm", vec(c.torque_un_mm)},
+                                    {"nodes_held", c.nodes_held}});
+      force = force + c.force_un;
+      torque = torque + c.torque_un_mm;
+      held += static_cast<std::int64_t>(c.nodes_held);
+      if (r.states && (f + 1) % scene.outputs.states_every == 0 && f + 1 < frames)
+        r.states->add_frame(t + frame, r.model->deformed_mesh());
+    }
+    max_force = std::max(max_force, length(force));
+    if (held > 0 || !contact_series.empty())
       contact_series.push_back({{"time_s", t + frame},
-                                {"force_un", vec(c.force_un)},
-                                {"torque_un_mm", vec(c.torque_un_mm)},
-                                {"nodes_held", c.nodes_held}});
-    if (states && (f + 1) % scene.outputs.states_every == 0 && f + 1 < frames)
-      states->add_frame(t + frame, model.deformed_mesh());
+                                {"force_un", vec(force)},
+                                {"torque_un_mm", vec(torque)},
+                                {"nodes_held", held}});
     progress.set(static_cast<std::uint64_t>(f + 1));
   }
   progress.finish();
-  model.release_tool();
+  for (auto& r : runs) r->model->release_tool();
   const double run_s = run_clock.seconds();
 
-  const imt::SurfaceMesh final_mesh = model.deformed_mesh();
-  if (states) {
-    if (frames > 0) states->add_frame(static_cast<double>(frames) * frame, final_mesh);
-    states->finish();
+  json instance_reports = json::array();
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    InstanceRun& r = *runs[i];
+    interaction::TissueModel& model = *r.model;
+    const crms::Solver& solver = model.solver();
+    const crms::Lattice& lattice = solver.lattice();
+    const imt::SurfaceMesh final_mesh = model.deformed_mesh();
+    if (r.states) {
+      if (frames > 0) r.states->add_frame(static_cast<double>(frames) * frame, final_mesh);
+      r.states->finish();
+    }
+    const imt::MeshTopology end_topology = imt::analyse_topology(final_mesh);
+    if (!r.mesh_path.empty()) imt::write_surface_ply(r.mesh_path, final_mesh);
+    const interaction::LatticeComponents pieces = interaction::find_lattice_components(lattice);
+    std::size_t free_pieces = 0;
+    for (std::uint8_t a : pieces.anchored) free_pieces += a ? 0 : 1;
+    const interaction::InteractionTotals& tot = model.totals();
+    const crms::LatticeGeometry& lg = lattice.geometry();
+    const VolumeGeometry& vg = r.vg;
+    std::int64_t fixed_nodes = 0;
+    for (std::int64_t n = 0; n < lattice.node_count(); ++n)
+      fixed_nodes += lattice.alive(n) && lattice.fixed(n);
+    const SceneInstance& inst = scene.instances[i];
+    json report = {
+        {"tsf_version", TSF_VERSION_STRING},
+        {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
+        {"instance", r.name},
+        {"material",
+         {{"id", inst.material_id.empty() ? json(nullptr) : json(inst.material_id)},
+          {"youngs_modulus_pa", inst.material.youngs_modulus_pa},
+          {"density_g_per_mm3", inst.material.density_g_per_mm3}}},
+        {"backend", solver.backend_name()},
+        {"integrator", crms::to_string(solver.config().integrator)},
+        {"effects_active", solver.active_effects()},
+        {"kernel_features", kernel_feature_list(solver.features())},
+        {"bytes_per_node", solver.bytes_per_node()},
+        {"coupler",
+         r.scene.tissue.coupler == coupler::CouplerMode::kTrilinear ? "trilinear" : "local-frame"},
+        {"volume",
+         {{"dims", json::array({vg.dims.x, vg.dims.y, vg.dims.z})},
+          {"spacing_mm", vec(vg.spacing)},
+          {"origin_mm", vec(vg.origin)},
+          {"tissue_bounds_mm",
+           {vec(vg.origin), vec(vg.index_to_tissue({double(vg.dims.x - 1), double(vg.dims.y - 1),
+                                                    double(vg.dims.z - 1)}))}}}},
+        {"lattice",
+         {{"dims", json::array({lg.dims.x, lg.dims.y, lg.dims.z})},
+          {"spacing_mm", vec(lg.spacing)},
+          {"labels", inst.lattice.labels},
+          {"alive_nodes_start", r.start_alive},
+          {"alive_nodes_end", model.alive_nodes()},
+          {"fixed_nodes", fixed_nodes},
+          {"components_start", r.start_components},
+          {"components_end", pieces.count()},
+          {"free_components_end", free_pieces},
+          {"component_sizes_end", pieces.sizes}}},
+        {"surface",
+         {{"vertices_start", r.start_topology.vertices},
+          {"triangles_start", r.start_topology.triangles},
+          {"vertices_end", end_topology.vertices},
+          {"triangles_end", end_topology.triangles},
+          {"components_end", end_topology.components},
+          {"closed_manifold_end", end_topology.closed_oriented_manifold()}}},
+        {"dt_s", model.dt()},
+        {"frame_rate_hz", script.frame_rate_hz},
+        {"frames", frames},
+        {"steps", r.steps},
+        {"simulated_s", static_cast<double>(r.steps) * model.dt()},
+        {"totals",
+         {{"edits", tot.edits},
+          {"removed_mm3", tot.removed_mm3},
+          {"nodes_deleted", tot.nodes_deleted},
+          {"springs_broken", tot.springs_broken},
+          {"vertices_rebound", tot.vertices_rebound}}},
+        {"edit_latency_us",
+         {{"p50", percentile(r.latencies_us, 0.5)},
+          {"p99", percentile(r.latencies_us, 0.99)},
+          {"max", r.latencies_us.empty()
+                      ? 0.0
+                      : *std::max_element(r.latencies_us.begin(), r.latencies_us.end())}}},
+        {"max_tool_force_un", r.max_force},
+        {"timings_s",
+         {{"setup", r.setup_s},
+          // One instance: the script's wall time. Several: this instance's share (its stepping,
+          // contacts and coupling; edits are in edits[].timings_us).
+          {"script", runs.size() == 1 ? run_s : r.stepping_s + r.contact_s + r.couple_s},
+          {"stepping", r.stepping_s},
+          {"contacts", r.contact_s},
+          {"coupling", r.couple_s}}},
+        {"outputs",
+         {{"mesh", r.mesh_path.empty() ? json(nullptr) : json(r.mesh_path.string())},
+          {"rest_mesh", r.rest_mesh_path.empty() ? json(nullptr) : json(r.rest_mesh_path.string())},
+          {"states", r.states_path.empty() ? json(nullptr) : json(r.states_path.string())},
+          {"states_saved", r.states ? json(r.states->frame_count()) : json(nullptr)}}},
+        {"instability", instability && unstable_instance == r.name ? json(instability->describe())
+                                                                   : json(nullptr)},
+        {"edits", r.edits},
+        {"contact", r.contact_series},
+    };
+    if (run.after_script && !instability) report[run.extra_key] = run.after_script(i, model);
+    instance_reports.push_back(std::move(report));
+    if (!run.quiet) {
+      std::printf(
+          "%s: %lld frames (%lld steps of %.3g s) on %s; %zu edits removed %.4g mm³, %zu nodes "
+          "deleted, %zu springs broken; lattice %zu → %zu pieces (%zu free); surface %zu → %zu "
+          "triangles, %s; edit → render buffer p50 %.0f µs, p99 %.0f µs\n",
+          scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
+          static_cast<long long>(frames), static_cast<long long>(r.steps), model.dt(),
+          solver.backend_name().c_str(), tot.edits, tot.removed_mm3, tot.nodes_deleted,
+          tot.springs_broken, r.start_components, pieces.count(), free_pieces,
+          r.start_topology.triangles, end_topology.triangles,
+          end_topology.closed_oriented_manifold() ? "closed manifold" : "NOT a closed manifold",
+          percentile(r.latencies_us, 0.5), percentile(r.latencies_us, 0.99));
+      if (!r.mesh_path.empty()) std::printf("wrote %s\n", r.mesh_path.string().c_str());
+      if (r.states)
+        std::printf("wrote %s (rest + %zu states)\n", r.states_path.string().c_str(),
+                    r.states->frame_count());
+    }
   }
-  const imt::MeshTopology end_topology = imt::analyse_topology(final_mesh);
-  if (!mesh_path.empty()) imt::write_surface_ply(mesh_path, final_mesh);
-  const interaction::LatticeComponents pieces = interaction::find_lattice_components(lattice);
-  std::size_t free_pieces = 0;
-  for (std::uint8_t a : pieces.anchored) free_pieces += a ? 0 : 1;
-  const interaction::InteractionTotals& tot = model.totals();
-  const crms::LatticeGeometry& lg = lattice.geometry();
-  json report = {
-      {"tsf_version", TSF_VERSION_STRING},
-      {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
-      {"backend", solver.backend_name()},
-      {"coupler",
-       scene.tissue.coupler == coupler::CouplerMode::kTrilinear ? "trilinear" : "local-frame"},
-      {"volume",
-       {{"dims", json::array({vg.dims.x, vg.dims.y, vg.dims.z})},
-        {"spacing_mm", vec(vg.spacing)},
-        {"origin_mm", vec(vg.origin)},
-        {"tissue_bounds_mm",
-         {vec(vg.origin), vec(vg.index_to_tissue({double(vg.dims.x - 1), double(vg.dims.y - 1),
-                                                  double(vg.dims.z - 1)}))}}}},
-      {"lattice",
-       {{"dims", json::array({lg.dims.x, lg.dims.y, lg.dims.z})},
-        {"spacing_mm", vec(lg.spacing)},
-        {"alive_nodes_start", start_alive},
-        {"alive_nodes_end", model.alive_nodes()},
-        {"components_start", start_components},
-        {"components_end", pieces.count()},
-        {"free_components_end", free_pieces},
-        {"component_sizes_end", pieces.sizes}}},
-      {"surface",
-       {{"vertices_start", start_topology.vertices},
-        {"triangles_start", start_topology.triangles},
-        {"vertices_end", end_topology.vertices},
-        {"triangles_end", end_topology.triangles},
-        {"components_end", end_topology.components},
-        {"closed_manifold_end", end_topology.closed_oriented_manifold()}}},
-      {"dt_s", model.dt()},
-      {"frame_rate_hz", script.frame_rate_hz},
-      {"frames", frames},
-      {"steps", steps},
-      {"simulated_s", static_cast<double>(steps) * model.dt()},
-      {"totals",
-       {{"edits", tot.edits},
-        {"removed_mm3", tot.removed_mm3},
-        {"nodes_deleted", tot.nodes_deleted},
-        {"springs_broken", tot.springs_broken},
-        {"vertices_rebound", tot.vertices_rebound}}},
-      {"edit_latency_us",
-       {{"p50", percentile(latencies_us, 0.5)},
-        {"p99", percentile(latencies_us, 0.99)},
-        {"max", latencies_us.empty()
-                    ? 0.0
-                    : *std::max_element(latencies_us.begin(), latencies_us.end())}}},
-      {"max_tool_force_un", max_force},
-      {"timings_s",
-       {{"setup", setup_s},
-        {"script", run_s},
-        {"stepping", stepping_s},
-        {"contacts", contact_s},
-        {"coupling", couple_s}}},
-      {"outputs",
-       {{"mesh", mesh_path.empty() ? json(nullptr) : json(mesh_path.string())},
-        {"rest_mesh",
-         scene.outputs.rest_mesh.empty() ? json(nullptr) : json(scene.outputs.rest_mesh.string())},
-        {"states", states_path.empty() ? json(nullptr) : json(states_path.string())},
-        {"states_saved", states ? json(states->frame_count()) : json(nullptr)}}},
-      {"instability", instability ? json(instability->describe()) : json(nullptr)},
-      {"edits", edits},
-      {"contact", contact_series},
-  };
+
+  json report;
+  if (runs.size() == 1) {
+    report = std::move(instance_reports[0]);
+  } else {
+    // Scene-wide: the frames, the script's wall time, sums of each instance's costs and totals.
+    double setup = 0, stepping = 0, contacts = 0, coupling = 0, removed = 0;
+    std::int64_t steps = 0, edits = 0;
+    std::vector<double> latencies;
+    for (const auto& r : runs) {
+      setup += r->setup_s;
+      stepping += r->stepping_s;
+      contacts += r->contact_s;
+      coupling += r->couple_s;
+      steps += r->steps;
+      edits += static_cast<std::int64_t>(r->model->totals().edits);
+      removed += r->model->totals().removed_mm3;
+      latencies.insert(latencies.end(), r->latencies_us.begin(), r->latencies_us.end());
+    }
+    report = {
+        {"tsf_version", TSF_VERSION_STRING},
+        {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
+        {"backend", runs[0]->model->solver().backend_name()},
+        {"frame_rate_hz", script.frame_rate_hz},
+        {"frames", frames},
+        {"steps", steps},
+        {"simulated_s", static_cast<double>(frames) * frame},
+        {"totals", {{"edits", edits}, {"removed_mm3", removed}}},
+        {"edit_latency_us",
+         {{"p50", percentile(latencies, 0.5)}, {"p99", percentile(latencies, 0.99)}}},
+        {"max_tool_force_un", max_force},
+        {"timings_s",
+         {{"setup", setup},
+          {"script", run_s},
+          {"stepping", stepping},
+          {"contacts", contacts},
+          {"coupling", coupling}}},
+        {"instability",
+         instability ? json(unstable_instance + ": " + instability->describe()) : json(nullptr)},
+        {"contact", contact_series},
+        {"instances", std::move(instance_reports)},
+    };
+  }
   if (!report_path.empty()) write_text_atomically(report_path, report.dump(2) + "\n");
-  if (!run.quiet) {
-    std::printf(
-        "%s: %lld frames (%lld steps of %.3g s) on %s; %zu edits removed %.4g mm³, %zu nodes "
-        "deleted, %zu springs broken; lattice %zu → %zu pieces (%zu free); surface %zu → %zu "
-        "triangles, %s; edit → render buffer p50 %.0f µs, p99 %.0f µs\n",
-        scene.name.c_str(), static_cast<long long>(frames), static_cast<long long>(steps),
-        model.dt(), solver.backend_name().c_str(), tot.edits, tot.removed_mm3, tot.nodes_deleted,
-        tot.springs_broken, start_components, pieces.count(), free_pieces, start_topology.triangles,
-        end_topology.triangles,
-        end_topology.closed_oriented_manifold() ? "closed manifold" : "NOT a closed manifold",
-        percentile(latencies_us, 0.5), percentile(latencies_us, 0.99));
-    if (!mesh_path.empty()) std::printf("wrote %s\n", mesh_path.string().c_str());
-    if (states)
-      std::printf("wrote %s (rest + %zu states)\n", states_path.string().c_str(),
-                  states->frame_count());
-  }
-  if (instability) throw Error("unstable: " + instability->describe());
+  if (instability)
+    throw Error("unstable" +
+                (scene.multi_instance ? " (" + unstable_instance + ")" : std::string()) + ": " +
+                instability->describe());
   return report;
 }
 

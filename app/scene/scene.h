@@ -3,8 +3,8 @@
 //
 // Every key is checked: an unknown key, a wrong type or an out-of-range value is an error naming
 // the file and the key path (`beam.yaml: lattice.spacing: expected a number > 0, got -1`).
-// Schema and examples: docs/crms.md ("Scenes"), docs/deform-cut.md (tissue, tools, script,
-// outputs), scenes/*.yaml.
+// Schema and examples: docs/scenes.md (tissue instances, pipeline), docs/crms.md ("Scenes"),
+// docs/deform-cut.md (tissue, tools, script, outputs), scenes/*.yaml.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +37,9 @@ struct SceneLattice {
   /// volume: region of interest, tissue-space mm (the voxels whose centres lie in the box).
   bool cropped = false;
   Vec3d crop_min_mm, crop_max_mm;
+  /// volume: the segment labels this lattice takes (tissue_labels.h); voxels of other labels are
+  /// emptied (density 0, label outside) before the surface and lattice are built. Empty = all.
+  std::vector<std::uint8_t> labels;
 };
 
 /// The interactive tissue (R1 voxels, R2 surface, coupler) that tools edit. Present when the
@@ -112,6 +115,26 @@ struct SceneInitialState {
   Vec3d about_mm{0, 0, 0};
 };
 
+/// One tissue instance of a scene: its own lattice (source, spacing, crop, labels), material,
+/// anchors, tissue/coupler options and effects. Tools and the script act on every instance; each
+/// has its own surface, lattice, solver (and time step) and outputs.
+struct SceneInstance {
+  std::string name;  ///< unique in the scene; names the instance's output files
+  SceneLattice lattice;
+  crms::Material material;
+  std::string material_id;  ///< library id when the material came from the library, else empty
+  std::vector<SceneAnchor> anchors;
+  SceneTissue tissue;
+  crms::EffectsConfig effects;
+  /// Time integration (`tissues[i].solver`; default the scene's `solver`): a stiff instance (bone)
+  /// may step with implicit Euler at a frame-sized dt while soft tissue steps explicitly.
+  crms::Integrator integrator = crms::Integrator::kSymplecticEuler;
+  double dt_s = 0.0;  ///< 0 = automatic
+  double dt_safety = 0.9;
+  int newton_iterations = 8;
+  double newton_tolerance = 1e-7;
+};
+
 struct Scene {
   std::filesystem::path file;
   std::string name;
@@ -130,6 +153,12 @@ struct Scene {
   std::vector<SceneTool> tools;
   SceneScript script;
   SceneOutputs outputs;
+  /// The tissue instances. Single form (top-level lattice, material, anchors, tissue, effects):
+  /// one instance named after the scene, and the top-level fields above are that instance.
+  /// `tissues:` form: one per list entry, and the top-level lattice, material, anchors, tissue
+  /// and effects are the first instance's (what `tsf simulate`/`view`/`haptics` use).
+  std::vector<SceneInstance> instances;
+  bool multi_instance = false;  ///< the scene used the `tissues:` list
 
   const SceneTool* find_tool(const std::string& tool_name) const {
     for (const SceneTool& t : tools)
@@ -137,6 +166,11 @@ struct Scene {
     return nullptr;
   }
 };
+
+/// A copy of `scene` whose top-level lattice, material, anchors, tissue options and effects are
+/// instance `index`'s (and whose instance list holds only it): the form every single-tissue
+/// function (scene_tissue_volume, tissue_model_options, apply_scene_anchors) takes.
+Scene scene_for_instance(const Scene& scene, std::size_t index);
 
 /// Reads and validates a scene; relative paths inside it are resolved against its folder.
 /// Throws tsf::Error "FILE: key.path: what is wrong".

@@ -1,11 +1,14 @@
 // Strict YAML reading of a tsf scene (scene.h). yaml-cpp stays in app/: tissue/ never sees it.
 #include <yaml-cpp/yaml.h>
 
+#include <cctype>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
 
+#include "run/material_library.h"
 #include "scene/scene.h"
 #include "tsf/common/error.h"
 #include "tsf/volume/tissue_labels.h"
@@ -23,13 +26,13 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
                   bool volume_from_pipeline) {
   if (!f.defined()) f.fail("is required");
   f.expect_keys({"source", "size", "spacing", "origin", "volume", "node_spacing_voxels",
-                 "occupancy_threshold", "mass_floor", "crop"});
+                 "occupancy_threshold", "mass_floor", "crop", "labels"});
   l.source = f["source"].choice(
       SceneLattice::Source::kBox,
       {{"box", SceneLattice::Source::kBox}, {"volume", SceneLattice::Source::kVolume}});
   if (l.source == SceneLattice::Source::kBox) {
     for (const char* k :
-         {"volume", "node_spacing_voxels", "occupancy_threshold", "mass_floor", "crop"})
+         {"volume", "node_spacing_voxels", "occupancy_threshold", "mass_floor", "crop", "labels"})
       if (f[k].defined()) f[k].fail("only for source: volume");
     if (!f["size"].defined()) f["size"].fail("is required for source: box");
     l.size_mm = f["size"].vec3({});
@@ -66,11 +69,47 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
         if (!(l.crop_max_mm[a] > l.crop_min_mm[a]))
           crop["max"].fail("must exceed min on every axis");
     }
+    const Field labels = f["labels"];
+    if (labels.defined()) {
+      if (!labels.node().IsSequence() || labels.size() == 0)
+        labels.fail("expected a non-empty list of tissue label names or numbers");
+      for (std::size_t i = 0; i < labels.size(); ++i) {
+        const std::uint8_t label = parse_label(labels.at(i));
+        for (std::uint8_t other : l.labels)
+          if (other == label) labels.at(i).fail("is listed twice");
+        l.labels.push_back(label);
+      }
+    }
   }
 }
 
-void read_material(const Field& f, crms::Material& m) {
-  if (!f.defined()) f.fail("is required");
+/// The material library a scene's library ids refer to: pipeline.material_library, else the
+/// bundled materials/tissues.yaml (read once, on the first id).
+struct LibraryRef {
+  std::filesystem::path path;
+  std::optional<MaterialLibrary> library;
+  const MaterialLibrary& get() {
+    if (!library)
+      library = read_material_library(path.empty() ? default_material_library_path() : path);
+    return *library;
+  }
+};
+
+/// `material:` inline (a map of E, G, η, ρ) or a library id (a string); returns the id or "".
+std::string read_material(const Field& f, crms::Material& m, LibraryRef& library) {
+  if (!f.defined()) f.fail("is required (a material library id or an inline material)");
+  if (f.node().IsScalar()) {
+    const std::string id = f.text();
+    const MaterialLibrary& lib = library.get();
+    const LibraryMaterial* found = lib.find(id);
+    if (!found) {
+      std::string known;
+      for (const auto& k : lib.materials) known += (known.empty() ? "" : ", ") + k.id;
+      f.fail("no material '" + id + "' in " + lib.file.string() + " (known: " + known + ")");
+    }
+    m = found->crms_material();
+    return id;
+  }
   f.expect_keys({"youngs_modulus", "shear_modulus", "viscosity", "density"});
   if (!f["youngs_modulus"].defined()) f["youngs_modulus"].fail("is required (Pa)");
   m.youngs_modulus_pa = f["youngs_modulus"].number(0, 1.0, 1e11);
@@ -79,6 +118,7 @@ void read_material(const Field& f, crms::Material& m) {
                            : f["shear_modulus"].number(0.0, 0.0, 10.0 * m.youngs_modulus_pa);
   m.viscosity_pa_s = f["viscosity"].number(0.0, 0.0, 1e6);
   m.density_g_per_mm3 = f["density"].number(1e-3, 1e-6, 1e-1);
+  return "";
 }
 
 void read_solver(const Field& f, Scene& s) {
@@ -395,7 +435,87 @@ void read_effects(const Field& f, crms::EffectsConfig& e) {
   }
 }
 
+/// Output file names are built from instance names: letters, digits, '-' and '_' only.
+bool is_file_name_safe(const std::string& n) {
+  if (n.empty() || n.size() > 64) return false;
+  for (char c : n)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_')) return false;
+  return true;
+}
+
+/// The scene-wide time integration an instance starts from.
+void inherit_integration(const Scene& s, SceneInstance& inst) {
+  inst.integrator = s.solver.integrator;
+  inst.dt_s = s.dt_s;
+  inst.dt_safety = s.dt_safety;
+  inst.newton_iterations = s.solver.implicit_newton_iterations;
+  inst.newton_tolerance = s.solver.implicit_tolerance;
+}
+
+/// `tissues[i].solver`: the instance's own integrator and step (the rest of `solver` is
+/// scene-wide).
+void read_instance_solver(const Field& f, const Scene& s, SceneInstance& inst) {
+  if (!f.defined()) return;
+  f.expect_keys({"integrator", "dt", "dt_safety", "newton_iterations", "newton_tolerance"});
+  using crms::Integrator;
+  inst.integrator =
+      f["integrator"].choice(inst.integrator, {{"explicit-euler", Integrator::kExplicitEuler},
+                                               {"symplectic-euler", Integrator::kSymplecticEuler},
+                                               {"implicit-euler", Integrator::kImplicitEuler}});
+  if (f["dt"].defined()) inst.dt_s = f["dt"].is_auto() ? 0.0 : f["dt"].number(0.0, 0.0, 1.0, true);
+  inst.dt_safety = f["dt_safety"].number(inst.dt_safety, 0.0, 10.0, true);
+  inst.newton_iterations =
+      static_cast<int>(f["newton_iterations"].integer(inst.newton_iterations, 1, 50));
+  inst.newton_tolerance = f["newton_tolerance"].number(inst.newton_tolerance, 0.0, 1.0);
+  if (inst.integrator == Integrator::kImplicitEuler && s.solver.backend == crms::Backend::kCuda)
+    f["integrator"].fail("implicit-euler runs on the CPU only: set solver.backend to cpu or auto");
+}
+
+/// One entry of `tissues:`. `s` holds the scene-wide solver and effects read so far.
+SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
+                            bool volume_from_pipeline, const Scene& s, LibraryRef& library) {
+  const crms::EffectsConfig& default_effects = s.solver.effects;
+  f.expect_keys({"name", "lattice", "material", "anchors", "tissue", "effects", "solver"});
+  SceneInstance inst;
+  inherit_integration(s, inst);
+  read_instance_solver(f["solver"], s, inst);
+  if (!f["name"].defined()) f["name"].fail("is required (names the instance's outputs)");
+  inst.name = f["name"].text();
+  if (!is_file_name_safe(inst.name))
+    f["name"].fail("expected 1 to 64 letters, digits, '-' or '_', got '" + inst.name + "'");
+  read_lattice(f["lattice"], folder, inst.lattice, volume_from_pipeline);
+  inst.material_id = read_material(f["material"], inst.material, library);
+  read_anchors(f["anchors"], inst.anchors);
+  read_tissue(f["tissue"], inst.tissue);
+  inst.tissue.present = true;
+  inst.effects = default_effects;
+  if (f["effects"].defined()) {
+    inst.effects = crms::EffectsConfig{};
+    read_effects(f["effects"], inst.effects);
+  }
+  return inst;
+}
+
 }  // namespace
+
+Scene scene_for_instance(const Scene& scene, std::size_t index) {
+  const SceneInstance& inst = scene.instances.at(index);
+  Scene s = scene;
+  s.lattice = inst.lattice;
+  s.solver.materials.at(0) = inst.material;
+  s.solver.effects = inst.effects;
+  s.anchors = inst.anchors;
+  const bool present = scene.tissue.present;
+  s.tissue = inst.tissue;
+  s.tissue.present = present;
+  s.solver.integrator = inst.integrator;
+  s.solver.implicit_newton_iterations = inst.newton_iterations;
+  s.solver.implicit_tolerance = inst.newton_tolerance;
+  s.dt_s = inst.dt_s;
+  s.dt_safety = inst.dt_safety;
+  s.instances = {inst};
+  return s;
+}
 
 Scene read_scene(const std::filesystem::path& file) {
   const std::string name = file.string();
@@ -412,20 +532,40 @@ Scene read_scene(const std::filesystem::path& file) {
   // `pipeline` is read by `tsf run` (app/run/run_spec.h).
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
                    "loads", "initial", "effects", "tissue", "tools", "script", "outputs",
-                   "pipeline"});
+                   "pipeline", "tissues"});
   Scene s;
   s.file = file;
   s.name = top["name"].defined() ? top["name"].text() : file.stem().string();
-  read_lattice(top["lattice"], file.parent_path(), s.lattice, top["pipeline"].defined());
-  // A scene whose pipeline names a library material (tsf run) may leave `material` out.
-  if (top["material"].defined() || !top["pipeline"]["material"].defined())
-    read_material(top["material"], s.solver.materials.at(0));
+  LibraryRef library;
+  if (top["pipeline"]["material_library"].defined()) {
+    library.path = top["pipeline"]["material_library"].text();
+    if (library.path.is_relative()) library.path = file.parent_path() / library.path;
+  }
+  const Field tissues = top["tissues"];
+  s.multi_instance = tissues.defined();
+  std::string material_id;
+  if (s.multi_instance) {
+    // Several instances: what a single tissue says at the top level, each says for itself.
+    for (const char* k : {"lattice", "material", "anchors", "tissue"})
+      if (top[k].defined())
+        top[k].fail("give it per instance under tissues[] (this scene has a tissues list)");
+    if (top["pipeline"]["material"].defined())
+      top["pipeline"]["material"].fail(
+          "give each instance its material under tissues[].material (a library id or inline)");
+    if (!tissues.node().IsSequence() || tissues.size() == 0)
+      tissues.fail("expected a non-empty list of tissue instances");
+  } else {
+    read_lattice(top["lattice"], file.parent_path(), s.lattice, top["pipeline"].defined());
+    // A scene whose pipeline names a library material (tsf run) may leave `material` out.
+    if (top["material"].defined() || !top["pipeline"]["material"].defined())
+      material_id = read_material(top["material"], s.solver.materials.at(0), library);
+  }
   read_solver(top["solver"], s);
   s.solver.gravity = top["gravity"].vec3({0, 0, 0});
   if (std::sqrt(length_squared(s.solver.gravity)) > 1e7)
     top["gravity"].fail("magnitude must be at most 1e7 mm/s² (Earth: 9810)");
   read_stability(top["stability"], s.solver.stability);
-  read_anchors(top["anchors"], s.anchors);
+  if (!s.multi_instance) read_anchors(top["anchors"], s.anchors);
   read_loads(top["loads"], s.loads);
   read_effects(top["effects"], s.solver.effects);
   read_scene_effects(top["effects"], s.effect_regions, s.solver);
@@ -442,17 +582,52 @@ Scene read_scene(const std::filesystem::path& file) {
         init["scale"].fail("each factor must be in (0.01, 100]");
     s.initial.about_mm = init["about"].vec3({0, 0, 0});
   }
-  read_tissue(top["tissue"], s.tissue);
+  if (s.multi_instance) {
+    for (std::size_t i = 0; i < tissues.size(); ++i) {
+      SceneInstance inst =
+          read_instance(tissues.at(i), file.parent_path(), top["pipeline"].defined(), s, library);
+      for (const SceneInstance& other : s.instances)
+        if (other.name == inst.name)
+          tissues.at(i)["name"].fail("'" + inst.name + "' is used twice");
+      s.instances.push_back(std::move(inst));
+    }
+  } else {
+    read_tissue(top["tissue"], s.tissue);
+  }
   read_tools(top["tools"], s.tools);
   read_script(top["script"], s.tools, s.script);
   read_outputs(top["outputs"], file.parent_path(), s.outputs);
-  if (!s.tools.empty() || top["script"].defined()) s.tissue.present = true;
+  if (!s.tools.empty() || top["script"].defined() || s.multi_instance) s.tissue.present = true;
   if (top["script"].defined() && s.tools.empty()) top["script"].fail("needs tools");
+  if (!s.multi_instance) {
+    SceneInstance single;
+    single.name = s.name;
+    single.lattice = s.lattice;
+    single.material = s.solver.materials.at(0);
+    single.material_id = material_id;
+    single.anchors = s.anchors;
+    single.tissue = s.tissue;
+    single.effects = s.solver.effects;
+    inherit_integration(s, single);
+    s.instances.push_back(std::move(single));
+  }
   // Cross-field checks with the library's own messages (they name material.* fields).
-  try {
-    crms::validate_solver_config(s.solver);
-  } catch (const Error& e) {
-    throw Error(name + ": " + e.what());
+  for (std::size_t i = 0; i < s.instances.size(); ++i) {
+    try {
+      crms::validate_solver_config(scene_for_instance(s, i).solver);
+    } catch (const Error& e) {
+      throw Error(name + ": " +
+                  (s.multi_instance
+                       ? "tissues[" + std::to_string(i) + "] (" + s.instances[i].name + "): "
+                       : std::string()) +
+                  e.what());
+    }
+  }
+  // The top-level fields are the first instance's (tsf simulate, view and haptics use them).
+  if (s.multi_instance) {
+    Scene first = scene_for_instance(s, 0);
+    first.instances = s.instances;
+    s = std::move(first);
   }
   return s;
 }
