@@ -439,6 +439,7 @@ json run_interaction_scene(const Scene& scene, const InteractionRunOptions& run)
         {"backend", solver.backend_name()},
         {"integrator", crms::to_string(solver.config().integrator)},
         {"effects_active", solver.active_effects()},
+        {"triggers_fired", solver.fired_triggers()},
         {"kernel_features", kernel_feature_list(solver.features())},
         {"bytes_per_node", solver.bytes_per_node()},
         {"coupler",

@@ -142,7 +142,7 @@ struct Scene {
   crms::SolverConfig solver;  ///< materials[0] is the scene's material
   /// effects.palette and effects.animation regions (scene_effects.h): applied to the lattice.
   SceneEffects effect_regions;
-  double dt_s = 0.0;          ///< 0 = automatic: dt_safety × the stable estimate
+  double dt_s = 0.0;  ///< 0 = automatic: dt_safety × the stable estimate
   double dt_safety = 0.9;
   std::int64_t steps = 1000;
   std::int64_t report_every = 100;

@@ -115,7 +115,8 @@ void read_scene_effects(const Field& f, SceneEffects& e, crms::SolverConfig& sol
       if (ch.size() != 4) ch.fail("expected 4 entries (segment's material channels)");
       e.channels_given = true;
       for (int c = 0; c < 4; ++c)
-        e.channels[static_cast<std::size_t>(c)] = read_entry(ch.at(static_cast<std::size_t>(c)), e, count);
+        e.channels[static_cast<std::size_t>(c)] =
+            read_entry(ch.at(static_cast<std::size_t>(c)), e, count);
     }
   }
   const auto count = static_cast<int>(solver.materials.size());
@@ -133,7 +134,8 @@ void read_scene_effects(const Field& f, SceneEffects& e, crms::SolverConfig& sol
         k["time"].fail("keyframe times must increase strictly");
       key.scale = k["scale"].vec3({1, 1, 1});
       for (int ax = 0; ax < 3; ++ax)
-        if (!(key.scale[ax] > 0.1 && key.scale[ax] <= 10)) k["scale"].fail("each factor in (0.1, 10]");
+        if (!(key.scale[ax] > 0.1 && key.scale[ax] <= 10))
+          k["scale"].fail("each factor in (0.1, 10]");
       key.about_mm = k["about"].vec3({0, 0, 0});
       key.region = read_region(k["region"]);
       e.rest_keyframes.push_back(key);

@@ -11,7 +11,8 @@
 //       channels: [material, material, bone, bone]   # segment channel → entry (`material` = 0)
 //     animation:
 //       rest_keyframes:              # rest shape = scale about a point, in a region
-//         - {time: 0.2, scale: [1, 1, 1.1], about: [0, 0, 0], region: {box: {min: [..], max: [..]}}}
+//         - {time: 0.2, scale: [1, 1, 1.1], about: [0, 0, 0], region: {box: {min: [..], max:
+//         [..]}}}
 //       material_tracks:             # blends move to an entry over [start, end]
 //         - {start: 0.1, end: 0.3, entry: bone, region: {labels: [mucosa]}}
 //       cut_triggers:                # a cut in the region switches it to an entry

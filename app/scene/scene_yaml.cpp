@@ -490,8 +490,14 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
   inst.tissue.present = true;
   inst.effects = default_effects;
   if (f["effects"].defined()) {
+    for (const char* k : {"palette", "animation"})
+      if (f["effects"][k].defined())
+        f["effects"][k].fail(
+            "give it in the scene's top-level effects (it applies to every "
+            "instance)");
     inst.effects = crms::EffectsConfig{};
     read_effects(f["effects"], inst.effects);
+    inst.effects.animation = default_effects.animation;  // scene-wide (scene_effects.h)
   }
   return inst;
 }
@@ -569,9 +575,6 @@ Scene read_scene(const std::filesystem::path& file) {
   read_loads(top["loads"], s.loads);
   read_effects(top["effects"], s.solver.effects);
   read_scene_effects(top["effects"], s.effect_regions, s.solver);
-  if (s.effect_regions.channels_given && s.lattice.source != SceneLattice::Source::kVolume)
-    top["effects"]["palette"]["channels"].fail(
-        "needs lattice.source: volume (the channels are segment's material weights)");
   const Field init = top["initial"];
   init.expect_keys({"scale", "about"});
   if (init.defined()) {
@@ -593,6 +596,14 @@ Scene read_scene(const std::filesystem::path& file) {
     }
   } else {
     read_tissue(top["tissue"], s.tissue);
+  }
+  if (s.effect_regions.channels_given) {
+    bool volume = s.lattice.source == SceneLattice::Source::kVolume;
+    for (const SceneInstance& inst : s.instances)
+      volume = volume && inst.lattice.source == SceneLattice::Source::kVolume;
+    if (!volume)
+      top["effects"]["palette"]["channels"].fail(
+          "needs lattice.source: volume (the channels are segment's material weights)");
   }
   read_tools(top["tools"], s.tools);
   read_script(top["script"], s.tools, s.script);

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -152,6 +153,58 @@ TEST(CutScenes, SceneTyposNameTheirKeyPath) {
     const std::string message = read_text(err);
     EXPECT_NE(message.find(c.expect), std::string::npos)
         << "expected '" << c.expect << "' in: " << message;
+  }
+}
+
+}  // namespace
+}  // namespace tsf
+
+namespace tsf {
+namespace {
+
+TEST(CutScenes, TheAnimationSceneFiresItsCutTriggerAndRunsEveryEffect) {
+  const fs::path exe = test::tsf_executable_path();
+  if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
+  const fs::path dir = test::scratch_dir("effects-animation-scene");
+  const fs::path scene = test::source_dir() / "scenes" / "effects-animation.yaml";
+  const std::string cmd = exe.string() + " simulate " + scene.string() +
+                          " --backend cpu -q --mesh " + (dir / "final.ply").string() +
+                          " --report " + (dir / "report.json").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  expect_closed_mesh(dir / "final.ply", 1000);
+  const nlohmann::json r = read_json(dir / "report.json");
+  const nlohmann::json& inst = r.at("instances").at(0);
+  const auto effects = inst.at("effects_active").get<std::vector<std::string>>();
+  for (const char* e : {"anisotropy", "tearing", "node-masking", "animation"})
+    EXPECT_NE(std::find(effects.begin(), effects.end(), e), effects.end()) << e;
+  // The scalpel reaches the vessel at 80 ms: its trigger switched it to the flaccid entry.
+  EXPECT_EQ(inst.at("triggers_fired"), nlohmann::json::array({"vessel"}));
+}
+
+TEST(CutScenes, PaletteAndAnimationErrorsNameTheirKeyPath) {
+  const fs::path exe = test::tsf_executable_path();
+  if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
+  const fs::path dir = test::scratch_dir("effects-animation-errors");
+  const std::string base = read_text(test::source_dir() / "scenes" / "effects-animation.yaml");
+  const std::pair<std::string, std::string> cases[] = {
+      {"entry: flaccid", "entry: wilted"},                            // unknown palette entry
+      {"anisotropy_factor: 3", "anisotropy_factor: 3, colour: red"},  // unknown key
+      {"- {time: 0.04,", "- {time: 0.0,"},  // keyframe times must increase
+  };
+  const char* expected[] = {"effects.animation.cut_triggers[0].entry",
+                            "effects.palette.materials[0].colour",
+                            "effects.animation.rest_keyframes[1].time"};
+  for (std::size_t i = 0; i < 3; ++i) {
+    std::string text = base;
+    const auto at = text.find(cases[i].first);
+    ASSERT_NE(at, std::string::npos) << cases[i].first;
+    text.replace(at, cases[i].first.size(), cases[i].second);
+    const fs::path bad = dir / ("bad-" + std::to_string(i) + ".yaml");
+    std::ofstream(bad) << text;
+    const test::ProcessRun p =
+        test::run_tsf(exe, "simulate " + test::shell_quoted(bad) + " --backend cpu -q");
+    EXPECT_NE(p.status, 0) << cases[i].second;
+    EXPECT_NE(p.output.find(expected[i]), std::string::npos) << p.output;
   }
 }
 

@@ -28,7 +28,8 @@ constexpr double kSoft = 10e3, kStiff = 40e3, kFlaccid = 2e3;  // Pa
 SolverConfig palette_config(Backend backend, double damping_time = 2e-3) {
   SolverConfig c;
   c.backend = backend;
-  c.materials = {test::soft_material(kSoft, damping_time), test::soft_material(kStiff, damping_time),
+  c.materials = {test::soft_material(kSoft, damping_time),
+                 test::soft_material(kStiff, damping_time),
                  test::soft_material(kFlaccid, damping_time)};
   return c;
 }
@@ -304,7 +305,8 @@ TEST(CrmsTearing, NodeMaskingMasksOverloadedNodesAtTheThresholdNotBefore) {
       auto stretched = [&](Vec3d p) { return Vec3d{0.5 + (1 + strain) * (p.x - 0.5), p.y, p.z}; };
       deform(s, stretched);
       std::vector<Vec3d> targets;
-      for (std::int64_t n : far) targets.push_back(stretched(s.lattice().geometry().rest_position(n)));
+      for (std::int64_t n : far)
+        targets.push_back(stretched(s.lattice().geometry().rest_position(n)));
       s.constrain_nodes(far, targets);
       const double dt = 0.9 * s.stable_dt();
       s.step(100, dt);
@@ -390,7 +392,11 @@ TEST(CrmsEffectsRobustness, PaletteAnimationAndNodeMaskingHardCases) {
     Vec3d (*map)(Vec3d);
   };
   const Case cases[] = {
-      {"compress", {6, 6, 6}, [](Vec3d p) { return Vec3d{0.5 + 0.2 * (p.x - 0.5), p.y, p.z}; }},
+      {"compress",
+       {6, 6, 6},
+       [](Vec3d p) {
+         return Vec3d{0.5 + 0.2 * (p.x - 0.5), p.y, p.z};
+       }},
       {"twist",
        {16, 4, 4},
        [](Vec3d p) {
@@ -398,14 +404,17 @@ TEST(CrmsEffectsRobustness, PaletteAnimationAndNodeMaskingHardCases) {
          return Vec3d{p.x, 2 + y * std::cos(a) - z * std::sin(a),
                       2 + y * std::sin(a) + z * std::cos(a)};
        }},
-      {"stretch", {10, 3, 3}, [](Vec3d p) { return Vec3d{0.5 + 3.0 * (p.x - 0.5), p.y, p.z}; }},
+      {"stretch",
+       {10, 3, 3},
+       [](Vec3d p) {
+         return Vec3d{0.5 + 3.0 * (p.x - 0.5), p.y, p.z};
+       }},
   };
   for (Backend backend : available_backends())
     for (const Case& hard : cases) {
       Lattice l = box(hard.size, 1);
       fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
-      for (std::int64_t n = 0; n < l.node_count(); ++n)
-        l.set_material(n, mix(0, 1, (n % 7) / 6.0));
+      for (std::int64_t n = 0; n < l.node_count(); ++n) l.set_material(n, mix(0, 1, (n % 7) / 6.0));
       SolverConfig c = palette_config(backend, 2e-4);
       c.materials[1].anisotropy_axis = {1, 1, 0};
       c.materials[1].anisotropy_factor = 4;

@@ -25,7 +25,7 @@ struct HostLattice {
   float rest[3];
   std::vector<std::uint8_t> flags;
   std::vector<float> inv_mass;
-  std::vector<std::uint8_t> material;  // one palette entry per node
+  std::vector<std::uint8_t> material;                                  // one palette entry per node
   mutable std::vector<std::uint32_t> material_index, material_weight;  // its blends for the view
   std::vector<float> u[3], v[3];
 

@@ -50,8 +50,8 @@ Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLattice
             "PREFIX-weights.nrrd)");
     for (int ch = 0; ch < 4; ++ch) {
       require(options.channel_material[ch] >= 0 && options.channel_material[ch] < kMaxMaterials,
-              "channel_material[" + std::to_string(ch) + "] = " +
-                  std::to_string(options.channel_material[ch]) + ", expected 0.." +
+              "channel_material[" + std::to_string(ch) +
+                  "] = " + std::to_string(options.channel_material[ch]) + ", expected 0.." +
                   std::to_string(kMaxMaterials - 1));
       check_density(options.channel_density_g_per_mm3[ch], "channel_density");
     }
@@ -98,13 +98,13 @@ Lattice build_lattice_from_volume(const VoxelVolume& volume, const VolumeLattice
       rho = 0.0;
       for (int ch = 0; ch < 4; ++ch)  // the blend's density, channel by channel
         rho += channel_weight[ch] * options.channel_density_g_per_mm3[ch];
-      const double total = channel_weight[0] + channel_weight[1] + channel_weight[2] +
-                           channel_weight[3];
+      const double total =
+          channel_weight[0] + channel_weight[1] + channel_weight[2] + channel_weight[3];
       rho = total > 0.0 ? rho / total : options.channel_density_g_per_mm3[0];
     }
-    lattice.set_mass(n, static_cast<float>(rho * cell_volume *
-                                           std::max(occupancy,
-                                                    static_cast<double>(options.mass_floor))));
+    lattice.set_mass(
+        n, static_cast<float>(rho * cell_volume *
+                              std::max(occupancy, static_cast<double>(options.mass_floor))));
   }
   require(lattice.alive_count() > 0,
           "no lattice node reaches occupancy " + std::to_string(options.occupancy_threshold) +

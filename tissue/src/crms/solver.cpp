@@ -37,11 +37,11 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
     for (int c = 0; c < 4; ++c) {
       const MaterialBlend b = lattice_.material(n);
-      require(b.weight_of(c) == 0u ||
-                  static_cast<std::size_t>(b.entry(c)) < config_.materials.size(),
-              "lattice node " + std::to_string(n) + " uses material " +
-                  std::to_string(b.entry(c)) + " but only " +
-                  std::to_string(config_.materials.size()) + " material(s) are configured");
+      require(
+          b.weight_of(c) == 0u || static_cast<std::size_t>(b.entry(c)) < config_.materials.size(),
+          "lattice node " + std::to_string(n) + " uses material " + std::to_string(b.entry(c)) +
+              " but only " + std::to_string(config_.materials.size()) +
+              " material(s) are configured");
     }
 
   const bool symmetric = config_.angular_reactions == AngularReactions::kSymmetric;
@@ -140,8 +140,8 @@ void Solver::prepare_animation(std::vector<RestOffsets>& keyframes) {
     const std::string field = "material_tracks[" + std::to_string(t) + "]";
     check_nodes(a.material_tracks[t].nodes, field);
     require(a.material_tracks[t].entry < materials,
-            "effects.animation." + field + ".entry = " +
-                std::to_string(a.material_tracks[t].entry) + " but only " +
+            "effects.animation." + field +
+                ".entry = " + std::to_string(a.material_tracks[t].entry) + " but only " +
                 std::to_string(materials) + " materials are configured");
   }
   for (std::size_t t = 0; t < a.cut_triggers.size(); ++t) {
@@ -203,8 +203,8 @@ void Solver::set_animation_time(EffectParameters& p, double time_s) const {
   }
   p.rest_from_key = static_cast<int>(to) - 1;
   p.rest_to_key = static_cast<int>(to);
-  p.rest_blend = static_cast<float>((time_s - rest_times_[to - 1]) /
-                                    (rest_times_[to] - rest_times_[to - 1]));
+  p.rest_blend =
+      static_cast<float>((time_s - rest_times_[to - 1]) / (rest_times_[to] - rest_times_[to - 1]));
 }
 
 void Solver::apply_material_tracks() {

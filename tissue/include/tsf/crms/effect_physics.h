@@ -86,7 +86,7 @@ struct EffectParameters {
   float bulk_modulus = 0;            ///< K, Pa = µN/mm²
   float diffusion_step = 0;          ///< α
   float tear_strain = 0;
-  int rest_from_key = 0;       ///< animation: keyframes around the current time (engine side)
+  int rest_from_key = 0;  ///< animation: keyframes around the current time (engine side)
   int rest_to_key = 0;
   float rest_blend = 0;        ///< animation: offset = (1 − s)·rest_from + s·rest_to
   float node_force_limit = 0;  ///< µN, node masking
@@ -114,7 +114,8 @@ TSF_HD_INLINE float spring_aniso_extra(const St& st, const EffectParameters& p, 
   if (!p.heterogeneous) return axis_value(p.aniso_extra, ax);
   const float* table = ax == 0 ? p.material_aniso_extra[0]
                                : (ax == 1 ? p.material_aniso_extra[1] : p.material_aniso_extra[2]);
-  return 0.5f * (blend_table(table, st.material(0)) + blend_table(table, st.material(face_slot(d))));
+  return 0.5f *
+         (blend_table(table, st.material(0)) + blend_table(table, st.material(face_slot(d))));
 }
 
 /// Tear strain of node n's spring d (the weaker end's on a heterogeneous lattice).
@@ -131,7 +132,8 @@ TSF_HD_INLINE float rest_offset(const EffectArrays& a, const EffectParameters& p
   float delta = 0.0f;
   if ((p.enabled & effect_bits::kPlasticity) != 0) delta += a.plastic_offset[ax][owner];
   if ((p.enabled & effect_bits::kRestAnimation) != 0)
-    delta += a.rest_from[ax][owner] + p.rest_blend * (a.rest_to[ax][owner] - a.rest_from[ax][owner]);
+    delta +=
+        a.rest_from[ax][owner] + p.rest_blend * (a.rest_to[ax][owner] - a.rest_from[ax][owner]);
   return delta;
 }
 
@@ -319,8 +321,8 @@ TSF_HD_INLINE std::uint8_t torn_flags(const LatticeView& lat, const ConstStateVi
 /// Pass 6a, node masking: 1 when the largest tension among node n's linear springs exceeds the
 /// limit (ks·(l − L)/L, µN; compression does not count).
 TSF_HD_INLINE std::uint8_t node_overloaded(const LatticeView& lat, const ConstStateView& s,
-                                           const EffectParameters& p, std::int64_t n, int i,
-                                           int j, int k) {
+                                           const EffectParameters& p, std::int64_t n, int i, int j,
+                                           int k) {
   const unsigned links = lat.flags[n] & kLinkBits;
   if (links == 0 || (lat.flags[n] & kAliveBit) == 0) return 0;
   const IndexedStencil st{lat, s, n, i, j, k};

@@ -56,7 +56,7 @@ struct FluidConfig {
 /// (one uint8 per node while on).
 struct TearingConfig {
   bool enabled = false;
-  double strain_threshold = 0.5;      ///< (0, 100]
+  double strain_threshold = 0.5;       ///< (0, 100]
   double node_force_threshold_un = 0;  ///< µN; 0 = no node masking, else (0, 1e12]
 };
 
