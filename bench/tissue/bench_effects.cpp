@@ -14,6 +14,7 @@
 // clamped, a mild initial compression so that every effect has work to do.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -34,7 +35,11 @@ using namespace tsf::crms;
 struct Variant {
   std::string name;
   EffectsConfig effects;
-  bool palette = false;  ///< 3 materials, every node a blend of two (features::kHeterogeneous)
+  /// Heterogeneous tissue (features::kHeterogeneous), 3 materials: kLayers = three layers along y,
+  /// pure nodes with one blended node layer at each interface (what CT gives: blends only where
+  /// classes meet); kAllBlended = every node a 2-entry blend (the worst case).
+  enum class Palette { kNone, kLayers, kAllBlended };
+  Palette palette = Palette::kNone;
 };
 
 /// Animation: two rest keyframes (a 5% swelling along z over 1 s); filled per lattice.
@@ -78,14 +83,15 @@ std::vector<Variant> variants() {
       disabled.tearing.enabled = disabled.animation.enabled = false;
   return {{"baseline", {}},
           {"all configured, disabled", disabled},
-          {"palette (3 materials, 2-entry blends)", {}, true},
+          {"palette, 3 layers (blends at interfaces)", {}, Variant::Palette::kLayers},
+          {"palette, every node a 2-entry blend", {}, Variant::Palette::kAllBlended},
           {"plasticity", plastic},
           {"anisotropy", aniso},
           {"fluid", fluid},
           {"tearing (springs)", tear},
           {"tearing + node masking", mask},
           {"animation (rest keyframes)", animation},
-          {"all, with palette", all, true}};
+          {"all, with layered palette", all, Variant::Palette::kLayers}};
 }
 
 std::unique_ptr<Solver> make_solver(int edge, Backend backend, const Variant& variant) {
@@ -100,7 +106,7 @@ std::unique_ptr<Solver> make_solver(int edge, Backend backend, const Variant& va
   m.youngs_modulus_pa = 10e3;
   m.viscosity_pa_s = 2.0;
   c.materials = {m};
-  if (variant.palette) {  // soft, stiff, fibrous; blends graded along y like a tissue layer
+  if (variant.palette != Variant::Palette::kNone) {  // soft, stiff, fibrous
     Material stiff = m, fibre = m;
     stiff.youngs_modulus_pa = 30e3;
     stiff.viscosity_pa_s = 6.0;
@@ -108,8 +114,17 @@ std::unique_ptr<Solver> make_solver(int edge, Backend backend, const Variant& va
     fibre.anisotropy_factor = 2;
     c.materials = {m, stiff, fibre};
     for (std::int64_t n = 0; n < l.node_count(); ++n) {
-      const double f = std::clamp(l.geometry().rest_position(n).y / edge, 0.0, 1.0);
-      l.set_material(n, make_material_blend({0, n % 2 ? 1 : 2, 0, 0}, {1.0 - f, f, 0, 0}));
+      const double y = l.geometry().rest_position(n).y / edge;
+      if (variant.palette == Variant::Palette::kAllBlended) {
+        l.set_material(n, make_material_blend({0, n % 2 ? 1 : 2, 0, 0}, {1.0 - y, y, 0, 0}));
+      } else {
+        const int layer = std::min(2, static_cast<int>(3.0 * y));
+        const double to_interface = std::min(std::abs(3.0 * y - 1.0), std::abs(3.0 * y - 2.0));
+        l.set_material(n, to_interface * edge / 3.0 < 0.5
+                              ? make_material_blend({layer, layer == 0 ? 1 : layer - 1, 0, 0},
+                                                    {0.5, 0.5, 0, 0})
+                              : MaterialBlend::single(layer));
+      }
     }
   }
   c.gravity = {0, 0, -9810};
