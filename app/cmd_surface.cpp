@@ -41,11 +41,13 @@ struct SurfaceArgs {
   int threads = 0;
 };
 
+#ifdef TSF_HAVE_IMPORT
 std::string lower_extension(const std::filesystem::path& p) {
   std::string e = p.extension().string();
   for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return e;
 }
+#endif
 
 void run_surface(const SurfaceArgs& a) {
 #ifndef TSF_HAVE_IMPORT

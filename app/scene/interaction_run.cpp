@@ -35,6 +35,7 @@ json vec(const Vec3d& v) {
   return json::array({v.x, v.y, v.z});
 }
 
+#ifdef TSF_HAVE_IMPORT
 /// The sub-volume of voxels whose centres lie in [lo, hi] mm.
 VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
                         const std::string& scene_file) {
@@ -62,6 +63,7 @@ VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
   out.mark_all_modified();
   return out;
 }
+#endif
 
 /// Empties every voxel whose label is not in `labels` (density 0, label outside): the instance's
 /// surface and lattice are then built from its own segment classes only.
