@@ -26,24 +26,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-struct CommandResult {
-  int status = -1;
-  std::string output;  ///< stdout and stderr
-};
-
-CommandResult run_command(const std::string& command, const fs::path& log) {
-  CommandResult r;
-  const int rc = std::system((command + " > " + log.string() + " 2>&1").c_str());
-  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.output = read_text(log);
-  return r;
+using test::read_text;
+using CommandResult = test::ProcessRun;
+inline CommandResult run_command(const std::string& command, const fs::path& log) {
+  return test::run_logged(command, log);
 }
 
 bool is_png(const fs::path& p) {

@@ -27,24 +27,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-struct CommandResult {
-  int status = -1;
-  std::string output;
-};
-
-CommandResult run_command(const std::string& command, const fs::path& log) {
-  CommandResult r;
-  const int rc = std::system((command + " > " + log.string() + " 2>&1").c_str());
-  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.output = read_text(log);
-  return r;
+using test::read_text;
+using CommandResult = test::ProcessRun;
+inline CommandResult run_command(const std::string& command, const fs::path& log) {
+  return test::run_logged(command, log);
 }
 
 /// A copy of a shipped scene with text replaced, written into scenes/ of a scratch tree that

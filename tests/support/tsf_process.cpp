@@ -4,6 +4,9 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 
 namespace tsf::test {
 
@@ -34,6 +37,21 @@ ProcessRun run_tsf(const fs::path& exe, const std::string& args) {
   const int status = pclose(pipe);
   r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+ProcessRun run_logged(const std::string& command, const fs::path& log) {
+  ProcessRun r;
+  const int rc = std::system((command + " > " + log.string() + " 2>&1").c_str());
+  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  r.output = read_text(log);
+  return r;
+}
+
+std::string read_text(const fs::path& file) {
+  std::ifstream f(file, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
 }
 
 std::string shell_quoted(const fs::path& path) {

@@ -25,6 +25,13 @@ struct ProcessRun {
 /// shell_quoted) and collects its output.
 ProcessRun run_tsf(const std::filesystem::path& exe, const std::string& args);
 
+/// Runs a shell command with stdout and stderr written to `log` (kept for a failing test's
+/// reader); its exit status and that output.
+ProcessRun run_logged(const std::string& command, const std::filesystem::path& log);
+
+/// The whole text of a file ("" when it cannot be read).
+std::string read_text(const std::filesystem::path& file);
+
 /// A path in single quotes for the shell command of run_tsf.
 std::string shell_quoted(const std::filesystem::path& path);
 

@@ -121,4 +121,34 @@ void deform(Solver& s, Map map) {
   s.set_state(u, v);
 }
 
+/// CPU and CUDA results agree: every position within `relative` × the largest displacement
+/// magnitude of `a` (positions as returned by Solver::positions()).
+inline ::testing::AssertionResult assert_same_positions(const std::vector<Vec3f>& a,
+                                                        const std::vector<Vec3f>& b,
+                                                        double relative) {
+  if (a.size() != b.size())
+    return ::testing::AssertionFailure() << a.size() << " against " << b.size() << " nodes";
+  double scale = 0, worst = 0;
+  std::size_t worst_node = 0;
+  for (std::size_t n = 0; n < a.size(); ++n) {
+    scale = std::max(scale, static_cast<double>(std::sqrt(dot(a[n], a[n]))));
+    const Vec3f d = a[n] - b[n];
+    const double e = static_cast<double>(std::sqrt(dot(d, d)));
+    if (e > worst) {
+      worst = e;
+      worst_node = n;
+    }
+  }
+  if (worst < relative * scale) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "node " << worst_node << " differs by " << worst
+                                       << " mm, more than " << relative << " × " << scale;
+}
+
+/// The parity scenes' deformation: the far end (x > 6.5 mm) stretched by 100% (it tears at
+/// once), the rest compressed by 10%.
+inline Vec3d stretch_far_end_compress_rest(Vec3d p) {
+  const double x = p.x < 6.5 ? 0.5 + 0.9 * (p.x - 0.5) : 5.9 + 2.0 * (p.x - 6.5);
+  return Vec3d{x, p.y, p.z};
+}
+
 }  // namespace tsf::crms::test
