@@ -201,5 +201,21 @@ TEST(CrmsSolver, InvalidConfigurationIsRejectedWithTheField) {
   }
 }
 
+TEST(CrmsSolver, SimulatedTimeAdvancesWithEveryIntegrator) {
+  for (Integrator integrator :
+       {Integrator::kExplicitEuler, Integrator::kSymplecticEuler, Integrator::kImplicitEuler}) {
+    SolverConfig c;
+    c.backend = Backend::kCpu;
+    c.integrator = integrator;
+    c.materials = {soft_material()};
+    Solver s(box({3, 3, 3}, 1), c);
+    const double dt = 0.5 * s.stable_dt();
+    s.step(7, dt);
+    s.step(3, dt);
+    EXPECT_DOUBLE_EQ(s.time_s(), 10 * dt) << to_string(integrator);
+    EXPECT_EQ(s.steps_done(), 10) << to_string(integrator);
+  }
+}
+
 }  // namespace
 }  // namespace tsf::crms

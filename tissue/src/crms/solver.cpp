@@ -523,6 +523,7 @@ void Solver::step_implicit(int n, double dt, StepReport& report) {
       return;
     }
     ++steps_done_;
+    time_s_ += dt;
   }
 }
 
