@@ -36,6 +36,8 @@
 #include "commands.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
+#include "scene/scene_session.h"
+#include "output/output_folder.h"
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
@@ -326,7 +328,8 @@ void write_plot(const std::filesystem::path& csv, const std::filesystem::path& p
     char buffer[512];
     while (std::fgets(buffer, sizeof buffer, pipe)) output += buffer;
     const int status = pclose(pipe);
-    std::filesystem::remove(script);
+    std::error_code ec;
+    std::filesystem::remove(script, ec);
     if (status != 0 || !std::filesystem::exists(temp))
       throw Error("gnuplot failed to draw " + png.string() +
                   " (is gnuplot-nox installed?): " + output);
@@ -337,7 +340,7 @@ struct HapticsArguments {
   std::string scene, trajectory, model = "voxel", out;
   std::optional<int> resolution, filter;
   std::optional<double> rate;
-  bool no_plot = false, quiet = false;
+  bool no_plot = false, quiet = false, force = false;
 };
 
 void run_haptics(const HapticsArguments& args) {
@@ -356,11 +359,14 @@ void run_haptics(const HapticsArguments& args) {
     if (run.playback.sim_rate_hz > *args.rate) run.playback.sim_rate_hz = *args.rate;
   }
   const Scene scene = read_scene(args.scene);
+  check_scene_for_command(scene, SceneCommand::kHaptics);
+  const OutputFolder folder = OutputFolder::prepare(args.out, args.force, "--out");
   const std::unique_ptr<haptics::ForceModel> model = haptics::make_force_model(kind, run.model);
 
   // The tissue: the scene's (deforming, TissueModel) or a rigid analytic target.
   const haptics::CaptureOptions capture{run.model.stylus_radius_mm, 3.0};
   std::unique_ptr<interaction::TissueModel> tissue;
+  json session_summary = nullptr;
   std::optional<VoxelVolume> rigid;
   std::optional<imt::SurfaceMesh> rigid_mesh;
   std::unique_ptr<haptics::FrameSource> source;
@@ -372,8 +378,9 @@ void run_haptics(const HapticsArguments& args) {
     source = std::make_unique<haptics::StaticFrameSource>(
         *rigid, rigid_mesh ? &*rigid_mesh : nullptr, capture);
   } else {
-    tissue = std::make_unique<interaction::TissueModel>(scene_tissue_volume(scene),
-                                                        tissue_model_options(scene));
+    TissueInstance built = build_tissue_instance(scene, 0);
+    session_summary = built.summary;
+    tissue = std::move(built.model);
     source = std::make_unique<haptics::TissueFrameSource>(*tissue, capture);
   }
   const double setup_s = clock.seconds();
@@ -392,7 +399,7 @@ void run_haptics(const HapticsArguments& args) {
   mo.filter_window = run.playback.filter_window;
   const haptics::HapticMetrics metrics = haptics::compute_metrics(samples, mo);
 
-  const std::filesystem::path out(args.out);
+  const std::filesystem::path out = folder.path();
   const std::filesystem::path csv = out / "samples.csv";
   write_text_atomically(csv, samples_csv(samples));
   const std::string title = (run.target ? "rigid " + run.target->shape : scene.name) + " · " +
@@ -409,8 +416,10 @@ void run_haptics(const HapticsArguments& args) {
                duration_ms);
   json report = {
       {"tsf_version", TSF_VERSION_STRING},
-      {"scene", args.scene},
-      {"trajectory", args.trajectory},
+      {"scene", absolute_path(args.scene).string()},
+      {"frame", "patient (LPS), mm"},
+      {"session", session_summary},
+      {"trajectory", absolute_path(args.trajectory).string()},
       {"path_kind", run.kind},
       {"model", haptics::to_string(kind)},
       {"target", run.target ? json{{"shape", run.target->shape},
@@ -475,6 +484,8 @@ void add_haptics_command(CLI::App& app) {
   sub->add_option("--rate", args->rate, "Override the haptic rate (Hz, up to 20000)")
       ->check(CLI::Range(1.0, 20000.0));
   sub->add_flag("--no-plot", args->no_plot, "Skip the PNG plot (no gnuplot needed)");
+  sub->add_flag("--force", args->force,
+                "Replace the files of an earlier tsf run in the --out folder");
   sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
   sub->callback([args] {
     if (args->resolution && args->model != "mesh" && *args->resolution < 2)

@@ -21,6 +21,7 @@ struct RunArguments {
   double duration_s = -1;
   double voxel_mm = -1;
   bool quiet = false;
+  bool force = false;
   bool materials = false;
   std::string library;
   double spacing_mm = 1.0;
@@ -64,8 +65,9 @@ void add_run_command(CLI::App& app) {
   sub->add_option("scene", args->scene,
                   "scene file (YAML, docs/scenes.md); default: scenes/sinus.yaml of the checkout");
   sub->add_option("-o,--output", args->output,
-                  "output folder (default: pipeline.outputs.folder of the scene, else "
-                  "out/<scene name>)");
+                  "output folder: everything the run writes goes here (default: "
+                  "pipeline.outputs.folder of the scene, else out/<scene name>); must be new or "
+                  "empty, see --force");
   sub->add_option("--duration", args->duration_s,
                   "simulated seconds of the script (overrides script.duration; short CI runs)")
       ->check(CLI::Range(0.0, 3600.0));
@@ -73,6 +75,9 @@ void add_run_command(CLI::App& app) {
                   "isotropic voxel size of the segmentation, mm (overrides the scene)")
       ->check(CLI::Range(0.05, 10.0));
   sub->add_option("--backend", args->backend, "CRMS backend: cpu, cuda or auto (default: scene)");
+  sub->add_flag("--force", args->force,
+                "replace the files of an earlier tsf run in the output folder (a folder of other "
+                "files is never emptied)");
   sub->add_flag("-q,--quiet", args->quiet, "no progress or summary on the terminal");
   sub->add_flag("--materials", args->materials,
                 "print the material library with its derived lattice parameters and exit");
@@ -92,6 +97,7 @@ void add_run_command(CLI::App& app) {
     if (args->voxel_mm > 0) o.voxel_mm = args->voxel_mm;
     o.backend = args->backend;
     o.quiet = args->quiet;
+    o.force = args->force;
     if (!o.quiet) std::printf("tsf run: scene %s\n", o.scene.string().c_str());
     run_pipeline(o);
   });

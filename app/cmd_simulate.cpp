@@ -13,17 +13,16 @@
 
 #include "commands.h"
 #include "scene/interaction_run.h"
+#include "output/interrupt.h"
+#include "output/output_folder.h"
 #include "scene/scene.h"
+#include "scene/scene_session.h"
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
-#include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/solver.h"
 #include "tsf/version.h"
-#ifdef TSF_HAVE_IMPORT
-#include "tsf/import/tissue_volume_io.h"
-#endif
 
 namespace tsf::app {
 namespace {
@@ -32,37 +31,6 @@ using nlohmann::json;
 
 json to_json(const Vec3d& v) {
   return json::array({v.x, v.y, v.z});
-}
-
-crms::Lattice build_lattice(const Scene& scene) {
-  const SceneLattice& sl = scene.lattice;
-  const crms::Material& m = scene.solver.materials.at(0);
-  crms::Lattice lattice;
-  if (sl.source == SceneLattice::Source::kBox) {
-    crms::BoxLatticeOptions o;
-    o.size_mm = sl.size_mm;
-    o.spacing_mm = sl.spacing_mm;
-    o.min_corner_mm = sl.min_corner_mm;
-    o.density_g_per_mm3 = m.density_g_per_mm3;
-    lattice = crms::build_box_lattice(o);
-  } else {
-#ifdef TSF_HAVE_IMPORT
-    const VoxelVolume volume = import::read_tissue_volume(sl.volume);
-    crms::VolumeLatticeOptions o;
-    o.node_spacing_voxels = sl.node_spacing_voxels;
-    o.occupancy_threshold = static_cast<float>(sl.occupancy_threshold);
-    o.mass_floor = static_cast<float>(sl.mass_floor);
-    o.density_g_per_mm3 = m.density_g_per_mm3;
-    configure_volume_lattice(scene.effect_regions, scene.solver, o);
-    lattice = crms::build_lattice_from_volume(volume, o);
-#else
-    throw Error(scene.file.string() +
-                ": lattice.source: volume needs a build with ITK (reconfigure with "
-                "-DTSF_WITH_ITK=ON); this build reads analytic boxes only");
-#endif
-  }
-  apply_scene_anchors(lattice, scene);
-  return lattice;
 }
 
 json stable_json(const crms::StableTimeStep& s) {
@@ -78,94 +46,69 @@ struct SimulateArguments {
   std::string scene;
   std::string report;
   std::string backend;
+  std::string out;
   std::string mesh;
   std::string states;
   std::int64_t steps = -1;
   double duration_s = -1.0;
+  bool force = false;
   bool quiet = false;
 };
 
+/// An interactive scene: the script plays on every instance (interaction_run.h). The scene's
+/// `outputs:` are written in the output folder; --mesh, --report and --states name files directly.
+void run_interactive(const Scene& scene, const SimulateArguments& args) {
+  if (args.steps >= 0)
+    throw Error("--steps: this scene runs a script (tissue/tools/script); use --duration");
+  InteractionRunOptions run;
+  if (args.duration_s >= 0) run.duration_s = args.duration_s;
+  run.quiet = args.quiet;
+  InteractionOutputs& out = run.outputs;
+  out.states_every = scene.outputs.states_every;
+  const bool writes_folder = !scene.outputs.rest_mesh.empty() ||
+                             (!scene.outputs.mesh.empty() && args.mesh.empty()) ||
+                             (!scene.outputs.report.empty() && args.report.empty()) ||
+                             (!scene.outputs.states.empty() && args.states.empty());
+  OutputFolder folder;
+  if (writes_folder || !args.out.empty())
+    folder = OutputFolder::prepare(args.out.empty() ? std::filesystem::path("out") / scene.name
+                                                    : std::filesystem::path(args.out),
+                                   args.force, "--out");
+  out.mesh = args.mesh.empty() ? folder.file(scene.outputs.mesh) : absolute_path(args.mesh);
+  out.rest_mesh = folder.file(scene.outputs.rest_mesh);
+  out.report = args.report.empty() ? folder.file(scene.outputs.report) : absolute_path(args.report);
+  out.states = args.states.empty() ? folder.file(scene.outputs.states) : absolute_path(args.states);
+  InterruptScope interrupts;
+  const InteractionResult result = run_interaction_scene(scene, run);
+  if (result.interrupted)
+    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) + ") after " +
+                std::to_string(result.frames) + " of " + std::to_string(result.frames_planned) +
+                " frames; the outputs hold what was reached");
+  if (result.instability) throw Error("unstable: " + *result.instability);
+}
+
 void run_simulate(const SimulateArguments& args) {
-  const std::string& scene_path = args.scene;
-  const std::int64_t steps_override = args.steps;
-  const std::string& report_path = args.report;
-  const std::string& backend_override = args.backend;
-  Scene scene = read_scene(scene_path);
-  if (!backend_override.empty()) {
-    if (backend_override == "cpu")
-      scene.solver.backend = crms::Backend::kCpu;
-    else if (backend_override == "cuda")
-      scene.solver.backend = crms::Backend::kCuda;
-    else if (backend_override == "auto")
-      scene.solver.backend = crms::Backend::kAuto;
-    else
-      throw Error("--backend: expected cpu, cuda or auto, got '" + backend_override + "'");
-    crms::validate_solver_config(scene.solver);
-  }
-  if (scene.tissue.present) {
-    if (steps_override >= 0)
-      throw Error("--steps: this scene runs a script (tissue/tools/script); use --duration");
-    InteractionRunOptions run;
-    if (args.duration_s >= 0) run.duration_s = args.duration_s;
-    run.report = report_path;
-    run.mesh = args.mesh;
-    run.states = args.states;
-    run.quiet = args.quiet;
-    run_interaction_scene(scene, run);
-    return;
-  }
+  Scene scene = read_scene(args.scene);
+  check_scene_for_command(scene, SceneCommand::kSimulate);
+  override_backend(scene, args.backend);
+  if (scene.interactive) return run_interactive(scene, args);
   if (args.duration_s >= 0 || !args.mesh.empty() || !args.states.empty())
     throw Error(
         "--duration, --mesh and --states need a scene with a script (tissue, tools, script)");
-  const std::int64_t steps = steps_override >= 0 ? steps_override : scene.steps;
+  // The report: --report, else report.json in --out when an output folder is given.
+  std::filesystem::path report_path = absolute_path(args.report);
+  if (report_path.empty() && !args.out.empty())
+    report_path = OutputFolder::prepare(args.out, args.force, "--out").file("report.json");
+  const std::int64_t steps = args.steps >= 0 ? args.steps : scene.steps;
 
-  Stopwatch setup_clock;
-  crms::Lattice lattice = build_lattice(scene);
-  const std::int64_t fixed = [&] {
-    std::int64_t f = 0;
-    for (std::int64_t n = 0; n < lattice.node_count(); ++n)
-      f += lattice.alive(n) && lattice.fixed(n);
-    return f;
-  }();
-  crms::SolverConfig config = scene.solver;
-  apply_scene_effects(scene.effect_regions, lattice, config);
-  crms::Solver solver(std::move(lattice), config);
+  LatticeRun built = build_lattice_run(scene);
+  crms::Solver& solver = *built.solver;
   const crms::Lattice& l = solver.lattice();
   const double stable = solver.stable_dt();
-  double dt = scene.dt_s > 0 ? scene.dt_s : scene.dt_safety * stable;
-  if (!(dt > 0))
-    throw Error(scene.file.string() + ": solver.dt: the stable step of " +
-                crms::to_string(scene.solver.integrator) +
-                " is 0 for this material (explicit Euler needs viscosity > 0); set solver.dt or "
-                "choose symplectic-euler");
-  dt = std::min(dt, 1.0);
-
-  if (!scene.loads.empty()) {
-    std::vector<std::int64_t> nodes;
-    std::vector<Vec3f> forces;
-    for (const SceneLoad& load : scene.loads)
-      for (std::int64_t n = 0; n < l.node_count(); ++n) {
-        const Vec3d p = l.geometry().rest_position(n);
-        if (l.alive(n) && p.x >= load.min_mm.x && p.x <= load.max_mm.x && p.y >= load.min_mm.y &&
-            p.y <= load.max_mm.y && p.z >= load.min_mm.z && p.z <= load.max_mm.z) {
-          nodes.push_back(n);
-          forces.push_back(to_float(load.force_un));
-        }
-      }
-    solver.set_external_forces(nodes, forces);
-  }
-  if (scene.initial.scaled) {
-    std::vector<Vec3f> u(static_cast<std::size_t>(l.node_count())), v(u.size());
-    for (std::int64_t n = 0; n < l.node_count(); ++n) {
-      if (!l.alive(n) || l.fixed(n)) continue;
-      const Vec3d p = l.geometry().rest_position(n);
-      const Vec3d q =
-          scene.initial.about_mm + cwise_mul(scene.initial.scale, p - scene.initial.about_mm);
-      u[n] = to_float(q - p);
-    }
-    solver.set_state(u, v);
-  }
-  const double setup_s = setup_clock.seconds();
+  const double dt = built.dt_s;
+  const std::int64_t fixed = built.fixed_nodes;
+  const double setup_s = built.setup_s;
+  const crms::SolverConfig& config = solver.config();
 
   json energy = json::array();
   auto sample = [&] {
@@ -181,7 +124,8 @@ void run_simulate(const SimulateArguments& args) {
   Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(steps));
   double stepping_s = 0;
   std::int64_t done = 0;
-  while (done < steps && !solver.instability()) {
+  InterruptScope interrupts;
+  while (done < steps && !solver.instability() && !interrupted()) {
     const auto chunk = static_cast<int>(std::min<std::int64_t>(scene.report_every, steps - done));
     Stopwatch clock;
     solver.step(chunk, dt);
@@ -209,11 +153,13 @@ void run_simulate(const SimulateArguments& args) {
   const crms::SpringConstants& k = solver.palette().entry[0];
   json report = {
       {"tsf_version", TSF_VERSION_STRING},
-      {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
+      {"scene", {{"name", scene.name}, {"file", absolute_path(scene.file).string()}}},
+      {"frame", "patient (LPS), mm"},
+      {"interrupted", interrupted()},
       {"backend", solver.backend_name()},
-      {"integrator", crms::to_string(scene.solver.integrator)},
-      {"angular_form", crms::to_string(scene.solver.angular_form)},
-      {"angular_reactions", crms::to_string(scene.solver.angular_reactions)},
+      {"integrator", crms::to_string(config.integrator)},
+      {"angular_form", crms::to_string(config.angular_form)},
+      {"angular_reactions", crms::to_string(config.angular_reactions)},
       {"effects", solver.active_effects()},
       {"triggers_fired", solver.fired_triggers()},
       {"lattice",
@@ -244,6 +190,9 @@ void run_simulate(const SimulateArguments& args) {
   };
   if (!report_path.empty()) write_text_atomically(report_path, report.dump(2) + "\n");
 
+  if (interrupted())
+    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) + ") after " +
+                std::to_string(run) + " of " + std::to_string(steps) + " steps");
   if (args.quiet) {
     if (solver.instability()) throw Error("unstable: " + solver.instability()->describe());
     return;
@@ -253,7 +202,7 @@ void run_simulate(const SimulateArguments& args) {
       "%.3g s)\n",
       scene.name.c_str(), static_cast<long long>(l.node_count()),
       static_cast<long long>(l.alive_count()), static_cast<long long>(fixed),
-      solver.backend_name().c_str(), crms::to_string(scene.solver.integrator), dt,
+      solver.backend_name().c_str(), crms::to_string(config.integrator), dt,
       stable > 0 ? dt / stable : 0.0, stable);
   std::string effects;
   for (const std::string& e : solver.active_effects()) effects += (effects.empty() ? "" : ", ") + e;
@@ -288,7 +237,12 @@ void add_simulate_command(CLI::App& app) {
       ->check(CLI::Range(0.0, 1e5));
   sub->add_option("--report,-r", args->report,
                   "Write a JSON report here (written atomically; overrides outputs.report)");
-  sub->add_option("--mesh,-o", args->mesh,
+  sub->add_option("--out,-o", args->out,
+                  "Scripted scenes: output folder for the scene's outputs (default out/<scene "
+                  "name>; must be new or empty, see --force)");
+  sub->add_flag("--force", args->force,
+                "Replace the files of an earlier tsf run in the --out folder");
+  sub->add_option("--mesh", args->mesh,
                   "Scripted scenes: write the final deformed, cut mesh here (binary .ply; "
                   "overrides outputs.mesh)");
   sub->add_option("--states", args->states,

@@ -18,7 +18,10 @@
 
 #include "commands.h"
 #include "scene/interaction_run.h"
+#include "output/output_folder.h"
 #include "scene/scene.h"
+#include "scene/scene_outputs.h"
+#include "scene/scene_session.h"
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
@@ -49,6 +52,7 @@ struct ViewArguments {
   std::string backend;
   std::string ct;
   double frame_time = 0;
+  bool force = false;
   bool no_slices = false;
   bool quiet = false;
 };
@@ -69,11 +73,51 @@ std::vector<viewer::NamedTool> default_tools() {
   return tools;
 }
 
-crms::Backend parse_backend(const std::string& text) {
-  if (text == "cpu") return crms::Backend::kCpu;
-  if (text == "cuda") return crms::Backend::kCuda;
-  if (text == "auto") return crms::Backend::kAuto;
-  throw Error("--backend: expected cpu, cuda or auto, got '" + text + "'");
+/// The scene's script as the view's hand (time = frame index, `frame_s` simulated seconds per
+/// frame): trajectory keyframes at their frames, lifted one frame after the last; an event is a
+/// stroke from → to over one frame, then a lift. Keyframes that fall on one frame move on by one.
+viewer::ViewScript hand_from_scene_script(const Scene& scene, const viewer::ViewOptions& options,
+                                          double frame_s) {
+  struct Key {
+    double frame;
+    int tool;
+    interaction::Keyframe k;
+  };
+  std::vector<Key> keys;
+  auto tool_index = [&](const std::string& name) {
+    for (std::size_t i = 0; i < scene.tools.size(); ++i)
+      if (scene.tools[i].name == name) return static_cast<int>(i);
+    return 0;
+  };
+  auto frame_of = [&](double t) { return std::round(t / frame_s); };
+  for (const SceneTrajectory& t : scene.script.trajectories) {
+    const int tool = tool_index(t.tool);
+    for (const interaction::Keyframe& k : t.keyframes) keys.push_back({frame_of(k.time_s), tool, k});
+    interaction::Keyframe lift = t.keyframes.back();
+    lift.mode = interaction::ToolMode::kIdle;
+    keys.push_back({frame_of(t.keyframes.back().time_s) + 1, tool, lift});
+  }
+  for (const SceneEvent& e : scene.script.events) {
+    const int tool = tool_index(e.tool);
+    const double f = frame_of(e.time_s);
+    keys.push_back({f, tool, {0, e.from, e.mode}});
+    keys.push_back({f + 1, tool, {0, e.to, e.mode}});
+    keys.push_back({f + 2, tool, {0, e.to, interaction::ToolMode::kIdle}});
+  }
+  std::stable_sort(keys.begin(), keys.end(),
+                   [](const Key& a, const Key& b) { return a.frame < b.frame; });
+  viewer::ViewScript script;
+  script.options = options;
+  std::vector<interaction::Keyframe> frames;
+  double last = -1;
+  for (Key& key : keys) {
+    key.k.time_s = std::max(key.frame, last + 1);
+    last = key.k.time_s;
+    frames.push_back(key.k);
+    script.keyframe_tools.push_back(key.tool);
+  }
+  if (!frames.empty()) script.hand = interaction::Trajectory(frames);
+  return script;
 }
 
 #ifdef TSF_HAVE_IMPORT
@@ -151,15 +195,23 @@ void run_view(const ViewArguments& args) {
                 "segment`)");
   if (is_yaml(input)) {
     scene = read_scene(input);
-    if (!args.backend.empty()) scene->solver.backend = parse_backend(args.backend);
+    check_scene_for_command(*scene, SceneCommand::kView);
+    override_backend(*scene, args.backend);
     for (const SceneTool& t : scene->tools) tools.push_back({t.name, t.tool});
   }
   if (tools.empty()) tools = default_tools();
   viewer::ViewOptions defaults;
   defaults.offscreen = args.offscreen;
+  // The scene's script plays offscreen unless --script replaces it (a view script: camera,
+  // slices and the hand); in the live window the mouse is the tool.
+  const bool scene_script = scene && scene->script_given && args.script.empty();
+  if (scene_script) defaults.frame_s = 1.0 / scene->script.frame_rate_hz;
   viewer::ViewScript script;
   script.options = defaults;
-  if (!args.script.empty()) script = viewer::read_view_script(args.script, tools, defaults);
+  if (!args.script.empty())
+    script = viewer::read_view_script(args.script, tools, defaults);
+  else if (scene_script && args.offscreen)
+    script = hand_from_scene_script(*scene, defaults, defaults.frame_s);
   viewer::ViewOptions& o = script.options;
   if (args.width > 0) o.width = args.width;
   if (args.height > 0) o.height = args.height;
@@ -167,14 +219,30 @@ void run_view(const ViewArguments& args) {
   if (args.no_slices) o.slices.show = false;
   o.offscreen = args.offscreen;
   o.validate();
+  if (!args.quiet && scene && scene->script_given)
+    std::printf("tsf view: %s\n",
+                !args.script.empty()
+                    ? "script: the view script given with --script replaces the scene's script"
+                : args.offscreen
+                    ? "script: playing the scene's script (trajectories and events as the hand)"
+                    : "script: not played in the live window (the mouse is the tool; "
+                      "--offscreen plays it)");
   const viewer::DisplayStatus display = viewer::x_display_status();
   if (!display.available) throw Error("tsf view: " + display.reason);
+  // Where offscreen frames and the scene's outputs go (checked before the model is built).
+  OutputFolder folder;
+  if (args.offscreen || (scene && scene->outputs_given))
+    folder = OutputFolder::prepare(args.out, args.force, "--out");
 
   std::unique_ptr<interaction::TissueModel> model;
   Stopwatch setup;
+  VolumeGeometry tissue_geometry;
+  nlohmann::json session_summary = nullptr;
   if (scene) {
-    const interaction::TissueModelOptions mo = tissue_model_options(*scene);
-    model = std::make_unique<interaction::TissueModel>(scene_tissue_volume(*scene), mo);
+    TissueInstance built = build_tissue_instance(*scene, 0);
+    session_summary = built.summary;
+    tissue_geometry = built.patient_frame;
+    model = std::move(built.model);
   } else {
 #ifdef TSF_HAVE_IMPORT
     interaction::TissueModelOptions mo;
@@ -187,12 +255,16 @@ void run_view(const ViewArguments& args) {
       crms::fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
     };
     model = std::make_unique<interaction::TissueModel>(import::read_tissue_volume(input), mo);
+    tissue_geometry = model->volume().geometry();
 #else
     throw Error(input.string() +
                 ": reading a volume needs a build with ITK (reconfigure with -DTSF_WITH_ITK=ON); "
                 "give a scene file (.yaml) instead");
 #endif
   }
+  // The scene's outputs: the rest mesh now, states every states_every frames, the final mesh and
+  // the report at the end (scene_outputs.h names them inside --out).
+  SceneOutputWriter outputs(scene ? &*scene : nullptr, folder, tissue_geometry, *model);
   viewer::SimulationSession session(std::move(model), tools);
 
   // Slice planes: the CT the tissue came from (--ct, else the one its segmentation report
@@ -203,10 +275,10 @@ void run_view(const ViewArguments& args) {
   std::filesystem::path density;
   if (!scene)
     density = input;
-  else if (scene->lattice.source == SceneLattice::Source::kVolume)
-    density = scene->lattice.volume;
+  else if (scene->instances[0].lattice.source == SceneLattice::Source::kVolume)
+    density = scene->instances[0].lattice.volume;
   std::optional<VoxelVolume> whole;
-  if (scene && scene->lattice.cropped && !density.empty())
+  if (scene && scene->instances[0].lattice.cropped && !density.empty())
     whole = import::read_tissue_volume(density);
   const VoxelVolume& labels = whole ? *whole : session.model().volume();
   std::filesystem::path ct = args.ct;
@@ -232,9 +304,18 @@ void run_view(const ViewArguments& args) {
     viewer::Viewer v(session, slices, o);
     const int frames = v.run_window();
     if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
+    outputs.finish(session.model(), frames * o.frame_s, {{"frames", frames}});
     return;
   }
   int frames = args.frames;
+  if (frames < 0 && scene_script) {  // default: the scene script's duration
+    double end = 0;
+    for (const SceneTrajectory& t : scene->script.trajectories)
+      end = std::max(end, t.keyframes.back().time_s);
+    for (const SceneEvent& e : scene->script.events) end = std::max(end, e.time_s);
+    const double duration = scene->script.duration_s >= 0 ? scene->script.duration_s : end + 0.1;
+    frames = std::max(1, static_cast<int>(std::ceil(duration / o.frame_s - 1e-9)));
+  }
   if (frames < 0)  // default: the script's last keyframe plus a second of settling, else 60
     frames = script.hand.empty() ? 60
                                  : static_cast<int>(script.hand.end_time()) + 1 +
@@ -242,13 +323,18 @@ void run_view(const ViewArguments& args) {
   Progress progress("view " + input.filename().string(), static_cast<std::uint64_t>(frames),
                     !args.quiet && Progress::stderr_is_terminal());
   const viewer::OffscreenResult r =
-      viewer::render_offscreen(session, slices, script, frames, args.out,
-                               [&](int f) { progress.set(static_cast<std::uint64_t>(f + 1)); });
+      viewer::render_offscreen(session, slices, script, frames, folder.path(), [&](int f) {
+        progress.set(static_cast<std::uint64_t>(f + 1));
+        outputs.frame(session.model(), f + 1, (f + 1) * o.frame_s);
+      });
   progress.finish();
   const nlohmann::json report = {
       {"tsf_version", TSF_VERSION_STRING},
-      {"input", input.string()},
-      {"script", args.script},
+      {"input", absolute_path(input).string()},
+      {"frame", "patient (LPS), mm"},
+      {"session", session_summary},
+      {"script", args.script.empty() ? (scene_script ? "the scene's script" : "")
+                                     : absolute_path(args.script).string()},
       {"frames", r.frames},
       {"width", o.width},
       {"height", o.height},
@@ -260,13 +346,13 @@ void run_view(const ViewArguments& args) {
       {"mean_render_s", r.mean_render_s},
       {"mean_simulate_s", r.mean_simulate_s},
   };
-  write_text_atomically(std::filesystem::path(args.out) / "view-report.json",
-                        report.dump(2) + "\n");
+  write_text_atomically(folder.file("view-report.json"), report.dump(2) + "\n");
+  outputs.finish(session.model(), r.frames * o.frame_s, report);
   if (!args.quiet)
     std::printf(
         "tsf view: wrote %d frames to %s (render %.1f ms/frame, simulate %.1f ms/frame, "
         "%zu triangles at the end)\n",
-        r.frames, args.out.c_str(), r.mean_render_s * 1e3, r.mean_simulate_s * 1e3,
+        r.frames, folder.path().c_str(), r.mean_render_s * 1e3, r.mean_simulate_s * 1e3,
         r.last.live_triangles);
 }
 
@@ -296,7 +382,8 @@ void add_view_command(CLI::App& app) {
                   "else 60). Window: close after this many frames")
       ->check(CLI::Range(0, 1'000'000));
   sub->add_option("--out,-o", args->out,
-                  "Offscreen: folder for frame-NNNN.png and view-report.json")
+                  "Offscreen: folder for frame-NNNN.png, view-report.json and the scene's "
+                  "outputs (new or empty, see --force)")
       ->capture_default_str();
   sub->add_option("--width", args->width, "Window width in pixels (default 1280)")
       ->check(CLI::Range(64, 8192));
@@ -314,6 +401,8 @@ void add_view_command(CLI::App& app) {
                   "(default: the CT named by PREFIX-report.json beside the density volume; "
                   "'none': the tissue density)");
   sub->add_flag("--no-slices", args->no_slices, "Hide the slice planes");
+  sub->add_flag("--force", args->force,
+                "Replace the files of an earlier tsf run in the --out folder");
   sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
   sub->footer(std::string("Keys: ") + viewer::kViewerKeyHelp);
   sub->callback([args] { run_view(*args); });

@@ -19,7 +19,7 @@ args=("$@")
 cd "$ROOT"
 for scene in sinus sinus-effects; do
   echo "== tsf run scenes/$scene.yaml ${args[*]} =="
-  "$TSF" run "scenes/$scene.yaml" -q "${args[@]}" -o "$OUT/$scene"
+  "$TSF" run "scenes/$scene.yaml" -q --force "${args[@]}" -o "$OUT/$scene"
 done
 
 read -r -d '' JQ <<'PROGRAM' || true

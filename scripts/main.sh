@@ -17,6 +17,7 @@ for a in "$@"; do
   case "$a" in *.yaml) scene_name="$(basename "$a" .yaml)" ;; esac
 done
 echo "== tsf run $* =="
-"$TSF" run "$@" -o "$OUT/$scene_name"
+# --force: a second main job replaces the first one's files (only in a folder a tsf run wrote).
+"$TSF" run "$@" --force -o "$OUT/$scene_name"
 echo "Outputs in $OUT/$scene_name (report: $OUT/$scene_name/run-report.md):"
 ls -l "$OUT/$scene_name"

@@ -1,12 +1,19 @@
-// `tsf run`: the pipeline of run_pipeline.h.
+// `tsf run`: the pipeline of run_pipeline.h, as named stages that pass typed results:
+//   prepare_run        read the scene, check its keys for `tsf run`, backend, output folder
+//   segment_stage      import → segment (when the scene has a pipeline section)
+//   interaction_stage  the scene session: surface, lattice, coupler, the script (energy per frame,
+//                      effect cost after it)
+//   export_stage       GLB of each final surface, from the run's own meshes
+//   assemble_report    the JSON report (the edge: JSON is made here only), then run-report.md
 #include "run/run_pipeline.h"
 
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
 #include <set>
 #include <vector>
 
+#include "output/interrupt.h"
+#include "output/output_folder.h"
 #include "run/effect_cost.h"
 #include "run/material_library.h"
 #include "run/repo_paths.h"
@@ -14,6 +21,7 @@
 #include "run/run_spec.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
+#include "scene/scene_session.h"
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
@@ -21,8 +29,6 @@
 #include "tsf/version.h"
 #ifdef TSF_HAVE_EXPORT
 #include "tsf/export/mesh_export.h"
-#include "tsf/import/tissue_volume_io.h"
-#include "tsf/imt/surface_ply.h"
 #endif
 #ifdef TSF_HAVE_SEGMENT
 #include "tsf/segment/segment_job.h"
@@ -45,327 +51,376 @@ struct Stage {
   std::string detail;
 };
 
-json stages_json(const std::vector<Stage>& stages) {
+/// What every stage reads and adds to.
+struct RunContext {
+  const RunOptions& options;
+  Scene scene;
+  OutputFolder folder;
+  std::vector<Stage> stages;
+};
+
+struct SegmentOutcome {
+  json report = nullptr;  ///< segment's own report (null without a pipeline section)
+};
+
+struct EnergySample {
+  double time_s = 0;
+  crms::EnergyReport energy;
+};
+
+struct InteractionOutcome {
+  InteractionResult result;
+  std::vector<std::vector<EnergySample>> energy;  ///< per instance
+  std::vector<std::int64_t> alive_nodes;          ///< per instance, at the first frame
+  double effect_cost_s = 0;
+  fs::path report_path;  ///< the interaction's own JSON report
+};
+
+std::string fixed(double v, int decimals) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.*f", decimals, v);
+  return b;
+}
+
+json vec(const Vec3d& v) {
+  return json::array({v.x, v.y, v.z});
+}
+
+// ---- prepare: everything checkable before the long stages ------------------------------------
+
+RunContext prepare_run(const RunOptions& options) {
+  Stopwatch clock;
+  RunContext ctx{options, read_scene(options.scene), {}, {}};
+  Scene& scene = ctx.scene;
+  check_scene_for_command(scene, SceneCommand::kRun);
+  override_backend(scene, options.backend);
+  if (scene.pipeline.present) {
+    for (std::size_t i = 0; i < scene.instances.size(); ++i)
+      if (scene.instances[i].lattice.source != SceneLattice::Source::kVolume)
+        throw Error(scene.instance_prefix(i) +
+                    "lattice.source: a scene with a pipeline section builds its lattice from the "
+                    "segmented CT: expected source: volume");
+    if (!fs::exists(scene.pipeline.ct))
+      throw Error(scene.file.string() + ": pipeline.source.ct: '" + scene.pipeline.ct.string() +
+                  "' does not exist");
+  }
+  // Output folder: command line, then the scene, then out/<scene name> here.
+  const fs::path folder = !options.output_folder.empty() ? options.output_folder
+                          : !scene.pipeline.folder.empty() ? scene.pipeline.folder
+                                                           : fs::path("out") / scene.name;
+  ctx.folder = OutputFolder::prepare(folder, options.force,
+                                     options.output_folder.empty() ? "output folder" : "--output");
+  ctx.stages.push_back({"read and check the scene", clock.seconds(),
+                        absolute_path(scene.file).string()});
+  return ctx;
+}
+
+// ---- segment: import → segment, the volumes every instance is built from -------------------
+
+SegmentOutcome segment_stage(RunContext& ctx) {
+  SegmentOutcome out;
+  const RunSpec& spec = ctx.scene.pipeline;
+  if (!spec.present) return out;
+#ifdef TSF_HAVE_SEGMENT
+  Stopwatch clock;
+  segment::SegmentJob job;
+  job.input = spec.ct;
+  job.preset = segment::load_segment_preset(spec.preset);
+  const double voxel = ctx.options.voxel_mm ? *ctx.options.voxel_mm : spec.voxel_mm;
+  if (voxel > 0) {
+    job.preset.resample.voxel_mm = voxel;
+    job.overrides.push_back("resample.voxel_mm=" + std::to_string(voxel));
+  }
+  if (spec.smoothing_mm >= 0) {
+    job.preset.smoothing.sigma_mm = spec.smoothing_mm;
+    job.overrides.push_back("smoothing.sigma_mm=" + std::to_string(spec.smoothing_mm));
+  }
+  job.preset.validate();
+  job.output_prefix = ctx.folder.file(ctx.scene.name);
+  job.show_progress = !ctx.options.quiet;
+  const segment::SegmentJobResult seg = segment::run_segment_job(job);
+  const double wall = clock.seconds();
+  out.report = seg.report;
+  const double read_s = seg.report["input"].value("read_seconds", 0.0);
+  const double write_s = seg.report["outputs"].value("write_seconds", 0.0);
+  ctx.stages.push_back({"import (read CT)", read_s, absolute_path(spec.ct).string()});
+  ctx.stages.push_back({"segment (preset " + job.preset.name + ")",
+                        std::max(0.0, wall - read_s - write_s),
+                        fixed(seg.report["grid"].value("voxel_mm", 0.0), 2) + " mm voxels"});
+  ctx.stages.push_back({"write segmented volumes", write_s,
+                        seg.volume_paths.density.filename().string() + ", labels, weights"});
+  for (SceneInstance& inst : ctx.scene.instances) inst.lattice.volume = seg.volume_paths.density;
+#else
+  throw Error(ctx.scene.file.string() +
+              ": pipeline: import and segmentation need a build with ITK "
+              "(reconfigure with -DTSF_WITH_ITK=ON)");
+#endif
+  return out;
+}
+
+// ---- interaction: the scene session and its script ------------------------------------------
+
+InteractionOutcome interaction_stage(RunContext& ctx) {
+  const Scene& scene = ctx.scene;
+  const RunSpec& spec = scene.pipeline;
+  InteractionOutcome out;
+  const std::size_t n = scene.instances.size();
+  out.energy.resize(n);
+  out.alive_nodes.assign(n, 0);
+  std::vector<std::int64_t> frames_seen(n, 0);
+  const int energy_every = spec.present ? spec.energy_every : 1;
+
+  InteractionRunOptions run;
+  run.duration_s = ctx.options.duration_s;
+  run.quiet = ctx.options.quiet;
+  // The run's own files, then the scene's `outputs:` names, all inside the folder.
+  InteractionOutputs& o = run.outputs;
+  o.report = ctx.folder.file(scene.outputs.report.empty() ? std::filesystem::path("interaction.json")
+                                                          : scene.outputs.report);
+  const bool meshes = spec.meshes || !spec.present;
+  o.mesh = meshes ? ctx.folder.file(scene.name + "-final.ply") : fs::path();
+  o.rest_mesh = meshes ? ctx.folder.file(scene.name + "-rest.ply") : fs::path();
+  if (!scene.outputs.mesh.empty()) o.mesh = ctx.folder.file(scene.outputs.mesh);
+  if (!scene.outputs.rest_mesh.empty()) o.rest_mesh = ctx.folder.file(scene.outputs.rest_mesh);
+  o.states = ctx.folder.file(scene.outputs.states);
+  o.states_every = scene.outputs.states_every;
+  run.on_frame = [&](double time_s, std::size_t i, const interaction::TissueModel& model) {
+    if (frames_seen[i]++ == 0) out.alive_nodes[i] = model.alive_nodes();
+    if ((frames_seen[i] - 1) % energy_every == 0)
+      out.energy[i].push_back({time_s, model.solver().energy()});
+  };
+  // After the script: what the effects cost on each instance's final lattice (effect_cost.h). With
+  // no effect on it still measures "off" twice: the noise band a paired run compares against
+  // (the report's Markdown shows the table only when effects are on).
+  run.extra_key = "effect_cost";
+  run.after_script = [&](std::size_t i, interaction::TissueModel& model) -> json {
+    Stopwatch clock;
+    if (!ctx.options.quiet)
+      std::printf("tsf run: measuring the effects' step cost on %s's lattice\n",
+                  scene.instances[i].name.c_str());
+    json cost = measure_effect_cost(model.solver(), model.dt(), EffectCostOptions{});
+    out.effect_cost_s += clock.seconds();
+    return cost;
+  };
+  out.report_path = o.report;
+  Stopwatch clock;
+  out.result = run_interaction_scene(scene, run);
+  const double wall = clock.seconds();
+
+  double setup_total = 0;
+  for (const InstanceResult& r : out.result.instances) {
+    setup_total += r.setup_s;
+    ctx.stages.push_back(
+        {"surface + lattice + coupler" + (scene.multi_instance ? " (" + r.name + ")" : ""),
+         r.setup_s,
+         std::to_string(r.alive_start) + " nodes at " + fixed(r.lattice_spacing_mm.x, 2) +
+             " mm, " + std::to_string(r.topology_start.triangles) + " triangles"});
+  }
+  std::int64_t steps = 0;
+  for (const InstanceResult& r : out.result.instances) steps += r.steps;
+  ctx.stages.push_back({"scripted interaction", out.result.script_s,
+                        std::to_string(out.result.frames) + " frames, " + std::to_string(steps) +
+                            " steps" +
+                            (n > 1 ? " over " + std::to_string(n) + " instances" : "")});
+  if (out.effect_cost_s > 0)
+    ctx.stages.push_back({"effect cost measurement", out.effect_cost_s,
+                          "step time with the scene's effects vs all off, interleaved"});
+  ctx.stages.push_back(
+      {"write meshes and states",
+       std::max(0.0, wall - setup_total - out.result.script_s - out.effect_cost_s),
+       o.mesh.empty() ? "none" : o.mesh.filename().string()});
+  return out;
+}
+
+// ---- export: GLB of each final surface in the patient frame ---------------------------------
+
+std::vector<fs::path> export_stage(RunContext& ctx, const InteractionResult& result) {
+  std::vector<fs::path> files;
+#ifdef TSF_HAVE_EXPORT
+  Stopwatch clock;
+  for (const InstanceResult& r : result.instances) {
+    if (r.outputs.mesh.empty()) continue;
+    exporter::ExportOptions eo;
+    eo.format = exporter::ExportFormat::glb;
+    eo.name = ctx.scene.multi_instance ? ctx.scene.name + "-" + r.name : ctx.scene.name;
+    eo.source = "tsf run " + absolute_path(ctx.scene.file).string();
+    const fs::path glb = r.outputs.mesh.parent_path() / (r.outputs.mesh.stem().string() + ".glb");
+    const exporter::ExportReport er =
+        exporter::export_surface(r.final_mesh, r.patient_frame, glb, eo);
+    for (const auto& f : er.files) files.push_back(absolute_path(f.path));
+  }
+  if (!files.empty()) {
+    std::string names;
+    for (const fs::path& f : files) names += (names.empty() ? "" : ", ") + f.filename().string();
+    ctx.stages.push_back({"export (glTF binary)", clock.seconds(), names});
+  }
+#else
+  (void)ctx;
+  (void)result;
+#endif
+  return files;
+}
+
+// ---- the report ------------------------------------------------------------------------------
+
+json material_json(const Scene& scene, const SceneInstance& inst) {
+  if (inst.material_id.empty())
+    return {{"instance", inst.name},
+            {"id", nullptr},
+            {"name", "inline (scene file)"},
+            {"youngs_modulus_pa", inst.material.youngs_modulus_pa},
+            {"density_g_per_mm3", inst.material.density_g_per_mm3}};
+  const fs::path lib_path = scene.pipeline.material_library.empty()
+                                ? default_material_library_path()
+                                : scene.pipeline.material_library;
+  const MaterialLibrary library = read_material_library(lib_path);
+  const LibraryMaterial& m = library.get(inst.material_id);
+  json sources = json::array();
+  for (const auto& src : m.sources) sources.push_back(src.citation);
+  return {{"instance", inst.name},
+          {"id", m.id},
+          {"name", m.name},
+          {"library", absolute_path(lib_path).string()},
+          {"youngs_modulus_pa", m.youngs_modulus_pa},
+          {"damping_time_s", m.damping_time_s},
+          {"density_g_per_mm3", m.density_g_per_mm3},
+          {"sources", sources}};
+}
+
+json energy_json(const std::vector<EnergySample>& samples) {
   json a = json::array();
-  for (const Stage& s : stages)
-    a.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"detail", s.detail}});
+  for (const EnergySample& s : samples)
+    a.push_back({{"time_s", s.time_s},
+                 {"kinetic_nj", s.energy.kinetic_nj},
+                 {"elastic_nj", s.energy.elastic_nj},
+                 {"gravitational_nj", s.energy.gravitational_nj},
+                 {"total_nj", s.energy.total_nj()}});
   return a;
+}
+
+/// "completed", "unstable" or "interrupted", and why.
+std::pair<std::string, std::string> verdict(const InteractionResult& r) {
+  if (r.interrupted)
+    return {"interrupted", "stopped by a signal after " + std::to_string(r.frames) + " of " +
+                               std::to_string(r.frames_planned) + " frames"};
+  if (r.instability) return {"unstable", *r.instability};
+  return {"completed", "every frame of the script was played"};
+}
+
+json assemble_report(const RunContext& ctx, const SegmentOutcome& seg,
+                     const InteractionOutcome& io, const std::vector<fs::path>& exported,
+                     double total_s) {
+  const Scene& scene = ctx.scene;
+  const InteractionResult& result = io.result;
+  json instances = json::array();
+  std::set<std::string> effects_union;
+  double node_steps = 0, stepping = 0, steps = 0;
+  for (const InstanceResult& r : result.instances) {
+    const json ir = instance_report_json(scene, result, r);
+    const double st = r.stepping_s;
+    const double n_steps = static_cast<double>(r.steps);
+    const double alive = static_cast<double>(io.alive_nodes[r.index]);
+    node_steps += n_steps * alive;
+    stepping += st;
+    steps += n_steps;
+    effects_union.insert(r.effects_active.begin(), r.effects_active.end());
+    instances.push_back({{"name", r.name},
+                         {"material", material_json(scene, scene.instances[r.index])},
+                         {"effects_active", r.effects_active},
+                         {"kernel_features", r.kernel_features},
+                         {"bytes_per_node", r.bytes_per_node},
+                         {"labels", scene.instances[r.index].lattice.labels},
+                         {"lattice_spacing_mm", vec(r.lattice_spacing_mm)},
+                         {"alive_nodes_start", r.alive_start},
+                         {"alive_nodes_end", r.alive_end},
+                         {"fixed_nodes", r.fixed_nodes},
+                         {"integrator", r.integrator},
+                         {"dt_s", r.dt_s},
+                         {"steps", n_steps},
+                         {"timings_s", ir["timings_s"]},
+                         {"steps_per_s", st > 0 ? n_steps / st : 0.0},
+                         {"node_steps_per_s", st > 0 ? n_steps * alive / st : 0.0},
+                         {"surface", ir["surface"]},
+                         {"totals", ir["totals"]},
+                         {"outputs", ir["outputs"]},
+                         {"effect_cost", r.extra.is_null() ? json(nullptr) : r.extra},
+                         {"energy", energy_json(io.energy[r.index])}});
+  }
+  // Scene-wide energy: the sum over instances frame by frame (every instance advances every
+  // frame).
+  std::vector<EnergySample> total = io.energy.empty() ? std::vector<EnergySample>{} : io.energy[0];
+  for (std::size_t i = 1; i < io.energy.size(); ++i)
+    for (std::size_t k = 0; k < total.size() && k < io.energy[i].size(); ++k) {
+      total[k].energy.kinetic_nj += io.energy[i][k].energy.kinetic_nj;
+      total[k].energy.elastic_nj += io.energy[i][k].energy.elastic_nj;
+      total[k].energy.gravitational_nj += io.energy[i][k].energy.gravitational_nj;
+    }
+  // The time step: one instance's, or each instance's when they differ.
+  const double dt = result.instances.size() == 1 ? result.instances[0].dt_s : 0.0;
+  const double simulated =
+      result.frame_rate_hz > 0 ? static_cast<double>(result.frames) / result.frame_rate_hz : 0.0;
+  const auto [verdict_word, verdict_reason] = verdict(result);
+  json exported_json = json::array();
+  for (const fs::path& f : exported) exported_json.push_back(f.string());
+  json stages = json::array();
+  for (const Stage& s : ctx.stages)
+    stages.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"detail", s.detail}});
+  const json interaction = interaction_report_json(scene, result);
+  return {
+      {"tsf_version", TSF_VERSION_STRING},
+      {"scene", {{"name", scene.name}, {"file", absolute_path(scene.file).string()}}},
+      {"frame", "patient (LPS), mm"},
+      {"verdict", verdict_word},
+      {"verdict_reason", verdict_reason},
+      {"output_folder", ctx.folder.path().string()},
+      {"interaction_report", io.report_path.string()},
+      {"material", instances.empty() ? json(nullptr) : instances[0]["material"]},
+      {"backend", result.instances.empty() ? "" : result.instances[0].backend},
+      {"effects_active", json(effects_union)},
+      {"effects_note",
+       "effects the solver ran (the scene's effects: section); an effect that is off launches no "
+       "pass and allocates no array. effect_cost per instance with effects on: step time on the "
+       "final lattice with the scene's effects vs all off, interleaved"},
+      {"instances", instances},
+      {"stages", stages},
+      {"rates",
+       {{"steps", steps},
+        {"dt_s", dt},
+        {"simulated_s", simulated},
+        {"stepping_s", stepping},
+        {"steps_per_s", stepping > 0 ? steps / stepping : 0.0},
+        {"node_steps_per_s", stepping > 0 ? node_steps / stepping : 0.0},
+        {"real_time_factor", result.script_s > 0 ? simulated / result.script_s : 0.0}}},
+      {"segmentation", seg.report},
+      {"interaction", interaction},
+      {"energy", energy_json(total)},
+      {"exported", exported_json},
+      {"failure", verdict_word == "completed" ? json(nullptr)
+                                              : json(verdict_word + ": " + verdict_reason)},
+      {"total_seconds", total_s},
+  };
 }
 
 }  // namespace
 
 json run_pipeline(const RunOptions& options) {
   Stopwatch total_clock;
-  std::vector<Stage> stages;
-  Stopwatch clock;
-  Scene scene = read_scene(options.scene);
-  const RunSpec spec = read_run_spec(options.scene);
-  if (!scene.tissue.present)
-    throw Error(options.scene.string() +
-                ": tsf run needs an interaction scene (tissue, tools and a script); this one only "
-                "steps a lattice: run it with `tsf simulate`");
-
-  // Output folder: command line, then the scene, then out/<scene name> here.
-  const fs::path folder = !options.output_folder.empty() ? options.output_folder
-                          : !spec.folder.empty()         ? spec.folder
-                                                         : fs::path("out") / scene.name;
-  fs::create_directories(folder);
-
-  // Materials from the library: pipeline.material (single form) or each instance's id.
-  const fs::path lib_path =
-      spec.material_library.empty() ? default_material_library_path() : spec.material_library;
-  std::optional<MaterialLibrary> library;
-  auto library_material = [&](const std::string& id, const std::string& key) {
-    if (!library) library = read_material_library(lib_path);
-    const LibraryMaterial* m = library->find(id);
-    if (!m) {
-      std::string known;
-      for (const auto& k : library->materials) known += (known.empty() ? "" : ", ") + k.id;
-      throw Error(options.scene.string() + ": " + key + ": no material '" + id + "' in " +
-                  lib_path.string() + " (known: " + known + ")");
-    }
-    return *m;
-  };
-  if (!spec.material.empty()) {
-    const LibraryMaterial m = library_material(spec.material, "pipeline.material");
-    scene.solver.materials.at(0) = m.crms_material();
-    scene.instances.at(0).material = m.crms_material();
-    scene.instances.at(0).material_id = m.id;
-  }
-  json materials = json::array();
-  for (const SceneInstance& inst : scene.instances) {
-    if (inst.material_id.empty()) {
-      materials.push_back({{"instance", inst.name},
-                           {"id", nullptr},
-                           {"name", "inline (scene file)"},
-                           {"youngs_modulus_pa", inst.material.youngs_modulus_pa},
-                           {"density_g_per_mm3", inst.material.density_g_per_mm3}});
-      continue;
-    }
-    const LibraryMaterial m = library_material(inst.material_id, "material");
-    json sources = json::array();
-    for (const auto& src : m.sources) sources.push_back(src.citation);
-    materials.push_back({{"instance", inst.name},
-                         {"id", m.id},
-                         {"name", m.name},
-                         {"library", lib_path.string()},
-                         {"youngs_modulus_pa", m.youngs_modulus_pa},
-                         {"damping_time_s", m.damping_time_s},
-                         {"density_g_per_mm3", m.density_g_per_mm3},
-                         {"sources", sources}});
-  }
-  if (!options.backend.empty()) {
-    if (options.backend == "cpu")
-      scene.solver.backend = crms::Backend::kCpu;
-    else if (options.backend == "cuda")
-      scene.solver.backend = crms::Backend::kCuda;
-    else if (options.backend == "auto")
-      scene.solver.backend = crms::Backend::kAuto;
-    else
-      throw Error("--backend: expected cpu, cuda or auto, got '" + options.backend + "'");
-  }
-  for (std::size_t i = 0; i < scene.instances.size(); ++i)
-    crms::validate_solver_config(scene_for_instance(scene, i).solver);
-  stages.push_back({"read scene", clock.seconds(), scene.file.string()});
-
-  // import → segment (one job: tsf import's reader, then the preset's stages).
-  json segmentation = nullptr;
-  if (spec.present) {
-    for (const SceneInstance& inst : scene.instances)
-      if (inst.lattice.source != SceneLattice::Source::kVolume)
-        throw Error(options.scene.string() + ": " +
-                    (scene.multi_instance ? "tissues[" + inst.name + "]." : std::string()) +
-                    "lattice.source: a scene with a pipeline section builds its lattice from the "
-                    "segmented CT: expected source: volume");
-#ifdef TSF_HAVE_SEGMENT
-    if (!fs::exists(spec.ct))
-      throw Error(options.scene.string() + ": pipeline.source.ct: '" + spec.ct.string() +
-                  "' does not exist");
-    clock.restart();
-    segment::SegmentJob job;
-    job.input = spec.ct;
-    job.preset = segment::load_segment_preset(spec.preset);
-    const double voxel = options.voxel_mm ? *options.voxel_mm : spec.voxel_mm;
-    if (voxel > 0) {
-      job.preset.resample.voxel_mm = voxel;
-      job.overrides.push_back("resample.voxel_mm=" + std::to_string(voxel));
-    }
-    if (spec.smoothing_mm >= 0) {
-      job.preset.smoothing.sigma_mm = spec.smoothing_mm;
-      job.overrides.push_back("smoothing.sigma_mm=" + std::to_string(spec.smoothing_mm));
-    }
-    job.preset.validate();
-    job.output_prefix = folder / scene.name;
-    job.show_progress = !options.quiet;
-    const segment::SegmentJobResult seg = segment::run_segment_job(job);
-    const double segment_wall = clock.seconds();
-    segmentation = seg.report;
-    const double read_s = seg.report["input"].value("read_seconds", 0.0);
-    const double write_s = seg.report["outputs"].value("write_seconds", 0.0);
-    stages.push_back({"import (read CT)", read_s, spec.ct.filename().string()});
-    stages.push_back(
-        {"segment (preset " + job.preset.name + ")", std::max(0.0, segment_wall - read_s - write_s),
-         std::to_string(seg.report["grid"].value("voxel_mm", 0.0)).substr(0, 5) + " mm voxels"});
-    stages.push_back({"write segmented volumes", write_s,
-                      seg.volume_paths.density.filename().string() + ", labels, weights"});
-    scene.lattice.volume = seg.volume_paths.density;
-    for (SceneInstance& inst : scene.instances) inst.lattice.volume = seg.volume_paths.density;
-#else
-    throw Error(options.scene.string() +
-                ": pipeline: import and segmentation need a build with ITK "
-                "(reconfigure with -DTSF_WITH_ITK=ON)");
-#endif
-  }
-
-  // surface → lattice → scripted interaction (the interaction runner), energy every N frames.
-  InteractionRunOptions run;
-  run.duration_s = options.duration_s;
-  run.quiet = options.quiet;
-  run.report = folder / "interaction.json";
-  if (spec.meshes || !spec.present) {
-    run.mesh = folder / (scene.name + "-final.ply");
-    scene.outputs.rest_mesh = folder / (scene.name + "-rest.ply");
-  } else {
-    scene.outputs.rest_mesh.clear();
-  }
-  scene.outputs.report.clear();
-  const std::size_t instance_count = scene.instances.size();
-  std::vector<json> energy(instance_count, json::array());
-  std::vector<std::int64_t> frames_seen(instance_count, 0), alive_nodes(instance_count, 0);
-  run.on_frame = [&](double time_s, std::size_t i, const interaction::TissueModel& model) {
-    if (frames_seen[i]++ == 0) alive_nodes[i] = model.alive_nodes();
-    if ((frames_seen[i] - 1) % spec.energy_every != 0) return;
-    const crms::EnergyReport e = model.solver().energy();
-    energy[i].push_back({{"time_s", time_s},
-                         {"kinetic_nj", e.kinetic_nj},
-                         {"elastic_nj", e.elastic_nj},
-                         {"gravitational_nj", e.gravitational_nj},
-                         {"total_nj", e.total_nj()}});
-  };
-  // After the script: what the effects cost on each instance's final lattice (effect_cost.h).
-  double cost_s = 0;
-  run.extra_key = "effect_cost";
-  run.after_script = [&](std::size_t i, interaction::TissueModel& model) {
-    Stopwatch cost_clock;
-    if (!options.quiet)
-      std::printf("tsf run: measuring the effects' step cost on %s's lattice\n",
-                  scene.instances[i].name.c_str());
-    json cost = measure_effect_cost(model.solver(), model.dt(), EffectCostOptions{});
-    cost_s += cost_clock.seconds();
-    return cost;
-  };
-  clock.restart();
-  json interaction;
-  std::string failure;
-  try {
-    interaction = run_interaction_scene(scene, run);
-  } catch (const Error& e) {
-    failure = e.what();  // unstable: the report still says what happened up to there
-    if (fs::exists(run.report)) {
-      std::ifstream in(run.report);
-      interaction = json::parse(in, nullptr, false);
-    }
-    if (interaction.is_discarded() || interaction.is_null()) throw;
-  }
-  const double interaction_wall = clock.seconds();
-  const json& timings = interaction["timings_s"];
-  // One report per instance (a single-instance scene's report is the instance's).
-  const json instance_reports =
-      interaction.contains("instances") ? interaction["instances"] : json::array({interaction});
-  double setup_total = 0;
-  for (std::size_t i = 0; i < instance_reports.size(); ++i) {
-    const json& ir = instance_reports[i];
-    const double setup_s = ir["timings_s"].value("setup", 0.0);
-    setup_total += setup_s;
-    stages.push_back(
-        {"surface + lattice + coupler" +
-             (scene.multi_instance ? " (" + ir.value("instance", "") + ")" : std::string()),
-         setup_s,
-         std::to_string(ir["lattice"].value("alive_nodes_start", 0)) + " nodes at " +
-             std::to_string(ir["lattice"]["spacing_mm"][0].get<double>()).substr(0, 4) + " mm, " +
-             std::to_string(ir["surface"].value("triangles_start", 0)) + " triangles"});
-  }
-  stages.push_back(
-      {"scripted interaction", timings.value("script", 0.0),
-       std::to_string(interaction.value("frames", 0)) + " frames, " +
-           std::to_string(interaction.value("steps", 0)) + " steps" +
-           (scene.multi_instance ? " over " + std::to_string(instance_count) + " instances"
-                                 : std::string())});
-  stages.push_back({"effect cost measurement", cost_s,
-                    "step time with the scene's effects vs all off, interleaved"});
-  stages.push_back(
-      {"write meshes",
-       std::max(0.0, interaction_wall - setup_total - timings.value("script", 0.0) - cost_s),
-       run.mesh.empty() ? "none" : run.mesh.filename().string()});
-
-  // Export formats (glTF binary) of the final surface when the export module is built.
-  json exported = json::array();
-#ifdef TSF_HAVE_EXPORT
-  clock.restart();
-  for (std::size_t i = 0; i < instance_reports.size(); ++i) {
-    const fs::path mesh = instance_output_path(run.mesh, scene, i);
-    if (mesh.empty() || !fs::exists(mesh)) continue;
-    // The surface is in the tissue space of the (uncropped) volume: its geometry maps it to the
-    // patient frame. Box scenes have an axis-aligned volume at the origin.
-    VolumeGeometry geometry;
-    if (scene.instances[i].lattice.source == SceneLattice::Source::kVolume) {
-      geometry = import::read_tissue_volume(scene.instances[i].lattice.volume).geometry();
-    } else {
-      const json& v = instance_reports[i]["volume"];
-      for (int a = 0; a < 3; ++a) {
-        geometry.dims[a] = v["dims"][a].get<int>();
-        geometry.spacing[a] = v["spacing_mm"][a].get<double>();
-        geometry.origin[a] = v["origin_mm"][a].get<double>();
-      }
-    }
-    exporter::ExportOptions eo;
-    eo.format = exporter::ExportFormat::glb;
-    eo.name = scene.multi_instance ? scene.name + "-" + scene.instances[i].name : scene.name;
-    eo.source = "tsf run " + scene.file.string();
-    const fs::path glb = mesh.parent_path() / (mesh.stem().string() + ".glb");
-    const exporter::ExportReport er =
-        exporter::export_surface(imt::read_surface_ply(mesh), geometry, glb, eo);
-    for (const auto& f : er.files) exported.push_back(f.path.filename().string());
-  }
-  if (!exported.empty()) stages.push_back({"export (glTF)", clock.seconds(), exported.dump()});
-#endif
-  // Per instance: material, effects, nodes, rates, energy, effect cost. Scene-wide energy is the
-  // sum over instances frame by frame (every instance advances every frame).
-  json instances = json::array();
-  std::set<std::string> effects_union;
-  double node_steps = 0;
-  for (std::size_t i = 0; i < instance_reports.size(); ++i) {
-    const json& ir = instance_reports[i];
-    const double st = ir["timings_s"].value("stepping", 0.0);
-    const double n_steps = ir.value("steps", 0.0);
-    node_steps += n_steps * double(alive_nodes[i]);
-    for (const auto& e : ir.value("effects_active", json::array()))
-      effects_union.insert(e.get<std::string>());
-    instances.push_back({{"name", scene.instances[i].name},
-                         {"material", materials[i]},
-                         {"effects_active", ir.value("effects_active", json::array())},
-                         {"kernel_features", ir.value("kernel_features", json::array())},
-                         {"bytes_per_node", ir.value("bytes_per_node", 0.0)},
-                         {"labels", ir["lattice"].value("labels", json::array())},
-                         {"lattice_spacing_mm", ir["lattice"]["spacing_mm"]},
-                         {"alive_nodes_start", ir["lattice"].value("alive_nodes_start", 0)},
-                         {"alive_nodes_end", ir["lattice"].value("alive_nodes_end", 0)},
-                         {"fixed_nodes", ir["lattice"].value("fixed_nodes", 0)},
-                         {"integrator", ir.value("integrator", "")},
-                         {"dt_s", ir.value("dt_s", 0.0)},
-                         {"steps", n_steps},
-                         {"timings_s", ir["timings_s"]},
-                         {"steps_per_s", st > 0 ? n_steps / st : 0.0},
-                         {"node_steps_per_s", st > 0 ? n_steps * double(alive_nodes[i]) / st : 0.0},
-                         {"surface", ir["surface"]},
-                         {"totals", ir["totals"]},
-                         {"outputs", ir["outputs"]},
-                         {"effect_cost", ir.value("effect_cost", json(nullptr))},
-                         {"energy", energy[i]}});
-  }
-  json energy_total = energy[0];
-  for (std::size_t i = 1; i < energy.size(); ++i)
-    for (std::size_t k = 0; k < energy_total.size() && k < energy[i].size(); ++k)
-      for (const char* key : {"kinetic_nj", "elastic_nj", "gravitational_nj", "total_nj"})
-        energy_total[k][key] = energy_total[k][key].get<double>() + energy[i][k][key].get<double>();
-  const double stepping = timings.value("stepping", 0.0);
-  const double steps = interaction.value("steps", 0.0);
-  const double simulated = interaction.value("simulated_s", 0.0);
-  json report = {
-      {"tsf_version", TSF_VERSION_STRING},
-      {"scene", {{"name", scene.name}, {"file", scene.file.string()}}},
-      {"output_folder", folder.string()},
-      {"material", materials[0]},
-      {"backend", interaction.value("backend", "")},
-      {"effects_active", json(effects_union)},
-      {"effects_note",
-       "effects the solver ran (crms::Solver::active_effects(), the scene's effects: section); "
-       "an effect that is off launches no pass and allocates no array. effect_cost per instance: "
-       "step time on the final lattice with the scene's effects vs all off, interleaved"},
-      {"instances", instances},
-      {"stages", stages_json(stages)},
-      {"rates",
-       {{"steps", steps},
-        {"dt_s", interaction.value("dt_s", 0.0)},
-        {"simulated_s", simulated},
-        {"stepping_s", stepping},
-        {"steps_per_s", stepping > 0 ? steps / stepping : 0.0},
-        {"node_steps_per_s", stepping > 0 ? node_steps / stepping : 0.0},
-        {"real_time_factor",
-         timings.value("script", 0.0) > 0 ? simulated / timings.value("script", 0.0) : 0.0}}},
-      {"segmentation", segmentation},
-      {"interaction", interaction},
-      {"energy", energy_total},
-      {"exported", exported},
-      {"failure", failure.empty() ? json(nullptr) : json(failure)},
-  };
-  report["total_seconds"] = total_clock.seconds();
-  write_text_atomically(folder / "run-report.json", report.dump(2) + "\n");
+  RunContext ctx = prepare_run(options);
+  InterruptScope interrupts;
+  const SegmentOutcome seg = segment_stage(ctx);
+  if (interrupted())
+    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) +
+                ") after segmentation; nothing was simulated (" + ctx.folder.path().string() + ")");
+  const InteractionOutcome io = interaction_stage(ctx);
+  const std::vector<fs::path> exported = export_stage(ctx, io.result);
+  const json report = assemble_report(ctx, seg, io, exported, total_clock.seconds());
+  write_text_atomically(ctx.folder.file("run-report.json"), report.dump(2) + "\n");
+  const RunSpec& spec = ctx.scene.pipeline;
   if (spec.report || !spec.present) {
-    const fs::path md = write_run_report(report, folder, spec.plots);
+    const fs::path md = write_run_report(report, ctx.folder.path(), spec.plots || !spec.present);
     if (!options.quiet) std::printf("tsf run: report %s\n", md.string().c_str());
   }
-  if (!failure.empty()) throw Error(failure);
+  if (!report["failure"].is_null()) throw Error(report["failure"].get<std::string>());
   return report;
 }
 

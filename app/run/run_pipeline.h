@@ -23,11 +23,14 @@ struct RunOptions {
   std::optional<double> duration_s;     ///< overrides script.duration (short CI runs)
   std::optional<double> voxel_mm;       ///< overrides pipeline.segmentation.voxel_mm
   std::string backend;                  ///< cpu | cuda | auto (empty: the scene's)
+  bool force = false;                   ///< replace an earlier run's files in the output folder
   bool quiet = false;
 };
 
-/// Runs the pipeline and writes the outputs; returns the JSON report (also written). Throws
-/// tsf::Error naming the stage, file or key on bad input or failure.
+/// Runs the pipeline and writes everything under the output folder; returns the JSON report (also
+/// written, with run-report.md). Cheap checks (scene keys, backend, output folder) come before
+/// the long stages. Throws tsf::Error naming the stage, file or key on bad input or failure; an
+/// unstable or interrupted run throws after its report is written.
 nlohmann::json run_pipeline(const RunOptions& options);
 
 /// The bundled default scene: scenes/sinus.yaml (repo_paths.h).

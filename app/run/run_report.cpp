@@ -2,6 +2,7 @@
 #include "run/run_report.h"
 
 #include <cmath>
+#include <functional>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -36,14 +37,40 @@ std::string seconds(double s) {
   return number(s) + " s";
 }
 
-/// Renders a gnuplot script to `png`; false (and no image) when gnuplot is missing or fails.
-bool render(const std::string& script, const fs::path& png, const fs::path& work) {
-  const fs::path gp = work / (png.stem().string() + ".gp");
-  write_text_atomically(gp, script);
-  const fs::path log = work / (png.stem().string() + ".gnuplot.log");
-  const std::string cmd = "gnuplot " + quote(gp.string()) + " > " + quote(log.string()) + " 2>&1";
-  const int rc = std::system(cmd.c_str());
+/// µN in the unit a person reads: µN, mN or N.
+std::string force(double un) {
+  const double a = std::fabs(un);
+  if (a < 1e3) return number(un) + " µN";
+  if (a < 1e6) return number(un * 1e-3) + " mN";
+  return number(un * 1e-6) + " N";
+}
+
+/// An integer with thousands separators (12 868).
+std::string count(double v) {
+  std::string digits = std::to_string(static_cast<long long>(std::llround(v)));
+  std::string out;
+  const bool negative = !digits.empty() && digits[0] == '-';
+  if (negative) digits.erase(0, 1);
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return (negative ? "-" : "") + out;
+}
+
+/// Renders a gnuplot script to `png`; false (and no image) when gnuplot is missing or fails. The
+/// script and gnuplot's messages live in a temporary folder that is removed afterwards.
+bool render(const std::string& script, const fs::path& png) {
   std::error_code ec;
+  const fs::path work = fs::temp_directory_path(ec) /
+                        ("tsf-plot-" + std::to_string(std::hash<std::string>{}(png.string())));
+  fs::create_directories(work, ec);
+  const fs::path gp = work / "plot.gp";
+  write_text_atomically(gp, script);
+  const std::string cmd =
+      "gnuplot " + quote(gp.string()) + " > " + quote((work / "gnuplot.log").string()) + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  fs::remove_all(work, ec);
   return rc == 0 && fs::exists(png, ec) && fs::file_size(png, ec) > 0;
 }
 
@@ -54,32 +81,88 @@ std::string header(const fs::path& png, const std::string& title, const std::str
          "\nset ylabel " + quote(ylabel) + "\nset grid\nset key outside right top\n";
 }
 
-}  // namespace
+/// Everything a section needs: the report, where its images go, its name, whether to plot.
+struct ReportContext {
+  const json& r;
+  fs::path images;
+  std::string name;
+  bool plots;
+  json instances;
+};
 
-fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
-  const fs::path images = folder / "images";
-  fs::create_directories(images);
-  const std::string name = r["scene"].value("name", "scene");
-  std::ostringstream md;
-  md << "# tsf run: " << name << "\n\n"
-     << "Scene `" << r["scene"].value("file", "") << "`, tsf " << r.value("tsf_version", "")
-     << ", backend " << r.value("backend", "") << ". Total "
-     << seconds(r.value("total_seconds", 0.0))
-     << ". Machine-readable: `run-report.json` (same folder).\n\n";
-  if (!r["failure"].is_null())
-    md << "**The run stopped early:** " << r["failure"].get<std::string>() << "\n\n";
+std::string instance_tag(const ReportContext& c, const json& in) {
+  return c.instances.size() > 1 ? "`" + in.value("name", "") + "`: " : std::string();
+}
 
-  // ---- stages ----
+// ---- verdict: what happened, in one paragraph, and what to try ------------------------------
+
+void verdict_section(const ReportContext& c, std::ostream& md) {
+  const json& r = c.r;
+  const std::string verdict = r.value("verdict", "completed");
+  const json& interaction = r["interaction"];
+  md << "# " << c.name << ": " << (verdict == "completed" ? "completed" : verdict) << "\n\n";
+  if (verdict == "unstable")
+    md << "**Unstable.** " << r.value("verdict_reason", "") << ". The report below covers the run "
+       << "up to there. Try a smaller time step (`solver.dt`, or a lower `solver.dt_safety`), the "
+       << "implicit integrator for stiff tissue (`solver.integrator: implicit-euler`), or more "
+       << "damping (`stability.kinetic_damping`, the material's viscosity).\n\n";
+  else if (verdict == "interrupted")
+    md << "**Interrupted.** " << r.value("verdict_reason", "")
+       << ". The report, meshes and states hold what was reached; run again (with `--force` into "
+          "this folder) to finish.\n\n";
+  double removed = 0, edits = 0;
+  std::size_t closed = 0;
+  for (const json& in : c.instances) {
+    removed += in["totals"].value("removed_mm3", 0.0);
+    edits += in["totals"].value("edits", 0.0);
+    closed += in["surface"].value("closed_manifold_end", false) ? 1 : 0;
+  }
+  md << "Played " << seconds(r["rates"].value("simulated_s", 0.0)) << " of the script ("
+     << count(interaction.value("frames", 0.0)) << " frames) on " << c.instances.size()
+     << (c.instances.size() == 1 ? " tissue instance" : " tissue instances") << ": "
+     << count(edits) << " edits removed " << number(removed) << " mm³ of tissue; "
+     << (closed == c.instances.size() ? "every final surface is a closed manifold"
+                                      : "**a final surface is not a closed manifold**")
+     << ". Largest tool force " << force(interaction.value("max_tool_force_un", 0.0))
+     << ". Total " << seconds(r.value("total_seconds", 0.0)) << ".\n\n"
+     << "Coordinates: " << r.value("frame", "patient (LPS), mm") << ". Scene `"
+     << r["scene"].value("file", "") << "`, tsf " << r.value("tsf_version", "") << ", backend "
+     << r.value("backend", "") << ". Machine-readable: `run-report.json` (same folder).\n\n";
+}
+
+void glance_section(const ReportContext& c, std::ostream& md) {
+  const json& rates = c.r["rates"];
+  const json latency = c.r["interaction"].value("edit_latency_us", json::object());
+  md << "| at a glance | |\n| --- | --- |\n";
+  for (const json& in : c.instances) {
+    const json& m = in["material"];
+    md << "| tissue" << (c.instances.size() > 1 ? " `" + in.value("name", "") + "`" : "") << " | "
+       << count(in.value("alive_nodes_start", 0.0)) << " lattice nodes at "
+       << number(in["lattice_spacing_mm"][0].get<double>()) << " mm, "
+       << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline material")
+       << " (E " << number(m.value("youngs_modulus_pa", 0.0) * 1e-3) << " kPa), "
+       << in.value("integrator", "") << " at " << seconds(in.value("dt_s", 0.0)) << " |\n";
+  }
+  md << "| simulation | " << count(rates.value("steps", 0.0)) << " steps, "
+     << number(rates.value("steps_per_s", 0.0)) << " steps/s while stepping, real-time factor "
+     << number(rates.value("real_time_factor", 0.0)) << " |\n"
+     << "| edit → render buffer | p50 " << seconds(latency.value("p50", 0.0) * 1e-6) << ", p99 "
+     << seconds(latency.value("p99", 0.0) * 1e-6) << " |\n\n";
+}
+
+// ---- where the time went --------------------------------------------------------------------
+
+void stages_section(const ReportContext& c, std::ostream& md) {
   md << "## Time per stage\n\n| stage | time | detail |\n| --- | ---: | --- |\n";
   std::ostringstream bars;
   int index = 0;
-  for (const json& s : r["stages"]) {
+  for (const json& s : c.r["stages"]) {
     md << "| " << s.value("stage", "") << " | " << seconds(s.value("seconds", 0.0)) << " | "
        << s.value("detail", "") << " |\n";
     bars << index++ << " " << s.value("seconds", 0.0) << " " << quote(s.value("stage", "")) << "\n";
   }
   md << "\n";
-  const json& seg = r["segmentation"];
+  const json& seg = c.r["segmentation"];
   if (seg.is_object() && seg.contains("stage_times")) {
     md << "Segmentation stages: ";
     bool first = true;
@@ -89,216 +172,261 @@ fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
     }
     md << ".\n\n";
   }
-  bool have_stage_plot = false;
-  if (plots) {
-    const fs::path png = images / "run-stages.png";
-    std::string gp = header(png, "Time per stage: " + name, "", "wall time (s)");
-    gp +=
-        "set style fill solid 0.6\nset boxwidth 0.6\nunset key\nset xtics rotate by -25\n"
-        "set yrange [0:*]\n$d << EOD\n" +
-        bars.str() + "EOD\nplot $d using 1:2:xtic(3) with boxes lc rgb '#4477aa'\n";
-    have_stage_plot = render(gp, png, folder);
-    if (have_stage_plot) md << "![time per stage](images/run-stages.png)\n\n";
-  }
+  if (!c.plots) return;
+  const fs::path png = c.images / "run-stages.png";
+  std::string gp = header(png, "Time per stage: " + c.name, "", "wall time (s)");
+  gp +=
+      "set style fill solid 0.6\nset boxwidth 0.6\nunset key\nset xtics rotate by -25\n"
+      "set yrange [0:*]\n$d << EOD\n" +
+      bars.str() + "EOD\nplot $d using 1:2:xtic(3) with boxes lc rgb '#4477aa'\n";
+  if (render(gp, png)) md << "![time per stage](images/run-stages.png)\n\n";
+}
 
-  // ---- rates ----
-  const json& rates = r["rates"];
-  md << "## Simulation rate\n\n| quantity | value |\n| --- | ---: |\n"
-     << "| time step | " << seconds(rates.value("dt_s", 0.0)) << " |\n"
-     << "| steps | " << rates.value("steps", 0.0) << " |\n"
+void rates_section(const ReportContext& c, std::ostream& md) {
+  const json& rates = c.r["rates"];
+  md << "## Simulation rate\n\n| quantity | value |\n| --- | ---: |\n";
+  if (c.instances.size() == 1)
+    md << "| time step | " << seconds(c.instances[0].value("dt_s", 0.0)) << " |\n";
+  else
+    for (const json& in : c.instances)
+      md << "| time step, `" << in.value("name", "") << "` | " << seconds(in.value("dt_s", 0.0))
+         << " |\n";
+  md << "| steps | " << count(rates.value("steps", 0.0)) << " |\n"
      << "| simulated time | " << seconds(rates.value("simulated_s", 0.0)) << " |\n"
-     << "| steps per second (stepping only) | " << number(rates.value("steps_per_s", 0.0)) << " |\n"
+     << "| steps per second (stepping only) | " << number(rates.value("steps_per_s", 0.0))
+     << " |\n"
      << "| node-steps per second | " << number(rates.value("node_steps_per_s", 0.0)) << " |\n"
      << "| real-time factor (simulated / wall, script) | "
      << number(rates.value("real_time_factor", 0.0)) << " |\n\n";
+}
 
-  // ---- energy ----
+// ---- physics over time ----------------------------------------------------------------------
+
+void energy_section(const ReportContext& c, std::ostream& md) {
   md << "## Energy over time\n\n";
-  const json& energy = r["energy"];
+  const json& energy = c.r["energy"];
   if (energy.empty()) {
     md << "No frames were simulated.\n\n";
-  } else {
-    double peak = 0;
-    for (const json& e : energy) peak = std::max(peak, std::fabs(e.value("total_nj", 0.0)));
-    const json& last = energy.back();
-    md << "Kinetic, elastic and gravitational energy of the lattice each "
-       << (energy.size() > 1 ? "recorded frame" : "frame") << " (nJ). At the end: kinetic "
-       << number(last.value("kinetic_nj", 0.0)) << " nJ, elastic "
-       << number(last.value("elastic_nj", 0.0)) << " nJ, total "
-       << number(last.value("total_nj", 0.0)) << " nJ; largest |total| " << number(peak)
-       << " nJ. Tools do work on the tissue and "
-       << "damping removes it, so the total is not constant; it must stay finite.\n\n";
-    if (plots) {
-      std::ostringstream d;
-      for (const json& e : energy)
-        d << e.value("time_s", 0.0) * 1e3 << " " << e.value("kinetic_nj", 0.0) << " "
-          << e.value("elastic_nj", 0.0) << " " << e.value("gravitational_nj", 0.0) << " "
-          << e.value("total_nj", 0.0) << "\n";
-      const fs::path png = images / "run-energy.png";
-      const std::string gp = header(png, "Energy over time: " + name, "time (ms)", "energy (nJ)") +
-                             "$d << EOD\n" + d.str() +
-                             "EOD\nplot $d using 1:2 with lines lw 2 title 'kinetic', "
-                             "$d using 1:3 with lines lw 2 title 'elastic', "
-                             "$d using 1:4 with lines lw 2 title 'gravitational', "
-                             "$d using 1:5 with lines lw 2 dt 2 title 'total'\n";
-      if (render(gp, png, folder)) md << "![energy over time](images/run-energy.png)\n\n";
-    }
+    return;
   }
+  double peak = 0;
+  for (const json& e : energy) peak = std::max(peak, std::fabs(e.value("total_nj", 0.0)));
+  const json& last = energy.back();
+  md << "Kinetic, elastic and gravitational energy of the lattice each "
+     << (energy.size() > 1 ? "recorded frame" : "frame") << ". At the end: kinetic "
+     << number(last.value("kinetic_nj", 0.0)) << " nJ, elastic "
+     << number(last.value("elastic_nj", 0.0)) << " nJ, total "
+     << number(last.value("total_nj", 0.0)) << " nJ; largest |total| " << number(peak)
+     << " nJ. Tools do work on the tissue and damping removes it, so the total is not "
+        "constant.\n\n";
+  if (!c.plots) return;
+  std::ostringstream d;
+  for (const json& e : energy)
+    d << e.value("time_s", 0.0) * 1e3 << " " << e.value("kinetic_nj", 0.0) << " "
+      << e.value("elastic_nj", 0.0) << " " << e.value("gravitational_nj", 0.0) << " "
+      << e.value("total_nj", 0.0) << "\n";
+  const fs::path png = c.images / "run-energy.png";
+  const std::string gp = header(png, "Energy over time: " + c.name, "time (ms)", "energy (nJ)") +
+                         "$d << EOD\n" + d.str() +
+                         "EOD\nplot $d using 1:2 with lines lw 2 title 'kinetic', "
+                         "$d using 1:3 with lines lw 2 title 'elastic', "
+                         "$d using 1:4 with lines lw 2 title 'gravitational', "
+                         "$d using 1:5 with lines lw 2 dt 2 title 'total'\n";
+  if (render(gp, png)) md << "![energy over time](images/run-energy.png)\n\n";
+}
 
-  // ---- tool force ----
+void force_section(const ReportContext& c, std::ostream& md) {
   md << "## Tool force\n\n";
-  const json& interaction = r["interaction"];
+  const json& interaction = c.r["interaction"];
   const json contact = interaction.value("contact", json::array());
   if (contact.empty()) {
     md << "No tool touched the tissue in a pressing mode.\n\n";
-  } else {
-    md << "Force the tissue exerts on the pressing tool (µN; the reaction of the held nodes), "
-       << contact.size() << " frames; largest |F| "
-       << number(interaction.value("max_tool_force_un", 0.0)) << " µN.\n\n";
-    if (plots) {
-      std::ostringstream d;
-      for (const json& c : contact) {
-        const auto f = c["force_un"];
-        const double x = f[0], y = f[1], z = f[2];
-        d << c.value("time_s", 0.0) * 1e3 << " " << x << " " << y << " " << z << " "
-          << std::sqrt(x * x + y * y + z * z) << "\n";
-      }
-      const fs::path png = images / "run-force.png";
-      const std::string gp = header(png, "Tool force: " + name, "time (ms)", "force (µN)") +
-                             "$d << EOD\n" + d.str() +
-                             "EOD\nplot $d using 1:5 with lines lw 2 title '|F|', "
-                             "$d using 1:2 with lines title 'Fx', $d using 1:3 with lines title "
-                             "'Fy', $d using 1:4 with lines title 'Fz'\n";
-      if (render(gp, png, folder)) md << "![tool force](images/run-force.png)\n\n";
-    }
+    return;
   }
+  md << "Force the tissue exerts on the pressing tool (the reaction of the held nodes), "
+     << contact.size() << " frames; largest |F| "
+     << force(interaction.value("max_tool_force_un", 0.0)) << ".\n\n";
+  if (!c.plots) return;
+  std::ostringstream d;
+  for (const json& s : contact) {
+    const auto f = s["force_un"];
+    const double x = f[0], y = f[1], z = f[2];
+    d << s.value("time_s", 0.0) * 1e3 << " " << x * 1e-3 << " " << y * 1e-3 << " " << z * 1e-3
+      << " " << std::sqrt(x * x + y * y + z * z) * 1e-3 << "\n";
+  }
+  const fs::path png = c.images / "run-force.png";
+  const std::string gp = header(png, "Tool force: " + c.name, "time (ms)", "force (mN)") +
+                         "$d << EOD\n" + d.str() +
+                         "EOD\nplot $d using 1:5 with lines lw 2 title '|F|', "
+                         "$d using 1:2 with lines title 'Fx', $d using 1:3 with lines title "
+                         "'Fy', $d using 1:4 with lines title 'Fz'\n";
+  if (render(gp, png)) md << "![tool force](images/run-force.png)\n\n";
+}
 
-  // ---- edits ----
-  const json instances = r.value("instances", json::array());
+// ---- what the tools did, per instance ---------------------------------------------------------
+
+void edits_section(const ReportContext& c, std::ostream& md) {
   md << "## Edits\n\n";
-  for (const json& in : instances) {
+  for (const json& in : c.instances) {
     const json& totals = in["totals"];
     const json& surface = in["surface"];
-    md << (instances.size() > 1 ? "- `" + in.value("name", "") + "`: " : std::string())
-       << totals.value("edits", 0) << " edits removed " << number(totals.value("removed_mm3", 0.0))
-       << " mm³ of tissue, deleted " << totals.value("nodes_deleted", 0)
-       << " lattice nodes and broke " << totals.value("springs_broken", 0)
-       << " springs. The final surface is "
+    md << (c.instances.size() > 1 ? "- " + instance_tag(c, in) : std::string())
+       << count(totals.value("edits", 0.0)) << " edits removed "
+       << number(totals.value("removed_mm3", 0.0)) << " mm³ of tissue, deleted "
+       << count(totals.value("nodes_deleted", 0.0)) << " lattice nodes and broke "
+       << count(totals.value("springs_broken", 0.0)) << " springs. The final surface is "
        << (surface.value("closed_manifold_end", false) ? "a closed manifold"
                                                        : "**not** a closed manifold")
-       << " (" << surface.value("triangles_end", 0) << " triangles).\n";
+       << " (" << count(surface.value("triangles_end", 0.0)) << " triangles).\n";
   }
-  const json latency = interaction.value("edit_latency_us", json::object());
-  md << "\nEdit → render-buffer latency p50 " << number(latency.value("p50", 0.0)) << " µs, p99 "
-     << number(latency.value("p99", 0.0)) << " µs.\n\n";
+  md << "\n";
+}
 
-  // ---- tissue instances ----
-  if (instances.size() > 1) {
-    md << "## Tissue instances\n\nEvery tool acts on each instance; each has its own lattice, "
-          "material, time step and outputs.\n\n"
-       << "| instance | labels | spacing | alive nodes (start → end) | anchored | material | "
-          "integrator, dt | "
-          "steps | stepping | node-steps/s | surface end |\n"
-       << "| --- | --- | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | --- |\n";
-    for (const json& in : instances) {
-      std::string labels;
-      for (const json& l : in.value("labels", json::array()))
-        labels += (labels.empty() ? "" : ", ") + std::to_string(l.get<int>());
-      const json& m = in["material"];
-      md << "| " << in.value("name", "") << " | " << (labels.empty() ? "all" : labels) << " | "
-         << number(in["lattice_spacing_mm"][0].get<double>()) << " mm | "
-         << in.value("alive_nodes_start", 0) << " → " << in.value("alive_nodes_end", 0) << " | "
-         << in.value("fixed_nodes", 0) << " | "
-         << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline") << " (E "
-         << number(m.value("youngs_modulus_pa", 0.0)) << " Pa) | " << in.value("integrator", "")
-         << ", " << seconds(in.value("dt_s", 0.0)) << " | " << in.value("steps", 0.0) << " | "
-         << seconds(in["timings_s"].value("stepping", 0.0)) << " | "
-         << number(in.value("node_steps_per_s", 0.0)) << " | "
-         << in["surface"].value("triangles_end", 0) << " triangles, "
-         << (in["surface"].value("closed_manifold_end", false) ? "closed" : "**not closed**")
-         << " |\n";
-    }
-    md << "\n";
+void instances_section(const ReportContext& c, std::ostream& md) {
+  if (c.instances.size() <= 1) return;
+  md << "## Tissue instances\n\nEvery tool acts on each instance; each has its own lattice, "
+        "material, time step and outputs.\n\n"
+     << "| instance | labels | spacing | alive nodes (start → end) | anchored | material | "
+        "integrator, dt | steps | stepping | node-steps/s | surface end |\n"
+     << "| --- | --- | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | --- |\n";
+  for (const json& in : c.instances) {
+    std::string labels;
+    for (const json& l : in.value("labels", json::array()))
+      labels += (labels.empty() ? "" : ", ") + std::to_string(l.get<int>());
+    const json& m = in["material"];
+    md << "| " << in.value("name", "") << " | " << (labels.empty() ? "all" : labels) << " | "
+       << number(in["lattice_spacing_mm"][0].get<double>()) << " mm | "
+       << count(in.value("alive_nodes_start", 0.0)) << " → "
+       << count(in.value("alive_nodes_end", 0.0)) << " | " << count(in.value("fixed_nodes", 0.0))
+       << " | "
+       << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline") << " (E "
+       << number(m.value("youngs_modulus_pa", 0.0) * 1e-3) << " kPa) | "
+       << in.value("integrator", "") << ", " << seconds(in.value("dt_s", 0.0)) << " | "
+       << count(in.value("steps", 0.0)) << " | " << seconds(in["timings_s"].value("stepping", 0.0))
+       << " | " << number(in.value("node_steps_per_s", 0.0)) << " | "
+       << count(in["surface"].value("triangles_end", 0.0)) << " triangles, "
+       << (in["surface"].value("closed_manifold_end", false) ? "closed" : "**not closed**")
+       << " |\n";
   }
+  md << "\n";
+}
 
-  // ---- effects and their cost ----
+// ---- effects: which ran, and (only when some did) what they cost ------------------------------
+
+void effect_cost_table(const ReportContext& c, const json& in, std::ostream& md) {
+  const json& cost = in["effect_cost"];
+  md << "### Effect cost" << (c.instances.size() > 1 ? ": " + in.value("name", "") : std::string())
+     << "\n\nStep time on the final lattice (" << count(cost.value("alive_nodes", 0.0))
+     << " alive nodes, " << cost.value("backend", "") << "), " << cost.value("repetitions", 0)
+     << " interleaved repetitions of " << cost.value("steps_per_repetition", 0)
+     << " steps each; median (min – max).\n\n"
+     << "| configuration | time per step | ratio to off (medians) | ratio to off (minima) | "
+        "bytes per node |\n"
+     << "| --- | ---: | ---: | ---: | ---: |\n";
+  for (const json& k : cost["configurations"])
+    md << "| " << k.value("name", "") << (k.value("unstable", false) ? " (went unstable)" : "")
+       << " | " << seconds(k.value("median_us_per_step", 0.0) * 1e-6) << " ("
+       << seconds(k.value("min_us_per_step", 0.0) * 1e-6) << " – "
+       << seconds(k.value("max_us_per_step", 0.0) * 1e-6) << ") | "
+       << number(k.value("ratio_to_off", 0.0)) << " | " << number(k.value("ratio_to_off_min", 0.0))
+       << " | " << number(k.value("bytes_per_node", 0.0)) << " |\n";
+  md << "\nNoise band: the two identical \"off\" configurations differ by "
+     << number(100.0 * cost.value("noise_off_vs_off_again", 0.0), 2)
+     << " %; the repetitions of one configuration spread by up to "
+     << number(100.0 * cost.value("noise_largest_spread", 0.0), 2)
+     << " % (max − min over median). A ratio inside that band is no measurable cost; a disabled "
+        "effect allocates no bytes and launches no pass.\n\n";
+}
+
+void effects_section(const ReportContext& c, std::ostream& md) {
   md << "## Effects active\n\n";
-  for (const json& in : instances) {
-    const json active = in.value("effects_active", json::array());
+  for (const json& in : c.instances) {
     std::string list;
-    for (const json& e : active) list += (list.empty() ? "" : ", ") + e.get<std::string>();
-    md << "- " << (instances.size() > 1 ? "`" + in.value("name", "") + "`: " : std::string())
-       << (list.empty() ? "none (the base lattice only)" : list) << "; "
-       << in.value("bytes_per_node", 0.0) << " bytes per node; kernel features: ";
+    for (const json& e : in.value("effects_active", json::array()))
+      list += (list.empty() ? "" : ", ") + e.get<std::string>();
     std::string features;
     for (const json& f : in.value("kernel_features", json::array()))
       features += (features.empty() ? "" : ", ") + f.get<std::string>();
-    md << (features.empty() ? "none" : features) << "\n";
+    md << "- " << instance_tag(c, in) << (list.empty() ? "none (the base lattice only)" : list)
+       << "; " << number(in.value("bytes_per_node", 0.0)) << " bytes per node; kernel features: "
+       << (features.empty() ? "none" : features) << "\n";
   }
-  md << "\n" << r.value("effects_note", "") << ".\n\n";
-  for (const json& in : instances) {
-    const json& cost = in["effect_cost"];
-    if (!cost.is_object()) continue;
-    md << "### Effect cost" << (instances.size() > 1 ? ": " + in.value("name", "") : std::string())
-       << "\n\n"
-       << "Step time on the final lattice (" << cost.value("alive_nodes", 0) << " alive nodes, "
-       << cost.value("backend", "") << "), " << cost.value("repetitions", 0)
-       << " interleaved repetitions of " << cost.value("steps_per_repetition", 0)
-       << " steps each; median (min – max).\n\n"
-       << "| configuration | µs per step | ratio to off (medians) | ratio to off (minima) | bytes "
-          "per node |\n"
-       << "| --- | ---: | ---: | ---: | ---: |\n";
-    for (const json& c : cost["configurations"])
-      md << "| " << c.value("name", "") << (c.value("unstable", false) ? " (went unstable)" : "")
-         << " | " << number(c.value("median_us_per_step", 0.0)) << " ("
-         << number(c.value("min_us_per_step", 0.0)) << " – "
-         << number(c.value("max_us_per_step", 0.0)) << ") | "
-         << number(c.value("ratio_to_off", 0.0)) << " | "
-         << number(c.value("ratio_to_off_min", 0.0)) << " | "
-         << number(c.value("bytes_per_node", 0.0)) << " |\n";
-    md << "\nNoise band: the two identical \"off\" configurations differ by "
-       << number(100.0 * cost.value("noise_off_vs_off_again", 0.0), 2)
-       << " %; the repetitions of one configuration spread by up to "
-       << number(100.0 * cost.value("noise_largest_spread", 0.0), 2)
-       << " % (max − min over median). A ratio inside that band is no measurable cost; a disabled "
-          "effect allocates no bytes and launches no pass.\n\n";
-  }
+  md << "\n";
+  for (const json& in : c.instances)
+    if (in["effect_cost"].is_object() && !in.value("effects_active", json::array()).empty())
+      effect_cost_table(c, in, md);
+}
 
-  bool any_material = false;
-  for (const json& in : instances) {
+void material_section(const ReportContext& c, std::ostream& md) {
+  bool any = false;
+  for (const json& in : c.instances) {
     const json& m = in["material"];
     if (!m.is_object() || !m["id"].is_string()) continue;
-    if (!any_material) md << "## Material\n\n";
-    any_material = true;
-    md << (instances.size() > 1 ? "`" + in.value("name", "") + "`: " : std::string()) << "`"
-       << m.value("id", "") << "` (" << m.value("name", "")
-       << ") from the material library: E = " << number(m.value("youngs_modulus_pa", 0.0))
-       << " Pa, damping time " << seconds(m.value("damping_time_s", 0.0)) << ", density "
-       << number(m.value("density_g_per_mm3", 0.0)) << " g/mm³. Sources:\n\n";
+    if (!any) md << "## Material\n\n";
+    any = true;
+    md << instance_tag(c, in) << "`" << m.value("id", "") << "` (" << m.value("name", "")
+       << ") from the material library: E = " << number(m.value("youngs_modulus_pa", 0.0) * 1e-3)
+       << " kPa, damping time " << seconds(m.value("damping_time_s", 0.0)) << ", density "
+       << number(m.value("density_g_per_mm3", 0.0) * 1e3) << " g/cm³. Sources:\n\n";
     for (const json& src : m["sources"]) md << "- " << src.get<std::string>() << "\n";
     md << "\n";
   }
-  md << "## Outputs\n\n";
-  for (const json& in : instances) {
+}
+
+// ---- the files, as they are on disk ----------------------------------------------------------
+
+void outputs_section(const ReportContext& c, const fs::path& folder, std::ostream& md) {
+  md << "## Outputs\n\nIn `" << folder.string() << "` (patient coordinates, LPS, mm):\n\n";
+  auto listed = [&](const std::string& what, const json& path) {
+    if (!path.is_string()) return;
+    const fs::path p = path.get<std::string>();
+    std::error_code ec;
+    if (fs::exists(p, ec)) md << "- " << what << ": `" << p.filename().string() << "`\n";
+  };
+  for (const json& in : c.instances) {
     const json& outs = in["outputs"];
-    for (const char* k : {"rest_mesh", "mesh"})
-      if (outs.contains(k) && outs[k].is_string())
-        md << "- " << (instances.size() > 1 ? "`" + in.value("name", "") + "` " : std::string())
-           << (std::string(k) == "mesh" ? "final deformed, cut surface" : "rest surface") << ": `"
-           << fs::path(outs[k].get<std::string>()).filename().string() << "` (binary PLY)\n";
+    const std::string tag = c.instances.size() > 1 ? "`" + in.value("name", "") + "` " : "";
+    listed(tag + "rest surface (binary PLY)", outs.value("rest_mesh", json(nullptr)));
+    listed(tag + "final deformed, cut surface (binary PLY)", outs.value("mesh", json(nullptr)));
+    listed(tag + "saved states (.tsfmesh, for `tsf export`)", outs.value("states", json(nullptr)));
   }
-  if (r["segmentation"].is_object())
-    md << "- segmented volume: `" << name << "-density.nrrd`, `" << name << "-labels.nrrd`, `"
-       << name << "-weights.nrrd`, segmentation report `" << name << "-report.json`\n";
-  for (const json& e : r.value("exported", json::array()))
-    md << "- exported: `" << e.get<std::string>()
-       << "` (glTF binary, metres, y-up; docs/export.md)\n";
-  if (r.value("exported", json::array()).empty())
+  if (c.r["segmentation"].is_object())
+    for (const char* suffix : {"-density.nrrd", "-labels.nrrd", "-weights.nrrd", "-report.json"})
+      listed(std::string("segmentation ") + (suffix + 1),
+             json((folder / (c.name + suffix)).string()));
+  for (const json& e : c.r.value("exported", json::array()))
+    listed("exported glTF binary (metres, y-up; docs/export.md)", e);
+  if (c.r.value("exported", json::array()).empty())
     md << "- glTF/FBX/OBJ export: not in this build (TSF_WITH_ASSIMP off); `tsf export` writes "
-          "them "
-          "from the segmented density volume\n";
-  md << "- this report: `run-report.md`, `run-report.json`, `interaction.json`\n";
-  if (!plots) md << "\nPlots were switched off (pipeline.outputs.plots: false).\n";
+          "them from the segmented density volume\n";
+  const json& interaction_report = c.r.value("interaction_report", json(nullptr));
+  md << "- this report: `run-report.md`, `run-report.json`"
+     << (interaction_report.is_string()
+             ? ", `" + fs::path(interaction_report.get<std::string>()).filename().string() + "`"
+             : std::string())
+     << " (the interaction's own report)\n";
+  if (!c.plots) md << "\nPlots were switched off (pipeline.outputs.plots: false).\n";
+}
+
+}  // namespace
+
+fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
+  const fs::path images = folder / "images";
+  if (plots) fs::create_directories(images);
+  const ReportContext c{r, images, r["scene"].value("name", "scene"), plots,
+                        r.value("instances", json::array())};
+  std::ostringstream md;
+  verdict_section(c, md);
+  glance_section(c, md);
+  stages_section(c, md);
+  rates_section(c, md);
+  energy_section(c, md);
+  force_section(c, md);
+  edits_section(c, md);
+  instances_section(c, md);
+  effects_section(c, md);
+  material_section(c, md);
+  outputs_section(c, folder, md);
   const fs::path path = folder / "run-report.md";
   write_text_atomically(path, md.str());
   return path;

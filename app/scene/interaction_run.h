@@ -1,41 +1,50 @@
-// Running a scene's interactive part (`tsf simulate` when the scene has tissue, tools or a
-// script): build the tissue model (voxels, surface, lattice, coupler), play the script frame by
-// frame — trajectories sampled at the frame rate, events as one-off strokes — and write the
-// outputs: the rest and final deformed, cut meshes (binary PLY), the saved states (.tsfmesh mesh
-// sequence for `tsf export`) and a JSON report.
+// Playing a scene's script on its tissue (`tsf simulate` on an interactive scene, and the
+// interaction stage of `tsf run`): every instance is built by scene_session.h, the script plays
+// frame by frame — trajectories sampled at the frame rate, events as one-off strokes — on every
+// instance, each advancing with its own time step, and the outputs are written: the rest and
+// final deformed, cut meshes (binary PLY), the saved states (.tsfmesh for `tsf export`) and a
+// JSON report. The run returns typed results (InteractionResult); JSON is made only at the edge
+// (interaction_report_json).
 //
-// A scene with several tissue instances (`tissues:`, scene.h) builds one tissue model per
-// instance; every tool event and trajectory acts on each of them, each advances with its own
-// time step, and each writes its own outputs (a file X.ext becomes X-<instance>.ext) and report
-// (the report's `instances` list; the tool force is the sum over instances).
+// With several instances each writes its own files (X.ext becomes X-<instance>.ext) and the
+// report lists them under `instances`; the tool force is the sum over instances.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "scene/scene.h"
-#include "tsf/crms/lattice.h"
+#include "tsf/imt/mesh_topology.h"
+#include "tsf/imt/surface_mesh.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/volume/voxel_volume.h"
 
 namespace tsf::app {
 
+/// The files an interaction run writes (absolute paths; empty = not written). With several
+/// instances each path gets the instance's name (instance_output_path).
+struct InteractionOutputs {
+  std::filesystem::path mesh, rest_mesh, report, states;
+  std::int64_t states_every = 10;
+};
+
 struct InteractionRunOptions {
   std::optional<double> duration_s;  ///< overrides script.duration
-  std::filesystem::path report;      ///< overrides outputs.report
-  std::filesystem::path mesh;        ///< overrides outputs.mesh
-  std::filesystem::path states;      ///< overrides outputs.states
+  InteractionOutputs outputs;
   bool quiet = false;
   /// Called after every frame's advance, per instance (index into scene.instances), with the time
   /// at its end (tsf run records energy here).
   std::function<void(double time_s, std::size_t instance, const interaction::TissueModel& model)>
       on_frame;
-  /// Called once per instance after the script, before the model is released; what it returns
-  /// joins that instance's report under `extra_key` (tsf run measures the effects' cost here).
+  /// Called once per instance after the script (not after an instability or an interrupt),
+  /// before the model is released; what it returns joins that instance's report under
+  /// `extra_key` (tsf run measures the effects' cost here).
   std::function<nlohmann::json(std::size_t instance, interaction::TissueModel& model)> after_script;
   std::string extra_key = "extra";
 };
@@ -44,25 +53,73 @@ struct InteractionRunOptions {
 std::filesystem::path instance_output_path(const std::filesystem::path& path, const Scene& scene,
                                            std::size_t instance);
 
-/// Anchors of the scene on a lattice (box, plane, labels).
-void apply_scene_anchors(crms::Lattice& lattice, const Scene& scene);
+struct EditRecord {
+  double time_s = 0;
+  std::string tool;
+  interaction::EditReport report;
+};
 
-/// The voxel volume a scene's tissue is made of: the box voxelised at lattice.spacing /
-/// tissue.voxels_per_node (density ramp over half a voxel, so the iso-surface is the box), or the
-/// density volume file (needs ITK), cropped to lattice.crop and reduced to lattice.labels (other
-/// voxels emptied). Several instances: pass scene_for_instance(scene, i).
-VoxelVolume scene_tissue_volume(const Scene& scene);
+struct ContactSample {
+  double time_s = 0;
+  Vec3d force_un, torque_un_mm;
+  std::int64_t nodes_held = 0;
+};
 
-/// The tissue model a scene asks for: surface (iso, merging), lattice (spacing, occupancy, mass
-/// floor), solver and materials, time step, coupler, removal by tools, contact passes, and the
-/// scene's anchors (from a copy of the scene the options own). One mapping for `tsf simulate`,
-/// `tsf view` and `tsf haptics`.
-interaction::TissueModelOptions tissue_model_options(const Scene& scene);
+/// What one instance did during the script.
+struct InstanceResult {
+  std::size_t index = 0;
+  std::string name;
+  std::string backend, integrator;
+  std::vector<std::string> effects_active, triggers_fired, kernel_features;
+  double bytes_per_node = 0;
+  VolumeGeometry volume;         ///< of the voxels the instance was built from (tissue mm)
+  VolumeGeometry patient_frame;  ///< tissue mm → patient (LPS) mm (the uncropped volume's)
+  Int3 lattice_dims{0, 0, 0};
+  Vec3d lattice_spacing_mm;
+  std::int64_t alive_start = 0, alive_end = 0, fixed_nodes = 0;
+  std::size_t components_start = 0, components_end = 0, free_components_end = 0;
+  std::vector<std::int64_t> component_sizes_end;
+  imt::MeshTopology topology_start, topology_end;
+  imt::SurfaceMesh final_mesh;  ///< the deformed, cut surface at the end (patient mm)
+  double dt_s = 0;
+  std::int64_t steps = 0;
+  interaction::InteractionTotals totals;
+  std::vector<EditRecord> edits;
+  std::vector<ContactSample> contact;
+  std::vector<double> edit_latencies_us;
+  double max_tool_force_un = 0;
+  double setup_s = 0, stepping_s = 0, contacts_s = 0, coupling_s = 0;
+  InteractionOutputs outputs;  ///< this instance's files, as written
+  std::size_t states_saved = 0;
+  std::optional<std::string> instability;
+  nlohmann::json session;  ///< TissueInstance::summary
+  nlohmann::json extra;    ///< after_script's result
+};
 
-/// Plays the script on every instance and writes the outputs; returns the report (also written
-/// when asked): one instance's report at the top level for a single-instance scene; for several,
+struct InteractionResult {
+  std::vector<InstanceResult> instances;
+  double frame_rate_hz = 0;
+  std::int64_t frames = 0;          ///< frames played
+  std::int64_t frames_planned = 0;  ///< frames the script asked for
+  double script_s = 0;              ///< wall time of the script
+  std::vector<ContactSample> contact;  ///< the tool's force: the sum over instances
+  double max_tool_force_un = 0;
+  std::optional<std::string> instability;  ///< "instance: what" of the first one
+  bool interrupted = false;                ///< SIGINT/SIGTERM stopped the script
+  std::string extra_key = "extra";         ///< InteractionRunOptions::extra_key
+};
+
+/// Builds every instance, plays the script and writes the outputs (the report too, when asked).
+/// An instability or an interrupt stops the script; the result says so and the outputs hold what
+/// was reached. Throws tsf::Error on bad input.
+InteractionResult run_interaction_scene(const Scene& scene, const InteractionRunOptions& options);
+
+/// The report: one instance's at the top level for a single-instance scene; for several,
 /// `instances` (one report each) with the scene-wide frames, timings and tool force.
-/// Throws tsf::Error on bad input or an unstable simulation (after writing what it has).
-nlohmann::json run_interaction_scene(const Scene& scene, const InteractionRunOptions& options);
+nlohmann::json interaction_report_json(const Scene& scene, const InteractionResult& result);
+
+/// One instance's report (interaction_report_json's entries).
+nlohmann::json instance_report_json(const Scene& scene, const InteractionResult& result,
+                                    const InstanceResult& instance);
 
 }  // namespace tsf::app

@@ -1,5 +1,6 @@
-// The tsf scene model (start of the project's scene format; issue 10 grows it) and its strict
-// YAML reader. A scene says what tissue to build, how to simulate it and for how long.
+// The tsf scene model and its strict YAML reader. A scene says what tissue to build, how to
+// simulate it, what tools do to it and what is written. scene_session.h turns it into running
+// models, the same way for every command (docs/design.md, "From a scene file to a kernel").
 //
 // Every key is checked: an unknown key, a wrong type or an out-of-range value is an error naming
 // the file and the key path (`beam.yaml: lattice.spacing: expected a number > 0, got -1`).
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "run/run_spec.h"
 #include "scene/scene_effects.h"
 #include "tsf/common/vec3.h"
 #include "tsf/coupler/couple_vertex.h"
@@ -42,10 +44,8 @@ struct SceneLattice {
   std::vector<std::uint8_t> labels;
 };
 
-/// The interactive tissue (R1 voxels, R2 surface, coupler) that tools edit. Present when the
-/// scene has a `tissue`, `tools` or `script` section.
+/// The interactive tissue (R1 voxels, R2 surface, coupler) that tools edit (`tissue:`).
 struct SceneTissue {
-  bool present = false;
   int voxels_per_node = 2;  ///< box lattices: voxels per node spacing (the voxel size)
   double iso = 0.5;
   double merge_epsilon = 0.1;
@@ -83,7 +83,8 @@ struct SceneScript {
   std::vector<SceneEvent> events;
 };
 
-/// Files an interaction run writes (relative paths resolve against the scene's folder).
+/// Files an interaction run writes: names inside the command's output folder (`--out`; relative
+/// paths only, no `..`: a scene never writes outside the folder its command was given).
 struct SceneOutputs {
   std::filesystem::path mesh;       ///< final deformed, cut surface (binary PLY)
   std::filesystem::path rest_mesh;  ///< the surface before the script (binary PLY)
@@ -115,9 +116,20 @@ struct SceneInitialState {
   Vec3d about_mm{0, 0, 0};
 };
 
-/// One tissue instance of a scene: its own lattice (source, spacing, crop, labels), material,
-/// anchors, tissue/coupler options and effects. Tools and the script act on every instance; each
-/// has its own surface, lattice, solver (and time step) and outputs.
+/// How an instance's time is integrated (`solver.integrator`, `solver.dt`, … scene-wide, or
+/// `tissues[i].solver` per instance): a stiff instance (bone) may step implicitly at a frame-sized
+/// dt while soft tissue steps explicitly.
+struct SceneIntegration {
+  crms::Integrator integrator = crms::Integrator::kSymplecticEuler;
+  double dt_s = 0.0;  ///< 0 = automatic: dt_safety × the stable estimate (effects included)
+  double dt_safety = 0.9;
+  int newton_iterations = 8;
+  double newton_tolerance = 1e-7;
+};
+
+/// One tissue instance: its own lattice (source, spacing, crop, labels), material, anchors,
+/// tissue/coupler options, effects and integration. Tools, the script, loads and the initial
+/// state act on every instance; each has its own surface, lattice, solver and outputs.
 struct SceneInstance {
   std::string name;  ///< unique in the scene; names the instance's output files
   SceneLattice lattice;
@@ -126,53 +138,51 @@ struct SceneInstance {
   std::vector<SceneAnchor> anchors;
   SceneTissue tissue;
   crms::EffectsConfig effects;
-  /// Time integration (`tissues[i].solver`; default the scene's `solver`): a stiff instance (bone)
-  /// may step with implicit Euler at a frame-sized dt while soft tissue steps explicitly.
-  crms::Integrator integrator = crms::Integrator::kSymplecticEuler;
-  double dt_s = 0.0;  ///< 0 = automatic
-  double dt_safety = 0.9;
-  int newton_iterations = 8;
-  double newton_tolerance = 1e-7;
+  SceneIntegration integration;
 };
 
+/// A scene: settings every instance shares, and the list of instances. A one-tissue scene (the
+/// top-level `lattice`, `material`, `anchors`, `tissue` form) is one instance named after the
+/// scene; a `tissues:` scene lists them. Nothing is stored twice: what an instance says is in its
+/// SceneInstance only, what the scene says once is here only (docs/design.md, "The scene model").
 struct Scene {
   std::filesystem::path file;
   std::string name;
-  SceneLattice lattice;
-  crms::SolverConfig solver;  ///< materials[0] is the scene's material
-  /// effects.palette and effects.animation regions (scene_effects.h): applied to the lattice.
+  /// Scene-wide solver settings (backend, angular form and reactions, gravity, stability,
+  /// CUDA graph size) and the palette's entries 1.. (`effects.palette`). Entry 0 of `materials`,
+  /// `effects` and the integrator are each instance's: instance_solver_config() (scene_session.h)
+  /// completes a copy per instance.
+  crms::SolverConfig solver;
+  /// effects.palette and effects.animation regions (scene_effects.h): applied to each lattice.
   SceneEffects effect_regions;
-  double dt_s = 0.0;  ///< 0 = automatic: dt_safety × the stable estimate
-  double dt_safety = 0.9;
+  /// Lattice-only scenes (no tissue, tools or script): steps to run and the energy sampling.
   std::int64_t steps = 1000;
   std::int64_t report_every = 100;
-  std::vector<SceneAnchor> anchors;
+  bool steps_given = false;  ///< `solver.steps` or `solver.report_every` was written
   std::vector<SceneLoad> loads;
   SceneInitialState initial;
-  SceneTissue tissue;
   std::vector<SceneTool> tools;
   SceneScript script;
+  bool script_given = false;  ///< the scene has a `script:` section
   SceneOutputs outputs;
-  /// The tissue instances. Single form (top-level lattice, material, anchors, tissue, effects):
-  /// one instance named after the scene, and the top-level fields above are that instance.
-  /// `tissues:` form: one per list entry, and the top-level lattice, material, anchors, tissue
-  /// and effects are the first instance's (what `tsf simulate`/`view`/`haptics` use).
-  std::vector<SceneInstance> instances;
-  bool multi_instance = false;  ///< the scene used the `tissues:` list
+  bool outputs_given = false;  ///< the scene has an `outputs:` section
+  RunSpec pipeline;            ///< `pipeline:` (tsf run: import, segment, library material)
+  std::vector<SceneInstance> instances;  ///< at least one
+  bool multi_instance = false;           ///< the scene used the `tissues:` list
+  /// The scene is played interactively (voxels, surface, lattice, coupler, tools, script):
+  /// it has a `tissue`, `tools`, `script` or `tissues` section. Otherwise only its lattice steps.
+  bool interactive = false;
 
   const SceneTool* find_tool(const std::string& tool_name) const {
     for (const SceneTool& t : tools)
       if (t.name == tool_name) return &t;
     return nullptr;
   }
+  /// "scene.yaml: " or "scene.yaml: tissues[1] (bone): " — the prefix of an instance's errors.
+  std::string instance_prefix(std::size_t index) const;
 };
 
-/// A copy of `scene` whose top-level lattice, material, anchors, tissue options and effects are
-/// instance `index`'s (and whose instance list holds only it): the form every single-tissue
-/// function (scene_tissue_volume, tissue_model_options, apply_scene_anchors) takes.
-Scene scene_for_instance(const Scene& scene, std::size_t index);
-
-/// Reads and validates a scene; relative paths inside it are resolved against its folder.
+/// Reads and validates a scene; relative input paths inside it are resolved against its folder.
 /// Throws tsf::Error "FILE: key.path: what is wrong".
 Scene read_scene(const std::filesystem::path& file);
 

@@ -10,6 +10,7 @@
 
 #include "run/material_library.h"
 #include "scene/scene.h"
+#include "scene/scene_session.h"
 #include "tsf/common/error.h"
 #include "tsf/volume/tissue_labels.h"
 #include "tsf/volume/tool_shapes.h"
@@ -95,20 +96,23 @@ struct LibraryRef {
   }
 };
 
+/// The library material `id` that `f` names; the error names the key, the library and the ids.
+const LibraryMaterial& library_material(const Field& f, const std::string& id,
+                                        LibraryRef& library) {
+  const MaterialLibrary& lib = library.get();
+  if (const LibraryMaterial* found = lib.find(id)) return *found;
+  std::string known;
+  for (const auto& k : lib.materials) known += (known.empty() ? "" : ", ") + k.id;
+  f.fail("no material '" + id + "' in " + lib.file.string() + " (known: " + known + ")");
+}
+
 /// `material:` inline (a map of E, G, η, ρ) or a library id (a string); returns the id or "".
 std::string read_material(const Field& f, crms::Material& m, LibraryRef& library) {
   if (!f.defined()) f.fail("is required (a material library id or an inline material)");
   if (f.node().IsScalar()) {
-    const std::string id = f.text();
-    const MaterialLibrary& lib = library.get();
-    const LibraryMaterial* found = lib.find(id);
-    if (!found) {
-      std::string known;
-      for (const auto& k : lib.materials) known += (known.empty() ? "" : ", ") + k.id;
-      f.fail("no material '" + id + "' in " + lib.file.string() + " (known: " + known + ")");
-    }
-    m = found->crms_material();
-    return id;
+    const LibraryMaterial& found = library_material(f, f.text(), library);
+    m = found.crms_material();
+    return found.id;
   }
   f.expect_keys({"youngs_modulus", "shear_modulus", "viscosity", "density"});
   if (!f["youngs_modulus"].defined()) f["youngs_modulus"].fail("is required (Pa)");
@@ -121,19 +125,35 @@ std::string read_material(const Field& f, crms::Material& m, LibraryRef& library
   return "";
 }
 
-void read_solver(const Field& f, Scene& s) {
+crms::Integrator read_integrator(const Field& f, crms::Integrator fallback) {
+  using crms::Integrator;
+  return f.choice(fallback, {{"explicit-euler", Integrator::kExplicitEuler},
+                             {"symplectic-euler", Integrator::kSymplecticEuler},
+                             {"implicit-euler", Integrator::kImplicitEuler}});
+}
+
+/// Integration keys (`solver.integrator`, `dt`, `dt_safety`, `newton_*`): the scene's default, or
+/// an instance's own under `tissues[i].solver` (starting from the scene's).
+void read_integration(const Field& f, SceneIntegration& in, crms::Backend backend) {
+  in.integrator = read_integrator(f["integrator"], in.integrator);
+  if (f["dt"].defined()) in.dt_s = f["dt"].is_auto() ? 0.0 : f["dt"].number(0.0, 0.0, 1.0, true);
+  in.dt_safety = f["dt_safety"].number(in.dt_safety, 0.0, 10.0, true);
+  in.newton_iterations =
+      static_cast<int>(f["newton_iterations"].integer(in.newton_iterations, 1, 50));
+  in.newton_tolerance = f["newton_tolerance"].number(in.newton_tolerance, 0.0, 1.0);
+  if (in.integrator == crms::Integrator::kImplicitEuler && backend == crms::Backend::kCuda)
+    f["integrator"].fail("implicit-euler runs on the CPU only: set solver.backend to cpu or auto");
+}
+
+/// `solver:` — the scene-wide settings into s.solver, the default integration into `integration`.
+void read_solver(const Field& f, Scene& s, SceneIntegration& integration) {
   f.expect_keys({"integrator", "backend", "angular_form", "angular_reactions", "dt", "dt_safety",
                  "steps", "report_every", "steps_per_graph", "newton_iterations",
                  "newton_tolerance"});
   using crms::AngularForm;
   using crms::AngularReactions;
   using crms::Backend;
-  using crms::Integrator;
   crms::SolverConfig& c = s.solver;
-  c.integrator = f["integrator"].choice(Integrator::kSymplecticEuler,
-                                        {{"explicit-euler", Integrator::kExplicitEuler},
-                                         {"symplectic-euler", Integrator::kSymplecticEuler},
-                                         {"implicit-euler", Integrator::kImplicitEuler}});
   c.backend = f["backend"].choice(
       Backend::kAuto, {{"auto", Backend::kAuto}, {"cpu", Backend::kCpu}, {"cuda", Backend::kCuda}});
   c.angular_form = f["angular_form"].choice(
@@ -141,16 +161,12 @@ void read_solver(const Field& f, Scene& s) {
   c.angular_reactions = f["angular_reactions"].choice(
       AngularReactions::kSymmetric,
       {{"gather", AngularReactions::kGather}, {"symmetric", AngularReactions::kSymmetric}});
-  s.dt_s = f["dt"].is_auto() ? 0.0 : f["dt"].number(0.0, 0.0, 1.0, true);
-  s.dt_safety = f["dt_safety"].number(0.9, 0.0, 10.0, true);
+  s.steps_given = f["steps"].defined() || f["report_every"].defined();
   s.steps = f["steps"].integer(1000, 0, 1'000'000'000'000);
   s.report_every = f["report_every"].integer(100, 1, 1'000'000'000);
   c.cuda_steps_per_graph = static_cast<int>(f["steps_per_graph"].integer(64, 2, 4096));
   if (c.cuda_steps_per_graph % 2) f["steps_per_graph"].fail("expected an even number");
-  c.implicit_newton_iterations = static_cast<int>(f["newton_iterations"].integer(8, 1, 50));
-  c.implicit_tolerance = f["newton_tolerance"].number(1e-7, 0.0, 1.0);
-  if (c.integrator == Integrator::kImplicitEuler && c.backend == Backend::kCuda)
-    f["backend"].fail("implicit-euler runs on the CPU only: use cpu or auto");
+  read_integration(f, integration, c.backend);
 }
 
 void read_stability(const Field& f, crms::StabilityControls& st) {
@@ -211,7 +227,6 @@ void read_loads(const Field& f, std::vector<SceneLoad>& loads) {
 
 void read_tissue(const Field& f, SceneTissue& t) {
   if (!f.defined()) return;
-  t.present = true;
   f.expect_keys({"voxels_per_node", "iso", "merge_epsilon", "coupler", "deletion_threshold",
                  "min_blade_thickness_voxels", "removal", "contact_passes"});
   t.voxels_per_node = static_cast<int>(f["voxels_per_node"].integer(2, 1, 16));
@@ -379,27 +394,27 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
   }
 }
 
-void read_outputs(const Field& f, const std::filesystem::path& folder, SceneOutputs& o) {
+void read_outputs(const Field& f, SceneOutputs& o) {
   if (!f.defined()) return;
   f.expect_keys({"mesh", "rest_mesh", "report", "states", "states_every"});
-  auto path = [&](const Field& p) -> std::filesystem::path {
+  // A file name inside the command's output folder: never absolute, never `..`.
+  auto name = [&](const Field& p, const char* extension) -> std::filesystem::path {
     if (!p.defined()) return {};
-    std::filesystem::path out = p.text();
-    if (out.is_relative()) out = folder / out;
+    const std::filesystem::path out = p.text();
+    bool climbs = false;
+    for (const auto& part : out) climbs = climbs || part == "..";
+    if (out.empty() || out.is_absolute() || climbs)
+      p.fail("expected a file name inside the output folder (--out), got '" + out.string() +
+             "': outputs are written under the command's output folder only");
+    if (out.extension() != extension)
+      p.fail(std::string("expected a ") + extension + " file name, got '" + out.string() + "'");
     return out;
   };
-  o.mesh = path(f["mesh"]);
-  o.rest_mesh = path(f["rest_mesh"]);
-  o.report = path(f["report"]);
-  o.states = path(f["states"]);
+  o.mesh = name(f["mesh"], ".ply");
+  o.rest_mesh = name(f["rest_mesh"], ".ply");
+  o.report = name(f["report"], ".json");
+  o.states = name(f["states"], ".tsfmesh");
   o.states_every = f["states_every"].integer(10, 1, 1'000'000'000);
-  if (f["states"].defined() && std::filesystem::path(f["states"].text()).extension() != ".tsfmesh")
-    f["states"].fail("expected a .tsfmesh file name");
-  for (const char* k : {"mesh", "rest_mesh"})
-    if (f[k].defined() && std::filesystem::path(f[k].text()).extension() != ".ply")
-      f[k].fail("expected a .ply file name");
-  if (f["report"].defined() && std::filesystem::path(f["report"].text()).extension() != ".json")
-    f["report"].fail("expected a .json file name");
 }
 
 /// `effects:` (tsf/crms/effects_config.h): a listed effect is on unless it says `enabled: false`.
@@ -443,42 +458,19 @@ bool is_file_name_safe(const std::string& n) {
   return true;
 }
 
-/// The scene-wide time integration an instance starts from.
-void inherit_integration(const Scene& s, SceneInstance& inst) {
-  inst.integrator = s.solver.integrator;
-  inst.dt_s = s.dt_s;
-  inst.dt_safety = s.dt_safety;
-  inst.newton_iterations = s.solver.implicit_newton_iterations;
-  inst.newton_tolerance = s.solver.implicit_tolerance;
-}
-
-/// `tissues[i].solver`: the instance's own integrator and step (the rest of `solver` is
-/// scene-wide).
-void read_instance_solver(const Field& f, const Scene& s, SceneInstance& inst) {
-  if (!f.defined()) return;
-  f.expect_keys({"integrator", "dt", "dt_safety", "newton_iterations", "newton_tolerance"});
-  using crms::Integrator;
-  inst.integrator =
-      f["integrator"].choice(inst.integrator, {{"explicit-euler", Integrator::kExplicitEuler},
-                                               {"symplectic-euler", Integrator::kSymplecticEuler},
-                                               {"implicit-euler", Integrator::kImplicitEuler}});
-  if (f["dt"].defined()) inst.dt_s = f["dt"].is_auto() ? 0.0 : f["dt"].number(0.0, 0.0, 1.0, true);
-  inst.dt_safety = f["dt_safety"].number(inst.dt_safety, 0.0, 10.0, true);
-  inst.newton_iterations =
-      static_cast<int>(f["newton_iterations"].integer(inst.newton_iterations, 1, 50));
-  inst.newton_tolerance = f["newton_tolerance"].number(inst.newton_tolerance, 0.0, 1.0);
-  if (inst.integrator == Integrator::kImplicitEuler && s.solver.backend == crms::Backend::kCuda)
-    f["integrator"].fail("implicit-euler runs on the CPU only: set solver.backend to cpu or auto");
-}
-
-/// One entry of `tissues:`. `s` holds the scene-wide solver and effects read so far.
+/// One entry of `tissues:`. `s` holds the scene-wide solver and effects read so far; `integration`
+/// the scene's default integration.
 SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
-                            bool volume_from_pipeline, const Scene& s, LibraryRef& library) {
-  const crms::EffectsConfig& default_effects = s.solver.effects;
+                            bool volume_from_pipeline, const Scene& s,
+                            const SceneIntegration& integration, const crms::EffectsConfig& effects,
+                            LibraryRef& library) {
   f.expect_keys({"name", "lattice", "material", "anchors", "tissue", "effects", "solver"});
   SceneInstance inst;
-  inherit_integration(s, inst);
-  read_instance_solver(f["solver"], s, inst);
+  inst.integration = integration;
+  if (const Field solver = f["solver"]; solver.defined()) {
+    solver.expect_keys({"integrator", "dt", "dt_safety", "newton_iterations", "newton_tolerance"});
+    read_integration(solver, inst.integration, s.solver.backend);
+  }
   if (!f["name"].defined()) f["name"].fail("is required (names the instance's outputs)");
   inst.name = f["name"].text();
   if (!is_file_name_safe(inst.name))
@@ -487,8 +479,7 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
   inst.material_id = read_material(f["material"], inst.material, library);
   read_anchors(f["anchors"], inst.anchors);
   read_tissue(f["tissue"], inst.tissue);
-  inst.tissue.present = true;
-  inst.effects = default_effects;
+  inst.effects = effects;
   if (f["effects"].defined()) {
     for (const char* k : {"palette", "animation"})
       if (f["effects"][k].defined())
@@ -497,30 +488,18 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
             "instance)");
     inst.effects = crms::EffectsConfig{};
     read_effects(f["effects"], inst.effects);
-    inst.effects.animation = default_effects.animation;  // scene-wide (scene_effects.h)
+    inst.effects.animation = effects.animation;  // scene-wide (scene_effects.h)
   }
   return inst;
 }
 
 }  // namespace
 
-Scene scene_for_instance(const Scene& scene, std::size_t index) {
-  const SceneInstance& inst = scene.instances.at(index);
-  Scene s = scene;
-  s.lattice = inst.lattice;
-  s.solver.materials.at(0) = inst.material;
-  s.solver.effects = inst.effects;
-  s.anchors = inst.anchors;
-  const bool present = scene.tissue.present;
-  s.tissue = inst.tissue;
-  s.tissue.present = present;
-  s.solver.integrator = inst.integrator;
-  s.solver.implicit_newton_iterations = inst.newton_iterations;
-  s.solver.implicit_tolerance = inst.newton_tolerance;
-  s.dt_s = inst.dt_s;
-  s.dt_safety = inst.dt_safety;
-  s.instances = {inst};
-  return s;
+std::string Scene::instance_prefix(std::size_t index) const {
+  return file.string() + ": " +
+         (multi_instance
+              ? "tissues[" + std::to_string(index) + "] (" + instances.at(index).name + "): "
+              : std::string());
 }
 
 Scene read_scene(const std::filesystem::path& file) {
@@ -535,21 +514,21 @@ Scene read_scene(const std::filesystem::path& file) {
   }
   const Field top(root, "", name);
   if (!top.defined()) top.fail("the scene is empty");
-  // `pipeline` is read by `tsf run` (app/run/run_spec.h).
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
                    "loads", "initial", "effects", "tissue", "tools", "script", "outputs",
                    "pipeline", "tissues"});
   Scene s;
   s.file = file;
   s.name = top["name"].defined() ? top["name"].text() : file.stem().string();
+  if (!is_file_name_safe(s.name))
+    top["name"].fail("expected 1 to 64 letters, digits, '-' or '_' (it names output files), got '" +
+                     s.name + "'");
+  s.pipeline = read_run_spec(file);
+  const bool from_pipeline = s.pipeline.present;
   LibraryRef library;
-  if (top["pipeline"]["material_library"].defined()) {
-    library.path = top["pipeline"]["material_library"].text();
-    if (library.path.is_relative()) library.path = file.parent_path() / library.path;
-  }
+  library.path = s.pipeline.material_library;
   const Field tissues = top["tissues"];
   s.multi_instance = tissues.defined();
-  std::string material_id;
   if (s.multi_instance) {
     // Several instances: what a single tissue says at the top level, each says for itself.
     for (const char* k : {"lattice", "material", "anchors", "tissue"})
@@ -560,21 +539,19 @@ Scene read_scene(const std::filesystem::path& file) {
           "give each instance its material under tissues[].material (a library id or inline)");
     if (!tissues.node().IsSequence() || tissues.size() == 0)
       tissues.fail("expected a non-empty list of tissue instances");
-  } else {
-    read_lattice(top["lattice"], file.parent_path(), s.lattice, top["pipeline"].defined());
-    // A scene whose pipeline names a library material (tsf run) may leave `material` out.
-    if (top["material"].defined() || !top["pipeline"]["material"].defined())
-      material_id = read_material(top["material"], s.solver.materials.at(0), library);
   }
-  read_solver(top["solver"], s);
+  SceneIntegration integration;
+  read_solver(top["solver"], s, integration);
   s.solver.gravity = top["gravity"].vec3({0, 0, 0});
   if (std::sqrt(length_squared(s.solver.gravity)) > 1e7)
     top["gravity"].fail("magnitude must be at most 1e7 mm/s² (Earth: 9810)");
   read_stability(top["stability"], s.solver.stability);
-  if (!s.multi_instance) read_anchors(top["anchors"], s.anchors);
   read_loads(top["loads"], s.loads);
-  read_effects(top["effects"], s.solver.effects);
+  crms::EffectsConfig effects;
+  read_effects(top["effects"], effects);
   read_scene_effects(top["effects"], s.effect_regions, s.solver);
+  effects.animation = s.solver.effects.animation;
+  s.solver.effects = crms::EffectsConfig{};  // each instance's (instance_solver_config)
   const Field init = top["initial"];
   init.expect_keys({"scale", "about"});
   if (init.defined()) {
@@ -587,58 +564,62 @@ Scene read_scene(const std::filesystem::path& file) {
   }
   if (s.multi_instance) {
     for (std::size_t i = 0; i < tissues.size(); ++i) {
-      SceneInstance inst =
-          read_instance(tissues.at(i), file.parent_path(), top["pipeline"].defined(), s, library);
+      SceneInstance inst = read_instance(tissues.at(i), file.parent_path(), from_pipeline, s,
+                                         integration, effects, library);
       for (const SceneInstance& other : s.instances)
         if (other.name == inst.name)
           tissues.at(i)["name"].fail("'" + inst.name + "' is used twice");
       s.instances.push_back(std::move(inst));
     }
   } else {
-    read_tissue(top["tissue"], s.tissue);
-  }
-  if (s.effect_regions.channels_given) {
-    bool volume = s.lattice.source == SceneLattice::Source::kVolume;
-    for (const SceneInstance& inst : s.instances)
-      volume = volume && inst.lattice.source == SceneLattice::Source::kVolume;
-    if (!volume)
-      top["effects"]["palette"]["channels"].fail(
-          "needs lattice.source: volume (the channels are segment's material weights)");
-  }
-  read_tools(top["tools"], s.tools);
-  read_script(top["script"], s.tools, s.script);
-  read_outputs(top["outputs"], file.parent_path(), s.outputs);
-  if (!s.tools.empty() || top["script"].defined() || s.multi_instance) s.tissue.present = true;
-  if (top["script"].defined() && s.tools.empty()) top["script"].fail("needs tools");
-  if (!s.multi_instance) {
     SceneInstance single;
     single.name = s.name;
-    single.lattice = s.lattice;
-    single.material = s.solver.materials.at(0);
-    single.material_id = material_id;
-    single.anchors = s.anchors;
-    single.tissue = s.tissue;
-    single.effects = s.solver.effects;
-    inherit_integration(s, single);
+    single.integration = integration;
+    single.effects = effects;
+    read_lattice(top["lattice"], file.parent_path(), single.lattice, from_pipeline);
+    // A scene whose pipeline names a library material (tsf run) may leave `material` out: the
+    // library material is taken here, once, through the same library as an id in `material:`.
+    if (top["material"].defined() || s.pipeline.material.empty()) {
+      single.material_id = read_material(top["material"], single.material, library);
+    } else {
+      const LibraryMaterial& m =
+          library_material(top["pipeline"]["material"], s.pipeline.material, library);
+      single.material = m.crms_material();
+      single.material_id = m.id;
+    }
+    if (top["material"].defined() && !s.pipeline.material.empty())
+      top["pipeline"]["material"].fail("give the material once: here or in `material:`");
+    read_anchors(top["anchors"], single.anchors);
+    read_tissue(top["tissue"], single.tissue);
     s.instances.push_back(std::move(single));
   }
+  if (s.effect_regions.channels_given)
+    for (const SceneInstance& inst : s.instances)
+      if (inst.lattice.source != SceneLattice::Source::kVolume)
+        top["effects"]["palette"]["channels"].fail(
+            "needs lattice.source: volume (the channels are segment's material weights)");
+  read_tools(top["tools"], s.tools);
+  s.script_given = top["script"].defined();
+  read_script(top["script"], s.tools, s.script);
+  s.outputs_given = top["outputs"].defined();
+  read_outputs(top["outputs"], s.outputs);
+  s.interactive = !s.tools.empty() || s.script_given || s.multi_instance || top["tissue"].defined();
+  if (s.script_given && s.tools.empty()) top["script"].fail("needs tools");
+  if (s.interactive && s.steps_given)
+    top["solver"][top["solver"]["steps"].defined() ? "steps" : "report_every"].fail(
+        "only for a lattice-only scene: a scene with tissue, tools or a script runs for "
+        "script.duration (or --duration)");
+  if (!s.interactive && s.outputs_given)
+    top["outputs"].fail(
+        "needs a scene with tissue, tools or a script (a lattice-only scene writes its report "
+        "with --report)");
   // Cross-field checks with the library's own messages (they name material.* fields).
   for (std::size_t i = 0; i < s.instances.size(); ++i) {
     try {
-      crms::validate_solver_config(scene_for_instance(s, i).solver);
+      crms::validate_solver_config(instance_solver_config(s, i));
     } catch (const Error& e) {
-      throw Error(name + ": " +
-                  (s.multi_instance
-                       ? "tissues[" + std::to_string(i) + "] (" + s.instances[i].name + "): "
-                       : std::string()) +
-                  e.what());
+      throw Error(s.instance_prefix(i) + e.what());
     }
-  }
-  // The top-level fields are the first instance's (tsf simulate, view and haptics use them).
-  if (s.multi_instance) {
-    Scene first = scene_for_instance(s, 0);
-    first.instances = s.instances;
-    s = std::move(first);
   }
   return s;
 }

@@ -7,7 +7,7 @@
 //
 //   TSF_REGISTER_KNOB_STUDY(kCouplerStudy, {
 //       "coupler-mode", "Coupler: local frame vs trilinear",
-//       "coupler interpolation (issue 7)",
+//       "coupler interpolation",
 //       "the lattice's trilinear displacement field at each vertex",
 //       "coupling time per vertex (median)", 75, run_coupler_study});
 //

@@ -1,4 +1,4 @@
-// The cost of the optional CRMS effects (issue 6): time per step and bytes per node for the
+// The cost of the optional CRMS effects (docs/effects.md): time per step and bytes per node for the
 // baseline, every effect alone (palette blends, plasticity, anisotropy, fluid, tearing, node
 // masking, rest-shape animation) and all together, on cubic lattices, CPU and CUDA. "Disabled"
 // is a scene whose effects carry parameters but are switched off: it must cost what the

@@ -51,8 +51,9 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
   const fs::path dir = test::scratch_dir("cut-block-scene");
   const fs::path scene = test::source_dir() / "scenes" / "cut-block.yaml";
   const std::string cmd = exe.string() + " simulate " + scene.string() +
-                          " --backend cpu -q --mesh " + (dir / "final.ply").string() +
-                          " --report " + (dir / "report.json").string() + " --states " +
+                          " --backend cpu -q --out " + (dir / "run").string() + " --mesh " +
+                          (dir / "final.ply").string() + " --report " +
+                          (dir / "report.json").string() + " --states " +
                           (dir / "states.tsfmesh").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   expect_closed_mesh(dir / "final.ply", 10000);
@@ -105,16 +106,18 @@ TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
   std::string text = read_text(test::source_dir() / "scenes" / "cut-cranium.yaml");
   text = std::regex_replace(text, std::regex("volume: \\.\\./out/cranium-density\\.nrrd"),
                             "volume: " + (dir / "cranium-density.nrrd").string());
-  text = std::regex_replace(text, std::regex("\\.\\./out/"), dir.string() + "/");
   const fs::path scene = dir / "cut-cranium.yaml";
   std::ofstream(scene) << text;
-  // Long enough for the press, the ablation and the cut (at 11 ms).
-  const std::string cmd =
-      exe.string() + " simulate " + scene.string() + " --backend cpu -q --duration 0.012";
+  // Long enough for the press, the ablation and the cut (at 11 ms). The scene's outputs are
+  // names inside the output folder.
+  const fs::path out = dir / "run";
+  const std::string cmd = exe.string() + " simulate " + scene.string() +
+                          " --backend cpu -q --duration 0.012 --out " + out.string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  expect_closed_mesh(dir / "cut-cranium.ply", 100000);
-  expect_closed_mesh(dir / "cut-cranium-rest.ply", 100000);
-  const nlohmann::json r = read_json(dir / "cut-cranium.json");
+  expect_closed_mesh(out / "final.ply", 100000);
+  expect_closed_mesh(out / "rest.ply", 100000);
+  EXPECT_TRUE(fs::exists(out / "states.tsfmesh"));
+  const nlohmann::json r = read_json(out / "report.json");
   EXPECT_GT(r.at("lattice").at("free_components_end").get<int>(), 0) << "the nose tip is free";
   EXPECT_GT(r.at("totals").at("nodes_deleted").get<int>(), 0);
   EXPECT_GT(r.at("totals").at("removed_mm3").get<double>(), 100.0);
@@ -136,11 +139,15 @@ TEST(CutScenes, SceneTyposNameTheirKeyPath) {
         Case{"  - tool: wand ", "  - tool: knife ", "script.trajectories[1].tool"},
         Case{"{time: 0.02, position", "{time: 0.0, position",
              "script.trajectories[0].keyframes[1].time"},
-        Case{"  report: ../out/cut-block.json\n",
-             "  report: ../out/cut-block.json\n  states: ../out/cut-block.ply\n",
+        Case{"  report: report.json\n", "  report: report.json\n  states: cut-block.ply\n",
              "outputs.states: expected a .tsfmesh"},
-        Case{"  report: ../out/cut-block.json\n",
-             "  report: ../out/cut-block.json\n  states_every: 0\n", "outputs.states_every"}}) {
+        Case{"  report: report.json\n", "  report: report.json\n  states_every: 0\n",
+             "outputs.states_every"},
+        // Outputs are names inside the output folder: never outside it.
+        Case{"  report: report.json\n", "  report: ../report.json\n",
+             "outputs.report: expected a file name inside the output folder"},
+        Case{"  mesh: final.ply\n", "  mesh: /tmp/final.ply\n",
+             "outputs.mesh: expected a file name inside the output folder"}}) {
     std::string text = base;
     const auto at = text.find(c.from);
     ASSERT_NE(at, std::string::npos) << c.from;

@@ -98,10 +98,10 @@ TEST(RunScene, TheCiSinusSceneRunsEndToEndAndItsOutputsAreValid) {
   const fs::path dir = test::scratch_dir("run-sinus-ci");
   const CommandResult r = run_command(
       exe.string() + " run " + (test::source_dir() / "scenes" / "sinus-ci.yaml").string() +
-          " -q --backend cpu -o " + dir.string(),
+          " -q --backend cpu -o " + (dir / "out").string(),
       dir / "log.txt");
   ASSERT_EQ(r.status, 0) << r.output;
-  expect_valid_run_folder(dir, "sinus-ci");
+  expect_valid_run_folder(dir / "out", "sinus-ci");
 }
 
 TEST(RunScene, WithNoSceneItRunsTheBundledSinusSceneFromTheRepositoryRoot) {
@@ -112,12 +112,13 @@ TEST(RunScene, WithNoSceneItRunsTheBundledSinusSceneFromTheRepositoryRoot) {
   // coarse voxels and a short script keep it to seconds.
   const CommandResult r =
       run_command("cd " + test::source_dir().string() + " && " + exe.string() +
-                      " run --voxel-mm 2 --duration 0.012 " + "--backend cpu -q -o " + dir.string(),
+                      " run --voxel-mm 2 --duration 0.012 " + "--backend cpu -q -o " +
+                      (dir / "out").string(),
                   dir / "log.txt");
   ASSERT_EQ(r.status, 0) << r.output;
-  const nlohmann::json j = nlohmann::json::parse(read_text(dir / "run-report.json"));
+  const nlohmann::json j = nlohmann::json::parse(read_text(dir / "out" / "run-report.json"));
   EXPECT_EQ(j["scene"]["name"], "sinus");
-  EXPECT_TRUE(fs::exists(dir / "sinus-final.ply"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "sinus-final.ply"));
 }
 
 /// A copy of the CI scene with one line replaced, in a scratch folder next to a copy of the CT

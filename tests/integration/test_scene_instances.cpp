@@ -53,11 +53,12 @@ fs::path edited_scene(const std::string& shipped, const std::string& name,
   return path;
 }
 
+/// `tsf run` into `out` (new or empty: a run's folder holds only what the run wrote); the log goes
+/// beside it.
 CommandResult tsf_run(const fs::path& scene, const fs::path& out, const std::string& extra) {
-  fs::create_directories(out);
   return run_command(test::tsf_executable_path().string() + " run " + scene.string() +
                          " -q --backend cpu " + extra + " -o " + out.string(),
-                     out / "log.txt");
+                     out.parent_path() / (out.filename().string() + ".log"));
 }
 
 #define TSF_NEED_EXECUTABLE()                   \
@@ -210,14 +211,16 @@ script:
 outputs: {mesh: out.ply, rest_mesh: rest.ply, report: report.json}
 )";
   const CommandResult r = run_command(
-      test::tsf_executable_path().string() + " simulate " + scene.string() + " --backend cpu",
+      test::tsf_executable_path().string() + " simulate " + scene.string() +
+          " --backend cpu --out " + (dir / "out").string(),
       dir / "log.txt");
   ASSERT_EQ(r.status, 0) << r.output;
-  const json j = json::parse(read_text(dir / "report.json"));
+  // The scene's outputs are names inside the output folder.
+  const json j = json::parse(read_text(dir / "out" / "report.json"));
   ASSERT_EQ(j["instances"].size(), 2u);
   for (const std::string name : {"coarse", "fine"}) {
-    expect_closed_mesh(dir / ("out-" + name + ".ply"));
-    expect_closed_mesh(dir / ("rest-" + name + ".ply"));
+    expect_closed_mesh(dir / "out" / ("out-" + name + ".ply"));
+    expect_closed_mesh(dir / "out" / ("rest-" + name + ".ply"));
   }
   const json& coarse = j["instances"][0];
   const json& fine = j["instances"][1];

@@ -1,4 +1,4 @@
-// The optional CRMS effects (issue 6): each effect's defining behaviour, every effect through the
+// The optional CRMS effects (docs/effects.md): each effect's defining behaviour, every effect through the
 // stability suite's hard cases, and CPU vs CUDA parity with all effects on. Every test runs on
 // the CPU and, where a device exists, on CUDA.
 #include <gtest/gtest.h>

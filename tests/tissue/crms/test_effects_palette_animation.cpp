@@ -1,5 +1,5 @@
 // Heterogeneity palettes with per-node blend weights, animation (rest keyframes, material tracks,
-// cut triggers) and node masking (issue 6). Every test runs on the CPU and, where a device exists,
+// cut triggers) and node masking (docs/effects.md). Every test runs on the CPU and, where a device exists,
 // on CUDA; CrmsEffectsRobustness also runs under ASan + UBSan in CI.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,5 @@
 #include "tsf/interaction/tissue_model.h"
+#include "tsf/crms/time_step_choice.h"
 
 #include <algorithm>
 #include <cmath>
@@ -83,7 +84,7 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
   crms::SolverConfig solver_config = options_.solver;
   if (options_.configure_effects) options_.configure_effects(lattice, solver_config);
   solver_ = std::make_unique<crms::Solver>(std::move(lattice), solver_config);
-  dt_ = options_.dt_s > 0 ? options_.dt_s : options_.dt_safety * solver_->stable_dt();
+  dt_ = crms::chosen_time_step(options_.dt_s, options_.dt_safety, solver_->stable_dt());
   require(dt_ > 0 && std::isfinite(dt_),
           "tissue model: the stable time step of this material is 0 (explicit Euler needs "
           "viscosity > 0): set dt or use symplectic Euler");

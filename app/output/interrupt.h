@@ -1,0 +1,23 @@
+// Ctrl-C (SIGINT) and SIGTERM during a long run: the run stops at the next frame, writes its
+// report marked "interrupted" with what it has, removes temporary files and exits non-zero (130),
+// instead of dying with no report. A second signal ends the process at once.
+#pragma once
+
+namespace tsf::app {
+
+/// Installs the handlers while alive; restores the previous ones when destroyed.
+class InterruptScope {
+ public:
+  InterruptScope();
+  ~InterruptScope();
+  InterruptScope(const InterruptScope&) = delete;
+  InterruptScope& operator=(const InterruptScope&) = delete;
+};
+
+/// True once SIGINT or SIGTERM arrived inside an InterruptScope.
+bool interrupted();
+
+/// The signal that arrived (SIGINT, SIGTERM) or 0.
+int interrupt_signal();
+
+}  // namespace tsf::app

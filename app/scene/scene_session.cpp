@@ -1,0 +1,374 @@
+#include "scene/scene_session.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "tsf/common/error.h"
+#include "tsf/common/stopwatch.h"
+#include "tsf/crms/lattice_builders.h"
+#include "tsf/crms/time_step_choice.h"
+#include "tsf/volume/analytic_volumes.h"
+#include "tsf/volume/tissue_labels.h"
+#include "tsf/volume/volume_edits.h"
+#ifdef TSF_HAVE_IMPORT
+#include "tsf/import/tissue_volume_io.h"
+#endif
+
+namespace tsf::app {
+namespace {
+
+[[noreturn]] void refuse(const Scene& scene, SceneCommand command, const std::string& key,
+                         const std::string& why) {
+  throw Error(scene.file.string() + ": " + key + ": tsf " + to_string(command) + " " + why);
+}
+
+#ifndef TSF_HAVE_IMPORT
+[[noreturn]] void needs_itk(const Scene& scene) {
+  throw Error(scene.file.string() +
+              ": lattice.source: volume needs a build with ITK (reconfigure with "
+              "-DTSF_WITH_ITK=ON); this build reads analytic boxes only");
+}
+#endif
+
+/// The box lattice of instance `index` (build_box_lattice: node count per axis = the box size
+/// over the spacing, rounded; the spacing then fits the box exactly).
+crms::Lattice box_lattice(const Scene& scene, const SceneInstance& inst) {
+  crms::BoxLatticeOptions o;
+  o.size_mm = inst.lattice.size_mm;
+  o.spacing_mm = inst.lattice.spacing_mm;
+  o.min_corner_mm = inst.lattice.min_corner_mm;
+  o.density_g_per_mm3 = inst.material.density_g_per_mm3;
+  (void)scene;
+  return crms::build_box_lattice(o);
+}
+
+#ifdef TSF_HAVE_IMPORT
+/// The sub-volume of voxels whose centres lie in [lo, hi] mm.
+VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
+                        const std::string& error_prefix) {
+  const VoxelBox box = voxels_near_box(v.geometry(), lo, hi, 0.0);
+  if (box.empty()) {
+    const VolumeGeometry& g = v.geometry();
+    const Vec3d last = g.index_to_tissue(
+        {double(g.dims.x - 1), double(g.dims.y - 1), double(g.dims.z - 1)});
+    throw Error(error_prefix + "lattice.crop: the box holds no voxel of the volume (the volume's " +
+                "voxel centres span [" + std::to_string(g.origin.x) + ", " +
+                std::to_string(g.origin.y) + ", " + std::to_string(g.origin.z) + "] to [" +
+                std::to_string(last.x) + ", " + std::to_string(last.y) + ", " +
+                std::to_string(last.z) + "] mm)");
+  }
+  VolumeGeometry g = v.geometry();
+  g.dims = box.extent();
+  g.origin = v.geometry().index_to_tissue({double(box.lo.x), double(box.lo.y), double(box.lo.z)});
+  VoxelVolume out(g, v.has_material_weights());
+  float* d = out.density_for_tracked_write();
+  std::uint8_t* l = out.labels_for_tracked_write();
+  for (int k = 0; k < g.dims.z; ++k)
+    for (int j = 0; j < g.dims.y; ++j)
+      for (int i = 0; i < g.dims.x; ++i) {
+        const std::size_t src = v.index(i + box.lo.x, j + box.lo.y, k + box.lo.z);
+        const std::size_t dst = out.index(i, j, k);
+        d[dst] = v.density_data()[src];
+        l[dst] = v.label_data()[src];
+        if (v.has_material_weights())
+          out.material_weight_data()[dst] = v.material_weight_data()[src];
+      }
+  out.mark_all_modified();
+  return out;
+}
+
+/// Empties every voxel whose label is not in `labels` (density 0, label outside): the instance's
+/// surface and lattice are then built from its own segment classes only.
+void keep_labels(VoxelVolume& v, const std::vector<std::uint8_t>& labels, bool cropped,
+                 const std::string& error_prefix) {
+  bool keep[256] = {};
+  for (std::uint8_t l : labels) keep[l] = true;
+  float* d = v.density_for_tracked_write();
+  std::uint8_t* l = v.labels_for_tracked_write();
+  std::size_t kept = 0;
+  const auto n = static_cast<std::size_t>(v.geometry().dims.volume());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (keep[l[i]]) {
+      kept += d[i] > 0.0f;
+      continue;
+    }
+    d[i] = 0.0f;
+    l[i] = kLabelOutside;
+  }
+  v.mark_all_modified();
+  if (kept == 0)
+    throw Error(error_prefix + "lattice.labels: no voxel of the volume" +
+                (cropped ? " (after the crop)" : "") + " has these labels");
+}
+#endif
+
+/// Anchors of an instance on its lattice (box, plane, labels).
+void apply_anchors(const std::vector<SceneAnchor>& anchors, crms::Lattice& lattice) {
+  for (const SceneAnchor& a : anchors) {
+    switch (a.kind) {
+      case SceneAnchor::Kind::kBox:
+        crms::fix_nodes_in_box(lattice, a.min_mm, a.max_mm);
+        break;
+      case SceneAnchor::Kind::kPlane:
+        crms::fix_nodes_behind_plane(lattice, a.point_mm, a.normal);
+        break;
+      case SceneAnchor::Kind::kLabels:
+        crms::fix_nodes_with_labels(lattice, a.labels);
+        break;
+    }
+  }
+}
+
+bool inside(const Vec3d& p, const Vec3d& lo, const Vec3d& hi) {
+  return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
+}
+
+}  // namespace
+
+const char* to_string(SceneCommand command) {
+  switch (command) {
+    case SceneCommand::kSimulate:
+      return "simulate";
+    case SceneCommand::kRun:
+      return "run";
+    case SceneCommand::kView:
+      return "view";
+    case SceneCommand::kHaptics:
+      return "haptics";
+  }
+  return "?";
+}
+
+void check_scene_for_command(const Scene& scene, SceneCommand command) {
+  using C = SceneCommand;
+  if (scene.pipeline.present && command != C::kRun)
+    refuse(scene, command, "pipeline",
+           "does not import or segment: the pipeline section runs with `tsf run " +
+               scene.file.string() +
+               "`; give this command a scene whose lattice.volume names the segmented density");
+  if (command == C::kRun && !scene.interactive)
+    refuse(scene, command, "lattice",
+           "needs an interaction scene (tissue, tools and a script); this one only steps a "
+           "lattice: run it with `tsf simulate`");
+  if (scene.steps_given && command != C::kSimulate)
+    refuse(scene, command, "solver.steps",
+           "does not run a fixed number of lattice steps (that is `tsf simulate` on a "
+           "lattice-only scene); leave solver.steps and solver.report_every out");
+  if (command == C::kView || command == C::kHaptics) {
+    if (scene.instances.size() > 1)
+      refuse(scene, command, "tissues",
+             "runs one tissue instance; this scene has " + std::to_string(scene.instances.size()) +
+                 " (run it with `tsf simulate` or `tsf run`)");
+  }
+  if (command == C::kHaptics) {
+    if (!scene.tools.empty())
+      refuse(scene, command, "tools",
+             "drives the stylus of --trajectory, not the scene's tools (they play in `tsf "
+             "simulate`, `tsf run` and `tsf view`)");
+    if (scene.script_given)
+      refuse(scene, command, "script",
+             "plays --trajectory, not the scene's script (it plays in `tsf simulate` and `tsf "
+             "run`)");
+    if (scene.outputs_given)
+      refuse(scene, command, "outputs",
+             "writes samples.csv, metrics.json and force.png to --out, not the scene's outputs");
+  }
+}
+
+crms::Backend parse_backend(const std::string& text, const std::string& option) {
+  if (text == "cpu") return crms::Backend::kCpu;
+  if (text == "cuda") return crms::Backend::kCuda;
+  if (text == "auto") return crms::Backend::kAuto;
+  throw Error(option + ": expected cpu, cuda or auto, got '" + text + "'");
+}
+
+void override_backend(Scene& scene, const std::string& text) {
+  if (text.empty()) return;
+  scene.solver.backend = parse_backend(text);
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    try {
+      crms::validate_solver_config(instance_solver_config(scene, i));
+    } catch (const Error& e) {
+      throw Error("--backend " + text + ": " + scene.instance_prefix(i) + e.what());
+    }
+  }
+}
+
+crms::SolverConfig instance_solver_config(const Scene& scene, std::size_t index) {
+  const SceneInstance& inst = scene.instances.at(index);
+  crms::SolverConfig c = scene.solver;
+  c.materials.at(0) = inst.material;
+  c.effects = inst.effects;
+  c.integrator = inst.integration.integrator;
+  c.implicit_newton_iterations = inst.integration.newton_iterations;
+  c.implicit_tolerance = inst.integration.newton_tolerance;
+  return c;
+}
+
+VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
+                                   VolumeGeometry* patient_frame) {
+  const SceneInstance& inst = scene.instances.at(index);
+  const SceneLattice& sl = inst.lattice;
+  if (sl.source == SceneLattice::Source::kBox) {
+    // The box lattice's own geometry (one rounding rule), k voxels per node spacing, and one node
+    // spacing of empty voxels around it: the lattice built from these voxels has the box
+    // lattice's nodes plus a dead rim.
+    const crms::LatticeGeometry lg = box_lattice(scene, inst).geometry();
+    const int k = inst.tissue.voxels_per_node;
+    VolumeGeometry g;
+    for (int a = 0; a < 3; ++a) {
+      g.dims[a] = lg.dims[a] * k + 2 * k;
+      g.spacing[a] = lg.spacing[a] / k;
+      g.origin[a] = lg.origin[a] - 0.5 * lg.spacing[a] - (k - 0.5) * g.spacing[a];
+    }
+    require(g.dims.volume() <= 400'000'000,
+            scene.instance_prefix(index) + "tissue.voxels_per_node: the box would need " +
+                std::to_string(g.dims.volume()) + " voxels (at most 4e8)");
+    if (patient_frame) *patient_frame = g;
+    const Vec3d half = sl.size_mm * 0.5, centre = sl.min_corner_mm + half;
+    const double ramp = 0.5 * std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+    return make_sdf_volume(
+        g, [&](const Vec3d& p) { return box_distance_local(half, p - centre); }, ramp);
+  }
+#ifdef TSF_HAVE_IMPORT
+  VoxelVolume v = import::read_tissue_volume(sl.volume);
+  if (patient_frame) *patient_frame = v.geometry();
+  if (sl.cropped) v = crop_volume(v, sl.crop_min_mm, sl.crop_max_mm, scene.instance_prefix(index));
+  if (!sl.labels.empty()) keep_labels(v, sl.labels, sl.cropped, scene.instance_prefix(index));
+  return v;
+#else
+  needs_itk(scene);
+#endif
+}
+
+interaction::TissueModelOptions instance_model_options(const Scene& scene, std::size_t index) {
+  const SceneInstance& inst = scene.instances.at(index);
+  const bool box = inst.lattice.source == SceneLattice::Source::kBox;
+  interaction::TissueModelOptions o;
+  o.surface.iso = static_cast<float>(inst.tissue.iso);
+  o.surface.snap_epsilon = static_cast<float>(inst.tissue.merge_epsilon);
+  o.lattice.node_spacing_voxels =
+      box ? inst.tissue.voxels_per_node : inst.lattice.node_spacing_voxels;
+  o.lattice.occupancy_threshold = box ? 0.125f : static_cast<float>(inst.lattice.occupancy_threshold);
+  o.lattice.mass_floor = static_cast<float>(inst.lattice.mass_floor);
+  o.lattice.density_g_per_mm3 = inst.material.density_g_per_mm3;
+  o.solver = instance_solver_config(scene, index);
+  if (!box) configure_volume_lattice(scene.effect_regions, o.solver, o.lattice);
+  o.deletion_threshold = static_cast<float>(inst.tissue.deletion_threshold);
+  o.dt_s = inst.integration.dt_s;
+  o.dt_safety = inst.integration.dt_safety;
+  o.coupler_mode = inst.tissue.coupler;
+  o.removal.strength = static_cast<float>(inst.tissue.removal_strength);
+  o.removal.falloff_mm = inst.tissue.falloff_mm;
+  o.min_blade_thickness_voxels = inst.tissue.min_blade_thickness_voxels;
+  o.contact_passes_per_advance = inst.tissue.contact_passes;
+  // The options own copies of what their callbacks read: they may outlive the caller's scene.
+  o.anchor = [anchors = inst.anchors](crms::Lattice& l) { apply_anchors(anchors, l); };
+  o.configure_effects = [regions = scene.effect_regions](const crms::Lattice& l,
+                                                         crms::SolverConfig& c) {
+    apply_scene_effects(regions, l, c);
+  };
+  return o;
+}
+
+std::size_t apply_loads_and_initial_state(const Scene& scene, crms::Solver& solver) {
+  const crms::Lattice& lattice = solver.lattice();
+  std::vector<std::int64_t> nodes;
+  std::vector<Vec3f> forces;
+  for (const SceneLoad& load : scene.loads)
+    for (std::int64_t n = 0; n < lattice.node_count(); ++n)
+      if (lattice.alive(n) && inside(lattice.geometry().rest_position(n), load.min_mm, load.max_mm)) {
+        nodes.push_back(n);
+        forces.push_back(to_float(load.force_un));
+      }
+  if (!nodes.empty()) solver.set_external_forces(nodes, forces);
+  if (scene.initial.scaled) {
+    std::vector<Vec3f> u(static_cast<std::size_t>(lattice.node_count())), v(u.size());
+    for (std::int64_t n = 0; n < lattice.node_count(); ++n) {
+      if (!lattice.alive(n) || lattice.fixed(n)) continue;
+      const Vec3d p = lattice.geometry().rest_position(n);
+      const Vec3d q =
+          scene.initial.about_mm + cwise_mul(scene.initial.scale, p - scene.initial.about_mm);
+      u[static_cast<std::size_t>(n)] = to_float(q - p);
+    }
+    solver.set_state(u, v);
+  }
+  return nodes.size();
+}
+
+TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
+  Stopwatch clock;
+  TissueInstance r;
+  r.index = index;
+  r.name = scene.instances.at(index).name;
+  VoxelVolume volume = instance_tissue_volume(scene, index, &r.patient_frame);
+  r.volume_geometry = volume.geometry();
+  try {
+    r.model = std::make_unique<interaction::TissueModel>(std::move(volume),
+                                                         instance_model_options(scene, index));
+  } catch (const Error& e) {
+    throw Error(scene.instance_prefix(index) + e.what());
+  }
+  const std::size_t loaded = apply_loads_and_initial_state(scene, r.model->solver());
+  if (loaded > 0 || scene.initial.scaled) r.model->couple();
+  const crms::Solver& solver = r.model->solver();
+  std::int64_t fixed = 0;
+  for (std::int64_t n = 0; n < solver.lattice().node_count(); ++n)
+    fixed += solver.lattice().alive(n) && solver.lattice().fixed(n);
+  const Vec3d g = solver.config().gravity;
+  r.summary = {{"instance", r.name},
+               {"alive_nodes", solver.lattice().alive_count()},
+               {"fixed_nodes", fixed},
+               {"loaded_nodes", loaded},
+               {"elastic_nj_at_start", solver.energy().elastic_nj},
+               {"dt_s", r.model->dt()},
+               {"integrator", crms::to_string(solver.config().integrator)},
+               {"backend", solver.backend_name()},
+               {"gravity_mm_s2", nlohmann::json::array({g.x, g.y, g.z})},
+               {"effects_active", solver.active_effects()}};
+  r.setup_s = clock.seconds();
+  return r;
+}
+
+LatticeRun build_lattice_run(const Scene& scene) {
+  Stopwatch clock;
+  const std::size_t index = 0;
+  const SceneInstance& inst = scene.instances.at(index);
+  crms::Lattice lattice;
+  if (inst.lattice.source == SceneLattice::Source::kBox) {
+    lattice = box_lattice(scene, inst);
+  } else {
+#ifdef TSF_HAVE_IMPORT
+    const interaction::TissueModelOptions o = instance_model_options(scene, index);
+    lattice = crms::build_lattice_from_volume(instance_tissue_volume(scene, index), o.lattice);
+#else
+    needs_itk(scene);
+#endif
+  }
+  apply_anchors(inst.anchors, lattice);
+  LatticeRun run;
+  for (std::int64_t n = 0; n < lattice.node_count(); ++n)
+    run.fixed_nodes += lattice.alive(n) && lattice.fixed(n);
+  crms::SolverConfig config = instance_solver_config(scene, index);
+  apply_scene_effects(scene.effect_regions, lattice, config);
+  try {
+    run.solver = std::make_unique<crms::Solver>(std::move(lattice), config);
+  } catch (const Error& e) {
+    throw Error(scene.instance_prefix(index) + e.what());
+  }
+  const double stable = run.solver->stable_dt();
+  run.dt_s = std::min(
+      crms::chosen_time_step(inst.integration.dt_s, inst.integration.dt_safety, stable), 1.0);
+  if (!(run.dt_s > 0))
+    throw Error(scene.file.string() + ": solver.dt: the stable step of " +
+                crms::to_string(config.integrator) +
+                " is 0 for this material (explicit Euler needs viscosity > 0); set solver.dt or "
+                "choose symplectic-euler");
+  apply_loads_and_initial_state(scene, *run.solver);
+  run.setup_s = clock.seconds();
+  return run;
+}
+
+}  // namespace tsf::app

@@ -1,0 +1,86 @@
+// From a scene to running models: the one place where a scene (scene.h) becomes lattices,
+// solvers and tissue models, for every command (`tsf simulate`, `tsf run`, `tsf view`,
+// `tsf haptics`). A command never maps scene keys itself: it asks this file, so a key means the
+// same thing everywhere, and a key a command cannot honour is refused here, by name
+// (check_scene_for_command). docs/design.md, "From a scene file to a kernel", walks a key
+// through it.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "scene/scene.h"
+#include "tsf/crms/lattice.h"
+#include "tsf/crms/solver.h"
+#include "tsf/interaction/tissue_model.h"
+#include "tsf/volume/voxel_volume.h"
+
+namespace tsf::app {
+
+/// The commands that run a scene.
+enum class SceneCommand { kSimulate, kRun, kView, kHaptics };
+const char* to_string(SceneCommand command);
+
+/// Throws tsf::Error "FILE: key: tsf <command> …" for the first key of `scene` that `command`
+/// cannot honour (what it does instead and which command does honour it). The table of keys ×
+/// commands is in docs/scenes.md ("Which command honours which key").
+void check_scene_for_command(const Scene& scene, SceneCommand command);
+
+/// `cpu`, `cuda` or `auto`; throws naming `option` otherwise.
+crms::Backend parse_backend(const std::string& text, const std::string& option = "--backend");
+
+/// Replaces the scene's backend (command line) and re-validates every instance's configuration.
+void override_backend(Scene& scene, const std::string& text);
+
+/// The solver configuration of instance `index`: the scene-wide settings with the instance's
+/// material (palette entry 0), effects and integrator.
+crms::SolverConfig instance_solver_config(const Scene& scene, std::size_t index);
+
+/// The voxel volume instance `index` is made of: the box voxelised at the lattice spacing /
+/// tissue.voxels_per_node (so that the lattice built from it has the box lattice's nodes plus an
+/// empty rim), or the density volume file, cropped to lattice.crop and reduced to lattice.labels.
+/// `patient_frame` (optional) receives the geometry of the whole volume before the crop: the frame
+/// that maps the tissue's coordinates to the patient (a crop keeps the tissue coordinates).
+VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
+                                   VolumeGeometry* patient_frame = nullptr);
+
+/// The tissue model options of instance `index`: surface, lattice, solver, time step, coupler,
+/// removal, contacts, anchors and effect regions (the options own what their callbacks need).
+interaction::TissueModelOptions instance_model_options(const Scene& scene, std::size_t index);
+
+/// Applies the scene's loads (a constant force per node in a box) and initial state (a scaled
+/// copy of the rest shape) to a solver. Returns the number of loaded nodes.
+std::size_t apply_loads_and_initial_state(const Scene& scene, crms::Solver& solver);
+
+/// One interactive instance, built: the tissue model with loads and initial state applied.
+struct TissueInstance {
+  std::size_t index = 0;  ///< into scene.instances
+  std::string name;
+  std::unique_ptr<interaction::TissueModel> model;
+  VolumeGeometry volume_geometry;  ///< of the voxels the model was built from (tissue mm)
+  VolumeGeometry patient_frame;    ///< the uncropped volume's: tissue mm → patient (LPS) mm
+  double setup_s = 0;
+  /// What the scene made of this instance, measured on the built model (every command writes it
+  /// into its report as `session`): nodes alive, anchored and loaded, the elastic energy of the
+  /// initial state, time step, integrator, backend, gravity and the effects that run.
+  nlohmann::json summary;
+};
+
+/// Builds instance `index` of an interactive scene. Errors name the instance.
+TissueInstance build_tissue_instance(const Scene& scene, std::size_t index);
+
+/// A lattice-only scene (no tissue, tools or script), built: the lattice with its anchors, a
+/// solver with the effects' regions, loads and initial state, and the time step.
+struct LatticeRun {
+  std::unique_ptr<crms::Solver> solver;
+  std::int64_t fixed_nodes = 0;
+  double dt_s = 0;
+  double setup_s = 0;
+};
+LatticeRun build_lattice_run(const Scene& scene);
+
+}  // namespace tsf::app
