@@ -2,11 +2,325 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "tsf/common/error.h"
 #include "tsf/coupler/couple_vertex.h"
 
 namespace tsf::collision {
+
+namespace {
+
+/// What the steps of one resolve() read: the lattice, the nodes gathered near the tool and the
+/// tool itself.
+struct ContactScene {
+  const crms::LatticeGeometry& g;
+  const std::vector<std::uint8_t>& anchored;  // per lattice node
+  const NodeNeighbourhood& nb;
+  const WorldTool& tool;
+
+  /// Rest position of gathered node i, mm.
+  Vec3d rest(std::size_t i) const { return g.rest_position(nb.nodes[i]); }
+  /// Position of gathered node i under `displacement` (indexed like nb), mm.
+  Vec3d deformed(std::size_t i, const std::vector<Vec3f>& displacement) const {
+    return rest(i) + to_double(displacement[i]);
+  }
+  bool anchored_node(std::size_t i) const {
+    return anchored[static_cast<std::size_t>(nb.nodes[i])] != 0;
+  }
+  /// Gathered index of corner c of the cube with lower corner cc, or −1.
+  std::ptrdiff_t corner(const Int3& cc, int c) const {
+    return nb.find(cc.x + coupler::corner_bit(c, 0), cc.y + coupler::corner_bit(c, 1),
+                   cc.z + coupler::corner_bit(c, 2), g.dims);
+  }
+};
+
+/// Step 2. Reads the held nodes, the spring forces at them and the gathered displacements;
+/// writes the held nodes the tool still presses to `keep` and the others to `release` (both
+/// ascending, as `held` is).
+void split_held_nodes(const ContactScene& scene, const std::vector<std::int64_t>& held,
+                      const std::vector<Vec3f>& forces, std::vector<std::int64_t>& keep,
+                      std::vector<std::int64_t>& release) {
+  for (std::size_t i = 0; i < held.size(); ++i) {
+    const std::ptrdiff_t at = scene.nb.find(held[i]);
+    if (at < 0) {
+      release.push_back(held[i]);
+      continue;
+    }
+    const Vec3d p = scene.deformed(static_cast<std::size_t>(at), scene.nb.displacement);
+    Vec3d n;
+    const double d = tool_distance(scene.tool, p, n);
+    if (d > 10.0 * kContactSkinMm || dot(to_double(forces[i]), n) > 0.0)
+      release.push_back(held[i]);
+    else
+      keep.push_back(held[i]);
+  }
+}
+
+/// Step 3. Reads which gathered nodes are inside the tool; writes their displacement onto the
+/// nearest tool surface point to `overrides` and marks them `moved`. Anchored nodes stay.
+void move_nodes_to_tool_surface(const ContactScene& scene, std::vector<Vec3f>& overrides,
+                                std::vector<std::uint8_t>& moved) {
+  for (std::size_t i = 0; i < scene.nb.size(); ++i) {
+    if (!scene.nb.inside[i] || scene.anchored_node(i)) continue;
+    overrides[i] = to_float(to_double(scene.nb.target[i]) - scene.rest(i));
+    moved[i] = 1;
+  }
+}
+
+/// The cubes the narrow phase tests and their coupled vertices, grouped: the vertices of cube
+/// cells[k] are slots[cube_begin[k] .. cube_begin[k + 1]).
+struct NarrowCubes {
+  std::vector<std::int64_t> cells;  // lattice node index of each cube's lower corner, ascending
+  std::vector<std::uint32_t> slots;
+  std::vector<std::size_t> cube_begin;
+};
+
+/// Step 4, first half. Reads the gathered nodes' positions and the coupler's cube lists; returns
+/// the cubes around every node within a lattice diagonal of the tool's bounds [lo, hi].
+NarrowCubes cubes_near_tool(const ContactScene& scene, const coupler::Coupler& coupler,
+                            const Vec3d& lo, const Vec3d& hi) {
+  const crms::LatticeGeometry& g = scene.g;
+  const double reach = length(g.spacing);
+  NarrowCubes cubes;
+  for (std::size_t i = 0; i < scene.nb.size(); ++i) {
+    const Vec3d p = scene.deformed(i, scene.nb.displacement);
+    if (p.x < lo.x - reach || p.y < lo.y - reach || p.z < lo.z - reach || p.x > hi.x + reach ||
+        p.y > hi.y + reach || p.z > hi.z + reach)
+      continue;
+    const Int3 m = g.coordinates(scene.nb.nodes[i]);
+    for (int o = 0; o < 8; ++o) {
+      const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
+                   m.z - coupler::corner_bit(o, 2)};
+      if (g.contains(c.x, c.y, c.z)) cubes.cells.push_back(g.index(c.x, c.y, c.z));
+    }
+  }
+  std::sort(cubes.cells.begin(), cubes.cells.end());
+  cubes.cells.erase(std::unique(cubes.cells.begin(), cubes.cells.end()), cubes.cells.end());
+  for (std::int64_t c : cubes.cells) {
+    cubes.cube_begin.push_back(cubes.slots.size());
+    coupler.slots_in_cube(c, cubes.slots);
+  }
+  cubes.cube_begin.push_back(cubes.slots.size());
+  return cubes;
+}
+
+/// The lattice's geometry as the coupler's cube-corner code reads it (no node arrays).
+coupler::DeformedLatticeView lattice_geometry_view(const crms::LatticeGeometry& g) {
+  coupler::DeformedLatticeView view;
+  view.dims = g.dims;
+  view.stride_y = g.dims.x;
+  view.stride_z = static_cast<std::int64_t>(g.dims.x) * g.dims.y;
+  for (int a = 0; a < 3; ++a) {
+    view.origin[a] = static_cast<float>(g.origin[a]);
+    view.spacing[a] = static_cast<float>(g.spacing[a]);
+  }
+  return view;
+}
+
+/// Step 4, second half: the narrow phase on the coupled vertices of `cubes`. Each iteration
+/// maps every vertex through the corners as `overrides` displaces them; a vertex deeper than the
+/// tolerance asks its cube's corners for the least-norm motion W_c·δ/ΣW² that moves it by δ
+/// out along the tool normal; each node takes the longest correction asked of it.
+class NarrowPhase {
+ public:
+  NarrowPhase(const ContactScene& scene, const NarrowCubes& cubes, const coupler::Coupler& coupler,
+              const ContactOptions& options, std::vector<Vec3f>& overrides)
+      : scene_(scene),
+        cubes_(cubes),
+        bindings_(coupler.bindings()),
+        sources_(coupler.sources()),
+        mode_(coupler.options().mode),
+        view_(lattice_geometry_view(scene.g)),
+        reader_{&scene.nb, view_, &overrides},
+        tolerance_(options.vertex_tolerance_spacings * scene.g.min_spacing()),
+        h_max_(std::max(scene.g.spacing.x, std::max(scene.g.spacing.y, scene.g.spacing.z))),
+        overrides_(overrides),
+        correction_(scene.nb.size()),
+        correction_len_(scene.nb.size()),
+        pushed_(cubes.slots.size(), 0) {
+    tool_bounds(scene.tool, lo_, hi_);
+  }
+
+  /// Reads and writes overrides; marks the nodes it moves in `moved`; writes out's
+  /// narrow_iterations, max_vertex_depth_mm and vertices_pushed.
+  void run(int max_iterations, std::vector<std::uint8_t>& moved, ContactForce& out) {
+    for (int iteration = 0; iteration < max_iterations && !cubes_.slots.empty(); ++iteration) {
+      const double deepest = push_vertices_out();
+      out.narrow_iterations = iteration + 1;
+      out.max_vertex_depth_mm = deepest;
+      if (deepest <= tolerance_) {
+        out.max_vertex_depth_mm = 0;
+        break;
+      }
+      apply_corrections(moved);
+    }
+    for (std::uint8_t p : pushed_) out.vertices_pushed += p;
+  }
+
+ private:
+  /// One iteration: writes correction_ and correction_len_; returns the deepest vertex depth.
+  double push_vertices_out() {
+    std::fill(correction_len_.begin(), correction_len_.end(), 0.0f);
+    double deepest = 0;
+    for (std::size_t cube = 0; cube + 1 < cubes_.cube_begin.size(); ++cube) {
+      if (cubes_.cube_begin[cube] == cubes_.cube_begin[cube + 1]) continue;
+      const Int3 cc = scene_.g.coordinates(cubes_.cells[cube]);
+      if (cube_far_from_tool(cc)) continue;
+      deepest = std::max(deepest, push_cube_vertices(cube, cc));
+    }
+    return deepest;
+  }
+
+  /// Cull: a cube's vertices lie within a spacing of its gathered corners (trilinear
+  /// interpolation is a convex combination; surface vertices extrapolate by < ½ spacing).
+  bool cube_far_from_tool(const Int3& cc) const {
+    Vec3d clo{1e300, 1e300, 1e300}, chi{-1e300, -1e300, -1e300};
+    for (int c = 0; c < 8; ++c) {
+      const std::ptrdiff_t at = scene_.corner(cc, c);
+      if (at < 0) continue;
+      const Vec3d p = scene_.deformed(static_cast<std::size_t>(at), overrides_);
+      clo = {std::min(clo.x, p.x), std::min(clo.y, p.y), std::min(clo.z, p.z)};
+      chi = {std::max(chi.x, p.x), std::max(chi.y, p.y), std::max(chi.z, p.z)};
+    }
+    return chi.x >= clo.x &&
+           (chi.x + h_max_ < lo_.x || chi.y + h_max_ < lo_.y || chi.z + h_max_ < lo_.z ||
+            clo.x - h_max_ > hi_.x || clo.y - h_max_ > hi_.y || clo.z - h_max_ > hi_.z);
+  }
+
+  /// Tests the vertices of one cube (lower corner cc) and asks for corrections for those inside;
+  /// returns the deepest depth among them (0 when none is inside).
+  double push_cube_vertices(std::size_t cube, const Int3& cc) {
+    double deepest = 0;
+    // Vertices of one cube with the same sources share the resolved corners.
+    std::uint32_t cached_sources = 0;
+    bool have = false, bound = false;
+    Vec3f q[8];
+    const Vec3f base = view_.rest(cc.x, cc.y, cc.z);
+    for (std::size_t v = cubes_.cube_begin[cube]; v < cubes_.cube_begin[cube + 1]; ++v) {
+      const std::uint32_t s = cubes_.slots[v];
+      const coupler::VertexBinding& b = bindings_[s];
+      if (b.cell < 0) continue;
+      if (!have || sources_[s] != cached_sources) {
+        cached_sources = sources_[s];
+        bound = coupler::resolve_cube_corners(reader_, cc, view_.spacing, cached_sources, q,
+                                              nullptr, coupler::corners_needed(mode_));
+        have = true;
+      }
+      if (!bound) continue;
+      Vec3f axes[3];
+      const Vec3f position = base + coupler::map_cube_point(q, b.w, mode_, axes);
+      Vec3d n;
+      const double d = tool_distance(scene_.tool, to_double(position), n);
+      if (!(d < -tolerance_)) continue;
+      deepest = std::max(deepest, -d);
+      pushed_[v] = 1;
+      push_corners(cc, sources_[s], b, n * (kContactSkinMm - d));
+    }
+    return deepest;
+  }
+
+  /// Least-norm corner motion moving a vertex (binding b, corner sources `sources`) by delta
+  /// (trilinear weights W: corner c by W_c·δ/ΣW²); anchored and ungathered corners stay.
+  void push_corners(const Int3& cc, std::uint32_t sources, const coupler::VertexBinding& b,
+                    const Vec3d& delta) {
+    std::ptrdiff_t at[8];
+    double weight[8], sum_w2 = 0;
+    for (int c = 0; c < 8; ++c) {
+      at[c] = -1;
+      weight[c] = 0;
+      if (!((sources >> c) & 1u)) continue;
+      at[c] = scene_.corner(cc, c);
+      if (at[c] < 0) continue;
+      if (scene_.anchored_node(static_cast<std::size_t>(at[c]))) {
+        at[c] = -1;
+        continue;
+      }
+      weight[c] = std::max(0.0f, coupler::trilinear_weight(c, b.w));
+      sum_w2 += weight[c] * weight[c];
+    }
+    if (!(sum_w2 > 1e-12)) return;
+    for (int c = 0; c < 8; ++c) {
+      if (at[c] < 0 || weight[c] <= 0) continue;
+      const Vec3f step = to_float(delta * (weight[c] / sum_w2));
+      const float len = length(step);
+      const auto i = static_cast<std::size_t>(at[c]);
+      if (len > correction_len_[i]) {
+        correction_len_[i] = len;
+        correction_[i] = step;
+      }
+    }
+  }
+
+  void apply_corrections(std::vector<std::uint8_t>& moved) {
+    for (std::size_t i = 0; i < correction_len_.size(); ++i)
+      if (correction_len_[i] > 0) {
+        overrides_[i] += correction_[i];
+        moved[i] = 1;
+      }
+  }
+
+  const ContactScene& scene_;
+  const NarrowCubes& cubes_;
+  const std::vector<coupler::VertexBinding>& bindings_;
+  const std::vector<std::uint32_t>& sources_;
+  const coupler::CouplerMode mode_;
+  const coupler::DeformedLatticeView view_;
+  const NeighbourhoodReader reader_;
+  const double tolerance_, h_max_;
+  Vec3d lo_, hi_;  // the tool's bounds
+  std::vector<Vec3f>& overrides_;
+  std::vector<Vec3f> correction_;
+  std::vector<float> correction_len_;
+  std::vector<std::uint8_t> pushed_;  // per tested vertex
+};
+
+/// Step 5. Constrains the moved nodes where `overrides` puts them (zero velocity) and releases the
+/// let-go ones that did not move again; writes out.nodes_released and returns the nodes held now
+/// (keep ∪ moved, ascending).
+std::vector<std::int64_t> hold_moved_nodes(crms::Solver& solver, NodeGatherer& gatherer,
+                                           const ContactScene& scene,
+                                           const std::vector<Vec3f>& overrides,
+                                           const std::vector<std::uint8_t>& moved,
+                                           const std::vector<std::int64_t>& keep,
+                                           const std::vector<std::int64_t>& release,
+                                           ContactForce& out) {
+  std::vector<std::int64_t> hold;
+  std::vector<Vec3d> targets;
+  for (std::size_t i = 0; i < scene.nb.size(); ++i)
+    if (moved[i]) {
+      hold.push_back(scene.nb.nodes[i]);
+      targets.push_back(scene.deformed(i, overrides));
+    }
+  std::vector<std::int64_t> really_released;
+  std::set_difference(release.begin(), release.end(), hold.begin(), hold.end(),
+                      std::back_inserter(really_released));
+  if (!really_released.empty()) solver.release_nodes(really_released);
+  if (!hold.empty()) solver.constrain_nodes(hold, targets);
+  out.nodes_released = really_released.size();
+  std::vector<std::int64_t> now;
+  std::set_union(keep.begin(), keep.end(), hold.begin(), hold.end(), std::back_inserter(now));
+  if (!hold.empty()) gatherer.nodes_moved(solver, hold, targets);  // released ones did not move
+  return now;
+}
+
+/// Step 6. Reads the spring forces at the held nodes and their positions (`overrides` for the
+/// gathered ones); writes out's force and torque about the tool's reference point.
+void tool_feedback(const ContactScene& scene, const std::vector<std::int64_t>& held,
+                   const std::vector<Vec3f>& forces, const std::vector<Vec3f>& overrides,
+                   ContactForce& out) {
+  const Vec3d ref = scene.tool.reference_point();
+  for (std::size_t i = 0; i < held.size(); ++i) {
+    const Vec3d f = to_double(forces[i]);
+    const std::ptrdiff_t at = scene.nb.find(held[i]);
+    const Vec3d p = at >= 0 ? scene.deformed(static_cast<std::size_t>(at), overrides)
+                            : scene.g.rest_position(held[i]);
+    out.force_un += f;
+    out.torque_un_mm += cross(p - ref, f);
+  }
+}
+
+}  // namespace
 
 ToolContact::ToolContact(const crms::LatticeGeometry& geometry, std::vector<std::uint8_t> anchored,
                          const ContactOptions& options)
@@ -33,214 +347,42 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
                                   const coupler::Coupler& coupler, const WorldTool& tool) {
   ContactForce out;
   const crms::LatticeGeometry& g = geometry_;
+  // 1: gather.
   const double h_max = std::max(g.spacing.x, std::max(g.spacing.y, g.spacing.z));
   gatherer.gather_around_tool(solver, tool, options_.margin_spacings * h_max, nb_);
   out.nodes_gathered = nb_.size();
-  const std::size_t count = nb_.size();
-  auto rest_of = [&](std::size_t i) { return g.rest_position(nb_.nodes[i]); };
+  const ContactScene scene{g, anchored_, nb_, tool};
 
   // 2: release held nodes the tool no longer presses.
   std::vector<std::int64_t> keep, release;
   if (!held_.empty()) {
     std::vector<Vec3f> forces;
     gatherer.spring_forces_at(solver, held_, forces);
-    for (std::size_t i = 0; i < held_.size(); ++i) {
-      const std::ptrdiff_t at = nb_.find(held_[i]);
-      if (at < 0) {
-        release.push_back(held_[i]);
-        continue;
-      }
-      const Vec3d p = rest_of(static_cast<std::size_t>(at)) +
-                      to_double(nb_.displacement[static_cast<std::size_t>(at)]);
-      Vec3d n;
-      const double d = tool_distance(tool, p, n);
-      if (d > 10.0 * kContactSkinMm || dot(to_double(forces[i]), n) > 0.0)
-        release.push_back(held_[i]);
-      else
-        keep.push_back(held_[i]);
-    }
+    split_held_nodes(scene, held_, forces, keep, release);
   }
 
   // 3: nodes inside the tool go to its surface.
   std::vector<Vec3f> overrides(nb_.displacement);
-  std::vector<std::uint8_t> moved(count, 0);
-  for (std::size_t i = 0; i < count; ++i) {
-    if (!nb_.inside[i] || anchored_[static_cast<std::size_t>(nb_.nodes[i])]) continue;
-    overrides[i] = to_float(to_double(nb_.target[i]) - rest_of(i));
-    moved[i] = 1;
-  }
+  std::vector<std::uint8_t> moved(nb_.size(), 0);
+  move_nodes_to_tool_surface(scene, overrides, moved);
 
   // 4: narrow phase on coupled vertices of the cubes around the nodes near the tool.
   Vec3d lo, hi;
   tool_bounds(tool, lo, hi);
-  const double reach = length(g.spacing);
-  std::vector<std::int64_t> cells;
-  for (std::size_t i = 0; i < count; ++i) {
-    const Vec3d p = rest_of(i) + to_double(nb_.displacement[i]);
-    if (p.x < lo.x - reach || p.y < lo.y - reach || p.z < lo.z - reach || p.x > hi.x + reach ||
-        p.y > hi.y + reach || p.z > hi.z + reach)
-      continue;
-    const Int3 m = g.coordinates(nb_.nodes[i]);
-    for (int o = 0; o < 8; ++o) {
-      const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
-                   m.z - coupler::corner_bit(o, 2)};
-      if (g.contains(c.x, c.y, c.z)) cells.push_back(g.index(c.x, c.y, c.z));
-    }
-  }
-  std::sort(cells.begin(), cells.end());
-  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
-  // The vertices of each cube, grouped: cube_begin[c] .. cube_begin[c + 1] in `slots`.
-  std::vector<std::uint32_t> slots;
-  std::vector<std::size_t> cube_begin;
-  for (std::int64_t c : cells) {
-    cube_begin.push_back(slots.size());
-    coupler.slots_in_cube(c, slots);
-  }
-  cube_begin.push_back(slots.size());
-  out.vertices_tested = slots.size();
-
-  coupler::DeformedLatticeView view;
-  view.dims = g.dims;
-  view.stride_y = g.dims.x;
-  view.stride_z = static_cast<std::int64_t>(g.dims.x) * g.dims.y;
-  for (int a = 0; a < 3; ++a) {
-    view.origin[a] = static_cast<float>(g.origin[a]);
-    view.spacing[a] = static_cast<float>(g.spacing[a]);
-  }
-  const NeighbourhoodReader reader{&nb_, view, &overrides};
-  const double tolerance = options_.vertex_tolerance_spacings * g.min_spacing();
-  const auto& bindings = coupler.bindings();
-  const auto& sources = coupler.sources();
-  const coupler::CouplerMode mode = coupler.options().mode;
-  std::vector<Vec3f> correction(count);
-  std::vector<float> correction_len(count);
-  std::vector<std::uint8_t> pushed(slots.size(), 0);
-  for (int iteration = 0; iteration < options_.max_narrow_iterations && !slots.empty();
-       ++iteration) {
-    std::fill(correction_len.begin(), correction_len.end(), 0.0f);
-    double deepest = 0;
-    for (std::size_t cube = 0; cube + 1 < cube_begin.size(); ++cube) {
-      if (cube_begin[cube] == cube_begin[cube + 1]) continue;
-      // Cull the cube: its vertices lie within a spacing of its gathered corners (trilinear
-      // interpolation is a convex combination; surface vertices extrapolate by < ½ spacing).
-      const Int3 cc = g.coordinates(cells[cube]);
-      Vec3d clo{1e300, 1e300, 1e300}, chi{-1e300, -1e300, -1e300};
-      for (int c = 0; c < 8; ++c) {
-        const std::ptrdiff_t at =
-            nb_.find(cc.x + coupler::corner_bit(c, 0), cc.y + coupler::corner_bit(c, 1),
-                     cc.z + coupler::corner_bit(c, 2), g.dims);
-        if (at < 0) continue;
-        const Vec3d p = rest_of(static_cast<std::size_t>(at)) +
-                        to_double(overrides[static_cast<std::size_t>(at)]);
-        clo = {std::min(clo.x, p.x), std::min(clo.y, p.y), std::min(clo.z, p.z)};
-        chi = {std::max(chi.x, p.x), std::max(chi.y, p.y), std::max(chi.z, p.z)};
-      }
-      if (chi.x >= clo.x && (chi.x + h_max < lo.x || chi.y + h_max < lo.y || chi.z + h_max < lo.z ||
-                             clo.x - h_max > hi.x || clo.y - h_max > hi.y || clo.z - h_max > hi.z))
-        continue;
-      // Vertices of one cube with the same sources share the resolved corners.
-      std::uint32_t cached_sources = 0;
-      bool have = false, bound = false;
-      Vec3f q[8];
-      const Vec3f base = view.rest(cc.x, cc.y, cc.z);
-      for (std::size_t v = cube_begin[cube]; v < cube_begin[cube + 1]; ++v) {
-        const std::uint32_t s = slots[v];
-        const coupler::VertexBinding& b = bindings[s];
-        if (b.cell < 0) continue;
-        if (!have || sources[s] != cached_sources) {
-          cached_sources = sources[s];
-          bound = coupler::resolve_cube_corners(reader, cc, view.spacing, cached_sources, q,
-                                                nullptr, coupler::corners_needed(mode));
-          have = true;
-        }
-        if (!bound) continue;
-        Vec3f axes[3];
-        const Vec3f position = base + coupler::map_cube_point(q, b.w, mode, axes);
-        Vec3d n;
-        const double d = tool_distance(tool, to_double(position), n);
-        if (!(d < -tolerance)) continue;
-        deepest = std::max(deepest, -d);
-        pushed[v] = 1;
-        const Vec3d delta = n * (kContactSkinMm - d);
-        // Least-norm corner motion moving the vertex by delta (trilinear weights).
-        std::ptrdiff_t at[8];
-        double weight[8], sum_w2 = 0;
-        for (int c = 0; c < 8; ++c) {
-          at[c] = -1;
-          weight[c] = 0;
-          if (!((sources[s] >> c) & 1u)) continue;
-          const Int3 p{cc.x + coupler::corner_bit(c, 0), cc.y + coupler::corner_bit(c, 1),
-                       cc.z + coupler::corner_bit(c, 2)};
-          at[c] = nb_.find(p.x, p.y, p.z, g.dims);
-          if (at[c] < 0) continue;
-          if (anchored_[static_cast<std::size_t>(nb_.nodes[static_cast<std::size_t>(at[c])])]) {
-            at[c] = -1;
-            continue;
-          }
-          weight[c] = std::max(0.0f, coupler::trilinear_weight(c, b.w));
-          sum_w2 += weight[c] * weight[c];
-        }
-        if (!(sum_w2 > 1e-12)) continue;
-        for (int c = 0; c < 8; ++c) {
-          if (at[c] < 0 || weight[c] <= 0) continue;
-          const Vec3f step = to_float(delta * (weight[c] / sum_w2));
-          const float len = length(step);
-          const auto i = static_cast<std::size_t>(at[c]);
-          if (len > correction_len[i]) {
-            correction_len[i] = len;
-            correction[i] = step;
-          }
-        }
-      }
-    }
-    out.narrow_iterations = iteration + 1;
-    out.max_vertex_depth_mm = deepest;
-    if (deepest <= tolerance) {
-      out.max_vertex_depth_mm = 0;
-      break;
-    }
-    for (std::size_t i = 0; i < count; ++i)
-      if (correction_len[i] > 0) {
-        overrides[i] += correction[i];
-        moved[i] = 1;
-      }
-  }
-  for (std::uint8_t p : pushed) out.vertices_pushed += p;
+  const NarrowCubes cubes = cubes_near_tool(scene, coupler, lo, hi);
+  out.vertices_tested = cubes.slots.size();
+  NarrowPhase(scene, cubes, coupler, options_, overrides)
+      .run(options_.max_narrow_iterations, moved, out);
 
   // 5: hold the moved nodes where they now are, release the rest of the let-go ones.
-  std::vector<std::int64_t> hold;
-  std::vector<Vec3d> targets;
-  for (std::size_t i = 0; i < count; ++i)
-    if (moved[i]) {
-      hold.push_back(nb_.nodes[i]);
-      targets.push_back(rest_of(i) + to_double(overrides[i]));
-    }
-  std::vector<std::int64_t> really_released;
-  std::set_difference(release.begin(), release.end(), hold.begin(), hold.end(),
-                      std::back_inserter(really_released));
-  if (!really_released.empty()) solver.release_nodes(really_released);
-  if (!hold.empty()) solver.constrain_nodes(hold, targets);
-  out.nodes_released = really_released.size();
-  std::vector<std::int64_t> now;
-  std::set_union(keep.begin(), keep.end(), hold.begin(), hold.end(), std::back_inserter(now));
-  held_.swap(now);
-  if (!hold.empty()) gatherer.nodes_moved(solver, hold, targets);  // released ones did not move
+  held_ = hold_moved_nodes(solver, gatherer, scene, overrides, moved, keep, release, out);
 
   // 6: what the tool feels.
   out.nodes_held = held_.size();
   if (!held_.empty()) {
     std::vector<Vec3f> forces;
     gatherer.spring_forces_at(solver, held_, forces);
-    const Vec3d ref = tool.reference_point();
-    for (std::size_t i = 0; i < held_.size(); ++i) {
-      const Vec3d f = to_double(forces[i]);
-      const std::ptrdiff_t at = nb_.find(held_[i]);
-      const Vec3d p = at >= 0 ? rest_of(static_cast<std::size_t>(at)) +
-                                    to_double(overrides[static_cast<std::size_t>(at)])
-                              : g.rest_position(held_[i]);
-      out.force_un += f;
-      out.torque_un_mm += cross(p - ref, f);
-    }
+    tool_feedback(scene, held_, forces, overrides, out);
   }
   return out;
 }

@@ -69,7 +69,8 @@ bool range_straddles(const VoxelVolume& volume, const std::vector<VoxelVolume::B
 
 namespace {
 
-constexpr int kBlock = 16;                    // cubes per block edge
+constexpr int kBlock = 16;  // cubes per block edge
+constexpr int kCubesPerBlock = kBlock * kBlock * kBlock;
 constexpr std::int64_t kParallelBlocks = 16;  // active blocks before the passes go parallel
 
 /// Bits set in each byte value (the build assumes no popcnt instruction).
@@ -90,6 +91,298 @@ struct BlockRecord {
   std::size_t vertex_offset = 0, triangle_offset = 0;  // pass 3: where the block writes
 };
 
+/// One full surfacing, in the vtkFlyingEdges3D style: the owner cubes are tiled by blocks of
+/// kBlock³; each pass below reads what the earlier ones wrote (named in its comment).
+class BlockedExtraction {
+ public:
+  BlockedExtraction(const VoxelVolume& volume, const SurfaceOptions& options)
+      : volume_(volume),
+        options_(options),
+        grid_(volume.dims()),
+        nb_{(grid_.size.x + kBlock - 1) / kBlock, (grid_.size.y + kBlock - 1) / kBlock,
+            (grid_.size.z + kBlock - 1) / kBlock} {}
+
+  /// Pass 1. Reads the brick density ranges; writes active_of_block_, active_blocks_ (z-major)
+  /// and parallel_, and stats' ranges_s, blocks and active_blocks.
+  void find_active_blocks(SurfaceBuildStats& stats);
+  /// Pass 2. Reads the active blocks' lattice windows; writes slot_mask_ and slot_prefix_ (per
+  /// block cube: the vertex slots it owns, and the block's vertices before it), merged_ (the
+  /// merging decisions, for pass 3 to replay) and records_' counts.
+  void count_blocks();
+  /// Prefix sums over records_' counts: writes their offsets; returns the totals.
+  void place_blocks(std::size_t& vertices, std::size_t& triangles);
+  /// Pass 3. Reads everything above; writes every block's vertices and triangles in place in
+  /// `mesh` (allocated by the caller) and `extras`. False when a triangle refers to a vertex no
+  /// block made, or a block makes other counts than pass 2's (an internal error).
+  bool write_blocks(SurfaceMesh& mesh, ExtractionExtras* extras) const;
+  /// Normals. Reads mesh positions and triangles and records_; returns the fixed-point
+  /// area-weighted normal sum of every vertex.
+  std::vector<NormalSum> sum_normals(const SurfaceMesh& mesh) const;
+
+  bool parallel() const { return parallel_; }
+
+ private:
+  /// Owner cubes [c0, c1) of block b.
+  void block_cubes(std::int64_t b, Int3& c0, Int3& c1) const;
+  static int block_local(const Int3& c, const Int3& c0) {
+    return (c.x - c0.x) + kBlock * ((c.y - c0.y) + kBlock * (c.z - c0.z));
+  }
+  void count_block(LatticeWindow& window, std::size_t a);
+  bool write_block(LatticeWindow& window, std::size_t a, SurfaceMesh& mesh,
+                   ExtractionExtras* extras) const;
+  /// Vertex index of lattice slot `slot` of the owner cube at u coordinates `u` (c + 1); false
+  /// when no block made that vertex.
+  bool vertex_index(const Int3& u, int slot, std::uint32_t& index) const;
+  /// Per slab of blocks z, the first active block at or after it (active blocks are z-major).
+  std::vector<std::size_t> slab_first_blocks() const;
+
+  const VoxelVolume& volume_;
+  const SurfaceOptions& options_;
+  const CubeGrid grid_;
+  const Int3 nb_;  // blocks per axis
+  bool parallel_ = false;
+  std::vector<std::int32_t> active_of_block_;  // per block: its active index, −1 when inactive
+  std::vector<std::int64_t> active_blocks_;    // per active block: its block index
+  std::vector<std::uint16_t> slot_mask_;
+  std::vector<std::uint32_t> slot_prefix_;
+  std::vector<BlockRecord> records_;
+  std::vector<std::vector<LatticeWindow::MergedPoint>> merged_;
+};
+
+void BlockedExtraction::block_cubes(std::int64_t b, Int3& c0, Int3& c1) const {
+  const Int3 bi{static_cast<int>(b % nb_.x), static_cast<int>((b / nb_.x) % nb_.y),
+                static_cast<int>(b / (static_cast<std::int64_t>(nb_.x) * nb_.y))};
+  c0 = {bi.x * kBlock - 1, bi.y * kBlock - 1, bi.z * kBlock - 1};
+  c1 = {std::min(c0.x + kBlock, grid_.size.x - 1), std::min(c0.y + kBlock, grid_.size.y - 1),
+        std::min(c0.z + kBlock, grid_.size.z - 1)};
+}
+
+void BlockedExtraction::find_active_blocks(SurfaceBuildStats& stats) {
+  const auto ranges = current_brick_ranges(volume_, &stats.ranges_s);
+  const int margin = LatticeWindow::margin(options_.snap_epsilon > 0.0f);
+  const std::int64_t block_count = nb_.volume();
+  stats.blocks = static_cast<std::size_t>(block_count);
+  std::vector<std::uint8_t> active(static_cast<std::size_t>(block_count), 0);
+#pragma omp parallel for schedule(dynamic, 64) if (block_count >= kParallelBricks)
+  for (std::int64_t b = 0; b < block_count; ++b) {
+    Int3 c0, c1;
+    block_cubes(b, c0, c1);
+    const Int3 lo{c0.x - margin, c0.y - margin, c0.z - margin};
+    const Int3 hi{c1.x + margin - 1, c1.y + margin - 1, c1.z + margin - 1};
+    active[static_cast<std::size_t>(b)] = range_straddles(volume_, ranges, lo, hi, options_.iso);
+  }
+  active_of_block_.assign(static_cast<std::size_t>(block_count), -1);
+  active_blocks_.clear();
+  for (std::int64_t b = 0; b < block_count; ++b) {
+    if (!active[static_cast<std::size_t>(b)]) continue;
+    active_of_block_[static_cast<std::size_t>(b)] =
+        static_cast<std::int32_t>(active_blocks_.size());
+    active_blocks_.push_back(b);
+  }
+  stats.active_blocks = active_blocks_.size();
+  // Small volumes run on the calling thread: a parallel region costs more than it saves there,
+  // and far more when the machine is oversubscribed.
+  parallel_ = static_cast<std::int64_t>(active_blocks_.size()) >= kParallelBlocks;
+}
+
+void BlockedExtraction::count_blocks() {
+  const std::size_t n_active = active_blocks_.size();
+  slot_mask_.assign(n_active * kCubesPerBlock, 0);
+  slot_prefix_.assign(n_active * kCubesPerBlock, 0);
+  records_.assign(n_active, BlockRecord{});
+  merged_.assign(n_active, {});
+#pragma omp parallel if (parallel_)
+  {
+    LatticeWindow window;
+#pragma omp for schedule(dynamic, 4)
+    for (std::int64_t a = 0; a < static_cast<std::int64_t>(n_active); ++a)
+      count_block(window, static_cast<std::size_t>(a));
+  }
+}
+
+void BlockedExtraction::count_block(LatticeWindow& window, std::size_t a) {
+  Int3 c0, c1;
+  block_cubes(active_blocks_[a], c0, c1);
+  window.compute(volume_, options_, c0, c1);
+  std::uint16_t* mask = &slot_mask_[a * kCubesPerBlock];
+  std::uint32_t* prefix = &slot_prefix_[a * kCubesPerBlock];
+  std::uint32_t vertices = 0;
+  std::size_t triangles = 0;
+  for (const auto& cube : window.relevant_cubes()) {
+    const int bl = block_local(cube.c, c0);
+    prefix[bl] = vertices;
+    mask[bl] = window.referenced_slots(cube.local);
+    vertices += popcount16(mask[bl]);
+    triangles += static_cast<std::size_t>(window.count_triangles(cube.local));
+  }
+  if (options_.snap_epsilon > 0.0f) window.merged_points(merged_[a]);
+  records_[a].vertex_count = vertices;
+  records_[a].triangle_count = triangles;
+}
+
+void BlockedExtraction::place_blocks(std::size_t& vertices, std::size_t& triangles) {
+  vertices = 0;
+  triangles = 0;
+  for (BlockRecord& rec : records_) {
+    rec.vertex_offset = vertices;
+    rec.triangle_offset = triangles;
+    vertices += rec.vertex_count;
+    triangles += rec.triangle_count;
+  }
+}
+
+bool BlockedExtraction::write_blocks(SurfaceMesh& mesh, ExtractionExtras* extras) const {
+  std::atomic<bool> broken_reference{false};
+#pragma omp parallel if (parallel_)
+  {
+    LatticeWindow window;
+#pragma omp for schedule(dynamic, 4)
+    for (std::int64_t a = 0; a < static_cast<std::int64_t>(active_blocks_.size()); ++a)
+      if (!write_block(window, static_cast<std::size_t>(a), mesh, extras)) broken_reference = true;
+  }
+  return !broken_reference;
+}
+
+bool BlockedExtraction::write_block(LatticeWindow& window, std::size_t a, SurfaceMesh& mesh,
+                                    ExtractionExtras* extras) const {
+  Int3 c0, c1;
+  block_cubes(active_blocks_[a], c0, c1);
+  window.compute_replaying(volume_, options_, c0, c1, merged_[a]);
+  const VolumeGeometry& geometry = volume_.geometry();
+  const BlockRecord& rec = records_[a];
+  const std::uint16_t* mask = &slot_mask_[a * kCubesPerBlock];
+  std::size_t v = rec.vertex_offset;
+  for (const auto& cube : window.relevant_cubes()) {
+    for (unsigned bits = mask[block_local(cube.c, c0)]; bits; bits &= bits - 1) {
+      const int slot = __builtin_ctz(bits);
+      Vec3d ip;
+      window.vertex(cube.c, cube.local, slot, ip, mesh.labels[v]);
+      mesh.positions[v] = tissue_position(geometry, ip);
+      if (extras) extras->vertex_keys[v] = grid_.key(cube.c, slot);
+      ++v;
+    }
+  }
+  bool intact = true;
+  std::size_t t = rec.triangle_offset;
+  const std::size_t t_end = rec.triangle_offset + rec.triangle_count;
+  for (const auto& cube : window.relevant_cubes()) {
+    const Int3& c = cube.c;
+    const std::uint64_t owner = grid_.linear(c);
+    const std::uint32_t signature = extras ? window.signature(cube.local) : 0u;
+    window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+      if (t >= t_end) {  // pass 3 must make what pass 2 counted
+        intact = false;
+        return;
+      }
+      auto& tri = mesh.triangles[t];
+      for (int k = 0; k < 3; ++k) {
+        const Int3 u{c.x + keys[k].offset[0] + 1, c.y + keys[k].offset[1] + 1,
+                     c.z + keys[k].offset[2] + 1};  // u coordinates of the owner cube
+        std::uint32_t id = 0;
+        if (!vertex_index(u, keys[k].slot, id)) intact = false;
+        tri[static_cast<std::size_t>(k)] = id;
+      }
+      if (extras) {
+        extras->triangle_owner[t] = owner;
+        extras->triangle_owner_signature[t] = signature;
+      }
+      ++t;
+    });
+  }
+  return intact && t == t_end && v == rec.vertex_offset + rec.vertex_count;
+}
+
+bool BlockedExtraction::vertex_index(const Int3& u, int slot, std::uint32_t& index) const {
+  if (u.x < 0 || u.y < 0 || u.z < 0 || u.x >= grid_.size.x || u.y >= grid_.size.y ||
+      u.z >= grid_.size.z)
+    return false;
+  const std::int64_t ob =
+      (u.x / kBlock) + nb_.x * ((u.y / kBlock) + static_cast<std::int64_t>(nb_.y) * (u.z / kBlock));
+  const std::int32_t oa = active_of_block_[static_cast<std::size_t>(ob)];
+  if (oa < 0) return false;
+  const int ol = (u.x % kBlock) + kBlock * ((u.y % kBlock) + kBlock * (u.z % kBlock));
+  const std::size_t at =
+      static_cast<std::size_t>(oa) * kCubesPerBlock + static_cast<std::size_t>(ol);
+  if (!((slot_mask_[at] >> slot) & 1u)) return false;
+  index = static_cast<std::uint32_t>(
+      records_[static_cast<std::size_t>(oa)].vertex_offset + slot_prefix_[at] +
+      popcount16(static_cast<std::uint16_t>(slot_mask_[at] & ((1u << slot) - 1u))));
+  return true;
+}
+
+std::vector<std::size_t> BlockedExtraction::slab_first_blocks() const {
+  const std::size_t n_active = active_blocks_.size();
+  std::vector<std::size_t> slab_first(static_cast<std::size_t>(nb_.z) + 1, n_active);
+  for (std::size_t a = n_active; a-- > 0;)
+    slab_first[static_cast<std::size_t>(active_blocks_[a] /
+                                        (static_cast<std::int64_t>(nb_.x) * nb_.y))] = a;
+  for (int z = nb_.z - 1; z >= 0; --z)
+    slab_first[static_cast<std::size_t>(z)] = std::min(slab_first[static_cast<std::size_t>(z)],
+                                                       slab_first[static_cast<std::size_t>(z) + 1]);
+  return slab_first;
+}
+
+// A triangle of a block touches vertices of blocks one slab (z) away at most. Each thread takes
+// a contiguous range of slabs: the inside of every range first (ranges' vertices are then
+// disjoint), then the first slabs of all ranges, then the last ones — three barriers, whatever
+// the volume size (barriers are what hurts when the machine is oversubscribed).
+std::vector<NormalSum> BlockedExtraction::sum_normals(const SurfaceMesh& mesh) const {
+  std::vector<NormalSum> sums(mesh.positions.size());
+  const double scale = normal_scale(volume_.geometry());
+  const std::vector<std::size_t> slab_first = slab_first_blocks();
+  auto add_slab = [&](int z) {
+    for (std::size_t a = slab_first[static_cast<std::size_t>(z)];
+         a < slab_first[static_cast<std::size_t>(z) + 1]; ++a) {
+      const BlockRecord& rec = records_[a];
+      for (std::size_t t = rec.triangle_offset; t < rec.triangle_offset + rec.triangle_count; ++t) {
+        const auto& tri = mesh.triangles[t];
+        const NormalSum n = face_normal_sum(mesh.positions[tri[0]], mesh.positions[tri[1]],
+                                            mesh.positions[tri[2]], scale);
+        for (int k = 0; k < 3; ++k) sums[tri[static_cast<std::size_t>(k)]] += n;
+      }
+    }
+  };
+  const int slabs = nb_.z;
+  const int teams = parallel_ ? std::max(1, std::min(omp_get_max_threads(), slabs / 3)) : 1;
+  if (teams == 1) {
+    for (int z = 0; z < slabs; ++z) add_slab(z);
+    return sums;
+  }
+#pragma omp parallel num_threads(teams)
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const int z0 = static_cast<int>(static_cast<std::int64_t>(slabs) * t / nt);
+    const int z1 = static_cast<int>(static_cast<std::int64_t>(slabs) * (t + 1) / nt);
+    for (int z = z0 + 1; z < z1 - 1; ++z) add_slab(z);
+#pragma omp barrier
+    add_slab(z0);
+#pragma omp barrier
+    if (z1 - 1 > z0) add_slab(z1 - 1);
+  }
+  return sums;
+}
+
+/// Sizes the mesh (and extras) for the counted vertices and triangles.
+void allocate_output(std::size_t vertices, std::size_t triangles, SurfaceMesh& mesh,
+                     ExtractionExtras* extras) {
+  mesh.positions.resize(vertices);
+  mesh.labels.resize(vertices);
+  mesh.triangles.resize(triangles);
+  if (extras) {
+    extras->vertex_keys.resize(vertices);
+    extras->triangle_owner.resize(triangles);
+    extras->triangle_owner_signature.resize(triangles);
+  }
+}
+
+/// Unit normals from the fixed-point sums.
+void write_unit_normals(const std::vector<NormalSum>& sums, bool parallel, SurfaceMesh& mesh) {
+  mesh.normals.resize(sums.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::int64_t v = 0; v < static_cast<std::int64_t>(sums.size()); ++v)
+    mesh.normals[static_cast<std::size_t>(v)] = unit_normal(sums[static_cast<std::size_t>(v)]);
+}
+
 }  // namespace
 
 SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOptions& options,
@@ -98,233 +391,27 @@ SurfaceMesh extract_surface_detailed(const VoxelVolume& volume, const SurfaceOpt
   options.validate();
   Stopwatch total;
   SurfaceBuildStats stats;
-  const VolumeGeometry& geometry = volume.geometry();
-  const CubeGrid grid(volume.dims());
-  const bool snapping = options.snap_epsilon > 0.0f;
-  const int lower = LatticeWindow::margin(snapping);
-  const int upper = LatticeWindow::margin(snapping);
+  BlockedExtraction extraction(volume, options);
+  extraction.find_active_blocks(stats);
+  stats.threads = extraction.parallel() ? std::max(1, omp_get_max_threads()) : 1;
 
-  // ---- pass 1: which blocks can hold surface --------------------------------------------------
-  const auto ranges = current_brick_ranges(volume, &stats.ranges_s);
-  const Int3 nb{(grid.size.x + kBlock - 1) / kBlock, (grid.size.y + kBlock - 1) / kBlock,
-                (grid.size.z + kBlock - 1) / kBlock};
-  const std::int64_t block_count = nb.volume();
-  stats.blocks = static_cast<std::size_t>(block_count);
-  std::vector<std::int32_t> active_of_block(static_cast<std::size_t>(block_count), -1);
-  auto block_cubes = [&](std::int64_t b, Int3& c0, Int3& c1) {
-    const Int3 bi{static_cast<int>(b % nb.x), static_cast<int>((b / nb.x) % nb.y),
-                  static_cast<int>(b / (static_cast<std::int64_t>(nb.x) * nb.y))};
-    c0 = {bi.x * kBlock - 1, bi.y * kBlock - 1, bi.z * kBlock - 1};
-    c1 = {std::min(c0.x + kBlock, grid.size.x - 1), std::min(c0.y + kBlock, grid.size.y - 1),
-          std::min(c0.z + kBlock, grid.size.z - 1)};
-  };
-  {
-    std::vector<std::uint8_t> active(static_cast<std::size_t>(block_count), 0);
-#pragma omp parallel for schedule(dynamic, 64) if (block_count >= kParallelBricks)
-    for (std::int64_t b = 0; b < block_count; ++b) {
-      Int3 c0, c1;
-      block_cubes(b, c0, c1);
-      const Int3 lo{c0.x - lower, c0.y - lower, c0.z - lower};
-      const Int3 hi{c1.x + upper - 1, c1.y + upper - 1, c1.z + upper - 1};
-      active[static_cast<std::size_t>(b)] = range_straddles(volume, ranges, lo, hi, options.iso);
-    }
-    std::int32_t n_active = 0;
-    for (std::int64_t b = 0; b < block_count; ++b)
-      if (active[static_cast<std::size_t>(b)])
-        active_of_block[static_cast<std::size_t>(b)] = n_active++;
-    stats.active_blocks = static_cast<std::size_t>(n_active);
-  }
-  std::vector<std::int64_t> active_blocks(stats.active_blocks);
-  for (std::int64_t b = 0; b < block_count; ++b)
-    if (active_of_block[static_cast<std::size_t>(b)] >= 0)
-      active_blocks[static_cast<std::size_t>(active_of_block[static_cast<std::size_t>(b)])] = b;
-  const std::size_t n_active = active_blocks.size();
-  // Small volumes run on the calling thread: a parallel region costs more than it saves there,
-  // and far more when the machine is oversubscribed.
-  const bool parallel_blocks = n_active >= kParallelBlocks;
-
-  // ---- pass 2: count each active block's vertices (slot masks) and triangles ------------------
   Stopwatch clock;
-  constexpr int kCubesPerBlock = kBlock * kBlock * kBlock;
-  std::vector<std::uint16_t> slot_mask(n_active * kCubesPerBlock, 0);
-  std::vector<std::uint32_t> slot_prefix(n_active * kCubesPerBlock, 0);
-  std::vector<BlockRecord> records(n_active);
-  std::vector<std::vector<LatticeWindow::MergedPoint>> merged(n_active);
-  stats.threads = parallel_blocks ? std::max(1, omp_get_max_threads()) : 1;
-  auto block_local = [](const Int3& c, const Int3& c0) {
-    return (c.x - c0.x) + kBlock * ((c.y - c0.y) + kBlock * (c.z - c0.z));
-  };
-#pragma omp parallel if (parallel_blocks)
-  {
-    LatticeWindow window;
-#pragma omp for schedule(dynamic, 4)
-    for (std::int64_t a = 0; a < static_cast<std::int64_t>(n_active); ++a) {
-      Int3 c0, c1;
-      block_cubes(active_blocks[static_cast<std::size_t>(a)], c0, c1);
-      window.compute(volume, options, c0, c1);
-      std::uint16_t* mask = &slot_mask[static_cast<std::size_t>(a) * kCubesPerBlock];
-      std::uint32_t* prefix = &slot_prefix[static_cast<std::size_t>(a) * kCubesPerBlock];
-      std::uint32_t vertices = 0;
-      std::size_t triangles = 0;
-      for (const auto& cube : window.relevant_cubes()) {
-        const int bl = block_local(cube.c, c0);
-        prefix[bl] = vertices;
-        mask[bl] = window.referenced_slots(cube.local);
-        vertices += popcount16(mask[bl]);
-        triangles += static_cast<std::size_t>(window.count_triangles(cube.local));
-      }
-      if (snapping) window.merged_points(merged[static_cast<std::size_t>(a)]);
-      records[static_cast<std::size_t>(a)].vertex_count = vertices;
-      records[static_cast<std::size_t>(a)].triangle_count = triangles;
-    }
-  }
-
-  // ---- pass 3: offsets; then each block writes its vertices and triangles in place -------------
+  extraction.count_blocks();
   std::size_t n_vertices = 0, n_triangles = 0;
-  for (BlockRecord& rec : records) {
-    rec.vertex_offset = n_vertices;
-    rec.triangle_offset = n_triangles;
-    n_vertices += rec.vertex_count;
-    n_triangles += rec.triangle_count;
-  }
+  extraction.place_blocks(n_vertices, n_triangles);
   stats.mesh_s = clock.seconds();
+
   clock.restart();
   SurfaceMesh mesh;
-  mesh.positions.resize(n_vertices);
-  mesh.labels.resize(n_vertices);
-  mesh.triangles.resize(n_triangles);
-  if (extras) {
-    extras->vertex_keys.resize(n_vertices);
-    extras->triangle_owner.resize(n_triangles);
-    extras->triangle_owner_signature.resize(n_triangles);
-  }
-  std::atomic<bool> broken_reference{false};
-#pragma omp parallel if (parallel_blocks)
-  {
-    LatticeWindow window;
-#pragma omp for schedule(dynamic, 4)
-    for (std::int64_t a = 0; a < static_cast<std::int64_t>(n_active); ++a) {
-      Int3 c0, c1;
-      block_cubes(active_blocks[static_cast<std::size_t>(a)], c0, c1);
-      window.compute_replaying(volume, options, c0, c1, merged[static_cast<std::size_t>(a)]);
-      const BlockRecord& rec = records[static_cast<std::size_t>(a)];
-      const std::uint16_t* mask = &slot_mask[static_cast<std::size_t>(a) * kCubesPerBlock];
-      std::size_t v = rec.vertex_offset;
-      for (const auto& cube : window.relevant_cubes()) {
-        const Int3& c = cube.c;
-        for (unsigned bits = mask[block_local(c, c0)]; bits; bits &= bits - 1) {
-          const int slot = __builtin_ctz(bits);
-          Vec3d ip;
-          window.vertex(c, cube.local, slot, ip, mesh.labels[v]);
-          mesh.positions[v] = tissue_position(geometry, ip);
-          if (extras) extras->vertex_keys[v] = grid.key(c, slot);
-          ++v;
-        }
-      }
-      std::size_t t = rec.triangle_offset;
-      const std::size_t t_end = rec.triangle_offset + rec.triangle_count;
-      for (const auto& cube : window.relevant_cubes()) {
-        const Int3& c = cube.c;
-        const std::uint64_t owner = grid.linear(c);
-        const std::uint32_t signature = extras ? window.signature(cube.local) : 0u;
-        window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-          if (t >= t_end) {  // pass 3 must make what pass 2 counted
-            broken_reference = true;
-            return;
-          }
-          auto& tri = mesh.triangles[t];
-          for (int k = 0; k < 3; ++k) {
-            const Int3 o{c.x + keys[k].offset[0] + 1, c.y + keys[k].offset[1] + 1,
-                         c.z + keys[k].offset[2] + 1};  // u coordinates of the owner cube
-            std::uint32_t id = 0;
-            if (o.x >= 0 && o.y >= 0 && o.z >= 0 && o.x < grid.size.x && o.y < grid.size.y &&
-                o.z < grid.size.z) {
-              const std::int64_t ob =
-                  (o.x / kBlock) +
-                  nb.x * ((o.y / kBlock) + static_cast<std::int64_t>(nb.y) * (o.z / kBlock));
-              const std::int32_t oa = active_of_block[static_cast<std::size_t>(ob)];
-              const int ol = (o.x % kBlock) + kBlock * ((o.y % kBlock) + kBlock * (o.z % kBlock));
-              const std::size_t at =
-                  static_cast<std::size_t>(oa) * kCubesPerBlock + static_cast<std::size_t>(ol);
-              if (oa >= 0 && ((slot_mask[at] >> keys[k].slot) & 1u)) {
-                id = static_cast<std::uint32_t>(
-                    records[static_cast<std::size_t>(oa)].vertex_offset + slot_prefix[at] +
-                    popcount16(
-                        static_cast<std::uint16_t>(slot_mask[at] & ((1u << keys[k].slot) - 1u))));
-              } else {
-                broken_reference = true;
-              }
-            } else {
-              broken_reference = true;
-            }
-            tri[static_cast<std::size_t>(k)] = id;
-          }
-          if (extras) {
-            extras->triangle_owner[t] = owner;
-            extras->triangle_owner_signature[t] = signature;
-          }
-          ++t;
-        });
-      }
-      if (t != t_end || v != rec.vertex_offset + rec.vertex_count) broken_reference = true;
-    }
-  }
-  require(!broken_reference,
+  allocate_output(n_vertices, n_triangles, mesh, extras);
+  require(extraction.write_blocks(mesh, extras),
           "IMT: a triangle refers to a lattice edge that made no vertex (internal error)");
   stats.assemble_s = clock.seconds();
 
-  // ---- normals: fixed-point sums ---------------------------------------------------------------
-  // A triangle of a block touches vertices of blocks one slab (z) away at most. Each thread takes
-  // a contiguous range of slabs: the inside of every range first (ranges' vertices are then
-  // disjoint), then the first slabs of all ranges, then the last ones — three barriers, whatever
-  // the volume size (barriers are what hurts when the machine is oversubscribed).
   clock.restart();
   if (compute_normals || extras) {
-    std::vector<NormalSum> sums(n_vertices);
-    const double scale = normal_scale(geometry);
-    std::vector<std::size_t> slab_first(static_cast<std::size_t>(nb.z) + 1, n_active);
-    for (std::size_t a = n_active; a-- > 0;)  // active blocks are in z-major order
-      slab_first[static_cast<std::size_t>(active_blocks[a] /
-                                          (static_cast<std::int64_t>(nb.x) * nb.y))] = a;
-    for (int z = nb.z - 1; z >= 0; --z)
-      slab_first[static_cast<std::size_t>(z)] = std::min(
-          slab_first[static_cast<std::size_t>(z)], slab_first[static_cast<std::size_t>(z) + 1]);
-    auto add_slab = [&](int z) {
-      for (std::size_t a = slab_first[static_cast<std::size_t>(z)];
-           a < slab_first[static_cast<std::size_t>(z) + 1]; ++a) {
-        const BlockRecord& rec = records[a];
-        for (std::size_t t = rec.triangle_offset; t < rec.triangle_offset + rec.triangle_count;
-             ++t) {
-          const auto& tri = mesh.triangles[t];
-          const NormalSum n = face_normal_sum(mesh.positions[tri[0]], mesh.positions[tri[1]],
-                                              mesh.positions[tri[2]], scale);
-          for (int k = 0; k < 3; ++k) sums[tri[static_cast<std::size_t>(k)]] += n;
-        }
-      }
-    };
-    const int slabs = nb.z;
-    const int teams = parallel_blocks ? std::max(1, std::min(omp_get_max_threads(), slabs / 3)) : 1;
-    if (teams == 1) {
-      for (int z = 0; z < slabs; ++z) add_slab(z);
-    } else {
-#pragma omp parallel num_threads(teams)
-      {
-        const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-        const int z0 = static_cast<int>(static_cast<std::int64_t>(slabs) * t / nt);
-        const int z1 = static_cast<int>(static_cast<std::int64_t>(slabs) * (t + 1) / nt);
-        for (int z = z0 + 1; z < z1 - 1; ++z) add_slab(z);
-#pragma omp barrier
-        add_slab(z0);
-#pragma omp barrier
-        if (z1 - 1 > z0) add_slab(z1 - 1);
-      }
-    }
-    if (compute_normals) {
-      mesh.normals.resize(n_vertices);
-#pragma omp parallel for schedule(static) if (parallel_blocks)
-      for (std::int64_t v = 0; v < static_cast<std::int64_t>(n_vertices); ++v)
-        mesh.normals[static_cast<std::size_t>(v)] = unit_normal(sums[static_cast<std::size_t>(v)]);
-    }
+    std::vector<NormalSum> sums = extraction.sum_normals(mesh);
+    if (compute_normals) write_unit_normals(sums, extraction.parallel(), mesh);
     if (extras) extras->normal_sums = std::move(sums);
   }
   stats.normals_s = clock.seconds();

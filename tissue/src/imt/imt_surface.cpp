@@ -344,6 +344,35 @@ struct ImtSurface::State {
   std::vector<std::uint32_t> kept_records, readd;
   std::vector<std::uint32_t> record_stamp;  // per record: generation when last visited
   std::vector<std::uint8_t> pending;        // per vertex slot: moved in this update
+
+  // ---- update passes (ImtSurface::update runs them in this order) ---------------------------
+  /// Starts an update: a new generation (stamps of older ones go stale) and empty scratch.
+  void begin_update();
+  /// Pass 1. Reads the volume over `region` (owner cubes) chunk by chunk and the cube records;
+  /// writes changed_cubes and new_triangles (cubes whose triangles change, with their new ones),
+  /// kept_records (unchanged cubes in `core` with a moved vertex), and through vertex_for
+  /// created and moved. `margin`: how far, in cubes, a chunk's lattice window reaches
+  /// (LatticeWindow::margin).
+  void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
+                     int margin);
+  void remesh_chunk(const VoxelVolume& volume, const VoxelBox& core, const Int3& c0,
+                    const Int3& c1);
+  void remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core);
+  bool refresh_cube_vertices(const LatticeWindow::Cube& cube);
+  void collect_emptied_cubes(const Int3& c0, const Int3& c1);
+  void collect_emptied_cubes_in_page(std::uint32_t page, const Int3& p, const VoxelBox& chunk);
+  /// Pass 2. Reads changed_cubes and kept_records, with the old positions; releases the changed
+  /// cubes' triangles (released_cubes, released_vertices) and takes the kept triangles' normal
+  /// contributions off (readd).
+  void take_off_changed_normals();
+  /// Pass 3. Reads moved, readd, changed_cubes and new_triangles; writes the new positions and
+  /// labels, puts the kept contributions back and makes the new triangles.
+  void move_vertices_and_make_triangles();
+  /// Pass 4. Reads released_vertices, created and released_cubes; frees the vertices no triangle
+  /// uses and the records left empty.
+  void free_unused_vertices();
+  /// Pass 5. Reads normal_dirty and the normal sums; writes the normals that changed.
+  void refresh_dirty_normals();
 };
 
 ImtSurface::ImtSurface(const SurfaceOptions& options, double headroom)
@@ -420,6 +449,188 @@ void ImtSurface::build(const VoxelVolume& volume) {
   *s_ = std::move(fresh);
 }
 
+void ImtSurface::State::begin_update() {
+  ++generation;
+  if (generation == 0) {  // wrapped: stale stamps could alias
+    std::fill(stamp.begin(), stamp.end(), 0u);
+    std::fill(record_stamp.begin(), record_stamp.end(), 0u);
+    generation = 1;
+  }
+  created.clear();
+  moved.clear();
+  changed_cubes.clear();
+  new_triangles.clear();
+  kept_records.clear();
+  readd.clear();
+  released_vertices.clear();
+  if (record_stamp.size() < records.size()) record_stamp.resize(records.size() * 2, 0);
+  if (pending.size() < positions.size()) pending.resize(positions.size(), 0);
+}
+
+void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox& region,
+                                      const VoxelBox& core, int margin) {
+  const bool ranges = volume.brick_ranges_current();
+  for (int z0 = region.lo.z; z0 < region.hi.z; z0 += kChunk)
+    for (int y0 = region.lo.y; y0 < region.hi.y; y0 += kChunk)
+      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk) {
+        const Int3 c0{x0, y0, z0};
+        const Int3 c1{std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
+                      std::min(z0 + kChunk, region.hi.z)};
+        const bool may_hold_surface =
+            !ranges ||
+            detail::range_straddles(
+                volume, volume.brick_ranges(), {c0.x - margin, c0.y - margin, c0.z - margin},
+                {c1.x + margin - 1, c1.y + margin - 1, c1.z + margin - 1}, options.iso);
+        if (may_hold_surface) remesh_chunk(volume, core, c0, c1);
+        collect_emptied_cubes(c0, c1);
+      }
+}
+
+/// Meshes every cube of chunk [c0, c1) that can hold surface now; compares with what it held.
+void ImtSurface::State::remesh_chunk(const VoxelVolume& volume, const VoxelBox& core,
+                                     const Int3& c0, const Int3& c1) {
+  window.compute(volume, options, c0, c1);
+  for (const auto& cube : window.relevant_cubes()) remesh_cube(cube, core);
+}
+
+void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core) {
+  const std::uint32_t signature = window.signature(cube.local);
+  const std::uint32_t rid = record_of(cube.c, false);
+  if (rid != 0) {
+    if (rid >= record_stamp.size()) record_stamp.resize(2 * rid + 2, 0);
+    record_stamp[rid] = generation;
+  }
+  if (rid != 0 && records[rid].signature == signature) {
+    // Same triangles (as lattice keys, so as vertex ids). Only near the change can their
+    // vertices have moved: refresh those.
+    const bool in_core = core.contains(cube.c.x, cube.c.y, cube.c.z);
+    if (in_core && records[rid].first_triangle != kNone && refresh_cube_vertices(cube))
+      kept_records.push_back(rid);
+    return;
+  }
+  const auto first = static_cast<std::uint32_t>(new_triangles.size());
+  begin_cube();
+  window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+    new_triangles.push_back(
+        {cube_vertex(cube.c, keys[0]), cube_vertex(cube.c, keys[1]), cube_vertex(cube.c, keys[2])});
+  });
+  const auto count = static_cast<std::uint32_t>(new_triangles.size()) - first;
+  changed_cubes.push_back({cube.c, first, count, signature});
+}
+
+/// Refreshes the vertices of an unchanged cube's triangles: true when one of them moved, now or
+/// earlier in this update through another cube.
+bool ImtSurface::State::refresh_cube_vertices(const LatticeWindow::Cube& cube) {
+  bool any_moved = false;
+  begin_cube();
+  window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t before = moved.size();
+      const std::uint32_t v = cube_vertex(cube.c, keys[k]);
+      any_moved = any_moved || moved.size() != before || pending[v];
+    }
+  });
+  return any_moved;
+}
+
+/// Cubes of chunk [c0, c1) that held triangles and are not relevant any more lose them all:
+/// queued as changed cubes with no new triangles.
+void ImtSurface::State::collect_emptied_cubes(const Int3& c0, const Int3& c1) {
+  for (int pz = (c0.z + 1) / kPageEdge; pz <= c1.z / kPageEdge; ++pz)
+    for (int py = (c0.y + 1) / kPageEdge; py <= c1.y / kPageEdge; ++py)
+      for (int px = (c0.x + 1) / kPageEdge; px <= c1.x / kPageEdge; ++px) {
+        if (px >= pages.x || py >= pages.y || pz >= pages.z) continue;
+        const std::uint32_t page =
+            page_of[static_cast<std::size_t>(px) +
+                    static_cast<std::size_t>(pages.x) *
+                        (static_cast<std::size_t>(py) +
+                         static_cast<std::size_t>(pages.y) * static_cast<std::size_t>(pz))];
+        if (page != 0) collect_emptied_cubes_in_page(page, {px, py, pz}, VoxelBox{c0, c1});
+      }
+}
+
+/// collect_emptied_cubes over the cubes of record page `page` (at page cell p) in `chunk`.
+void ImtSurface::State::collect_emptied_cubes_in_page(std::uint32_t page, const Int3& p,
+                                                      const VoxelBox& chunk) {
+  const VoxelBox cubes = VoxelBox{
+      {p.x * kPageEdge - 1, p.y * kPageEdge - 1, p.z * kPageEdge - 1},
+      {p.x * kPageEdge + kPageEdge - 1, p.y * kPageEdge + kPageEdge - 1,
+       p.z * kPageEdge + kPageEdge -
+           1}}.intersected(chunk);
+  const std::uint32_t* cells = page_records[page - 1].data();
+  for (int z = cubes.lo.z; z < cubes.hi.z; ++z)
+    for (int y = cubes.lo.y; y < cubes.hi.y; ++y) {
+      const std::uint32_t* row = cells + kPageEdge * (((y + 1) & 7) + kPageEdge * ((z + 1) & 7));
+      for (int x = cubes.lo.x; x < cubes.hi.x; ++x) {
+        const std::uint32_t rid = row[(x + 1) & 7];
+        if (rid == 0 || records[rid].first_triangle == kNone) continue;
+        if (rid < record_stamp.size() && record_stamp[rid] == generation)
+          continue;  // visited as a relevant cube
+        changed_cubes.push_back(
+            {{x, y, z}, static_cast<std::uint32_t>(new_triangles.size()), 0, kNoSignature});
+      }
+    }
+}
+
+void ImtSurface::State::take_off_changed_normals() {
+  for (const auto& cc : changed_cubes) {
+    const std::uint32_t rid = record_of(cc.c, false);
+    if (rid != 0 && records[rid].first_triangle != kNone) {
+      release_triangles(rid);
+      released_cubes.push_back(cc.c);
+    }
+  }
+  for (std::uint32_t rid : kept_records)  // kept cubes with a moved vertex: redo their fans
+    for (std::uint32_t t = records[rid].first_triangle; t != kNone; t = next_triangle[t]) {
+      add_normal(t, false);
+      readd.push_back(t);
+    }
+}
+
+void ImtSurface::State::move_vertices_and_make_triangles() {
+  for (const Moved& m : moved) {
+    touch_vertex(m.vertex, kModified);
+    positions[m.vertex] = m.position;
+    labels[m.vertex] = m.label;
+    pending[m.vertex] = 0;
+  }
+  for (std::uint32_t t : readd) add_normal(t, true);  // same indices: not a triangle change
+  for (const auto& cc : changed_cubes) {
+    if (cc.count == 0) {
+      const std::uint32_t rid = record_of(cc.c, false);
+      if (rid != 0) records[rid].signature = kNoSignature;
+      continue;
+    }
+    const std::uint32_t rid = record_of(cc.c, true);
+    records[rid].signature = cc.signature;
+    for (std::uint32_t i = cc.first + cc.count; i-- > cc.first;)  // reversed: list keeps order
+      make_triangle(rid, new_triangles[i]);
+  }
+}
+
+void ImtSurface::State::free_unused_vertices() {
+  for (std::uint32_t v : released_vertices)
+    if (vertex_live(v) && refcount[v] == 0) free_vertex(v);
+  for (std::uint32_t v : created)
+    if (vertex_live(v) && refcount[v] == 0) free_vertex(v);
+  released_vertices.clear();
+  for (const Int3& c : released_cubes) release_record_if_empty(c);
+  released_cubes.clear();
+}
+
+void ImtSurface::State::refresh_dirty_normals() {
+  for (std::uint32_t v : normal_dirty) {
+    normal_dirty_flag[v] = 0;
+    if (!vertex_live(v)) continue;
+    const Vec3f n = detail::unit_normal(normal_sum[v]);
+    if (!(n == normals[v])) {
+      normals[v] = n;
+      touch_vertex(v, kNormal);
+    }
+  }
+  normal_dirty.clear();
+}
+
 SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox& changed_voxels) {
   State& s = *s_;
   require(s.built, "ImtSurface::update called before build()");
@@ -432,177 +643,25 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
   s.stats = {};
   const VoxelBox changed = changed_voxels.intersected(VoxelBox::of_dims(volume.dims()));
   if (changed.empty()) return s.stats;
-  ++s.generation;
-  if (s.generation == 0) {  // wrapped: stale stamps could alias
-    std::fill(s.stamp.begin(), s.stamp.end(), 0u);
-    std::fill(s.record_stamp.begin(), s.record_stamp.end(), 0u);
-    s.generation = 1;
-  }
+  s.begin_update();
 
   // Owner cubes whose tetrahedra can see a changed value or a changed merging decision: the
   // changed samples touch cubes [lo − 1, hi − 1] and their centres; a tetrahedron of cube c spans
   // cubes c − 1 .. c; merging decisions look two lattice steps (one cube) further each way.
-  const bool merging = s.options.snap_epsilon > 0.0f;
-  const int below = merging ? 3 : 1, above = merging ? 3 : 1;
+  const int margin = LatticeWindow::margin(s.options.snap_epsilon > 0.0f);
   const VoxelBox region =
-      changed.dilated(below, above)
+      changed.dilated(margin, margin)
           .intersected({{-1, -1, -1}, {s.grid.size.x - 1, s.grid.size.y - 1, s.grid.size.z - 1}});
   s.stats.cubes_remeshed = static_cast<std::size_t>(region.voxel_count());
   // Cubes whose triangles can use a vertex that moved: vertices move only on edges with a changed
   // end value, and the tetrahedra holding those edges belong to these cubes.
   const VoxelBox core = changed.dilated(1, 1);
-  s.created.clear();
-  s.moved.clear();
-  s.changed_cubes.clear();
-  s.new_triangles.clear();
-  s.kept_records.clear();
-  s.readd.clear();
-  s.released_vertices.clear();
-  if (s.record_stamp.size() < s.records.size()) s.record_stamp.resize(s.records.size() * 2, 0);
-  if (s.pending.size() < s.positions.size()) s.pending.resize(s.positions.size(), 0);
 
-  // 1. Per chunk: mesh every cube that can hold surface now; compare with what it held.
-  const bool ranges = volume.brick_ranges_current();
-  for (int z0 = region.lo.z; z0 < region.hi.z; z0 += kChunk)
-    for (int y0 = region.lo.y; y0 < region.hi.y; y0 += kChunk)
-      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk) {
-        const Int3 c0{x0, y0, z0};
-        const Int3 c1{std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
-                      std::min(z0 + kChunk, region.hi.z)};
-        const bool may_hold_surface =
-            !ranges ||
-            detail::range_straddles(
-                volume, volume.brick_ranges(), {c0.x - below, c0.y - below, c0.z - below},
-                {c1.x + above - 1, c1.y + above - 1, c1.z + above - 1}, s.options.iso);
-        if (may_hold_surface) {
-          s.window.compute(volume, s.options, c0, c1);
-          for (const auto& cube : s.window.relevant_cubes()) {
-            const std::uint32_t signature = s.window.signature(cube.local);
-            const std::uint32_t rid = s.record_of(cube.c, false);
-            if (rid != 0) {
-              if (rid >= s.record_stamp.size()) s.record_stamp.resize(2 * rid + 2, 0);
-              s.record_stamp[rid] = s.generation;
-            }
-            const bool in_core = core.contains(cube.c.x, cube.c.y, cube.c.z);
-            if (rid != 0 && s.records[rid].signature == signature) {
-              // Same triangles (as lattice keys, so as vertex ids). Only near the change can
-              // their vertices have moved: refresh those.
-              if (in_core && s.records[rid].first_triangle != kNone) {
-                bool moved = false;
-                s.begin_cube();
-                s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-                  for (int k = 0; k < 3; ++k) {
-                    const std::size_t before = s.moved.size();
-                    const std::uint32_t v = s.cube_vertex(cube.c, keys[k]);
-                    // Moved now, or earlier in this update by another cube.
-                    moved = moved || s.moved.size() != before || s.pending[v];
-                  }
-                });
-                if (moved) s.kept_records.push_back(rid);
-              }
-              continue;
-            }
-            const std::uint32_t first = static_cast<std::uint32_t>(s.new_triangles.size());
-            s.begin_cube();
-            s.window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-              s.new_triangles.push_back({s.cube_vertex(cube.c, keys[0]),
-                                         s.cube_vertex(cube.c, keys[1]),
-                                         s.cube_vertex(cube.c, keys[2])});
-            });
-            const std::uint32_t count = static_cast<std::uint32_t>(s.new_triangles.size()) - first;
-            s.changed_cubes.push_back({cube.c, first, count, signature});
-          }
-        }
-        // Cubes that held triangles and are not relevant any more lose them all.
-        for (int pz = (c0.z + 1) / kPageEdge; pz <= c1.z / kPageEdge; ++pz)
-          for (int py = (c0.y + 1) / kPageEdge; py <= c1.y / kPageEdge; ++py)
-            for (int px = (c0.x + 1) / kPageEdge; px <= c1.x / kPageEdge; ++px) {
-              if (px >= s.pages.x || py >= s.pages.y || pz >= s.pages.z) continue;
-              const std::uint32_t page = s.page_of[static_cast<std::size_t>(px) +
-                                                   static_cast<std::size_t>(s.pages.x) *
-                                                       (static_cast<std::size_t>(py) +
-                                                        static_cast<std::size_t>(s.pages.y) *
-                                                            static_cast<std::size_t>(pz))];
-              if (page == 0) continue;
-              const VoxelBox cubes = VoxelBox{
-                  {px * kPageEdge - 1, py * kPageEdge - 1, pz * kPageEdge - 1},
-                  {px * kPageEdge + kPageEdge - 1, py * kPageEdge + kPageEdge - 1,
-                   pz * kPageEdge + kPageEdge -
-                       1}}.intersected({c0, c1});
-              const std::uint32_t* cells = s.page_records[page - 1].data();
-              for (int z = cubes.lo.z; z < cubes.hi.z; ++z)
-                for (int y = cubes.lo.y; y < cubes.hi.y; ++y) {
-                  const std::uint32_t* row =
-                      cells + kPageEdge * (((y + 1) & 7) + kPageEdge * ((z + 1) & 7));
-                  for (int x = cubes.lo.x; x < cubes.hi.x; ++x) {
-                    const std::uint32_t rid = row[(x + 1) & 7];
-                    if (rid == 0 || s.records[rid].first_triangle == kNone) continue;
-                    if (rid < s.record_stamp.size() && s.record_stamp[rid] == s.generation)
-                      continue;  // visited as a relevant cube
-                    s.changed_cubes.push_back({{x, y, z},
-                                               static_cast<std::uint32_t>(s.new_triangles.size()),
-                                               0,
-                                               kNoSignature});
-                  }
-                }
-            }
-      }
-
-  // 2. Take off the normal contributions that change, with the old positions: every triangle of
-  // a changed cube (released), and kept triangles that use a moved vertex.
-  for (const auto& cc : s.changed_cubes) {
-    const std::uint32_t rid = s.record_of(cc.c, false);
-    if (rid != 0 && s.records[rid].first_triangle != kNone) {
-      s.release_triangles(rid);
-      s.released_cubes.push_back(cc.c);
-    }
-  }
-  for (std::uint32_t rid : s.kept_records)  // kept cubes with a moved vertex: redo their fans
-    for (std::uint32_t t = s.records[rid].first_triangle; t != kNone; t = s.next_triangle[t]) {
-      s.add_normal(t, false);
-      s.readd.push_back(t);
-    }
-
-  // 3. Move the vertices, then put the contributions back and make the new triangles.
-  for (const State::Moved& m : s.moved) {
-    s.touch_vertex(m.vertex, kModified);
-    s.positions[m.vertex] = m.position;
-    s.labels[m.vertex] = m.label;
-    s.pending[m.vertex] = 0;
-  }
-  for (std::uint32_t t : s.readd) s.add_normal(t, true);  // same indices: not a triangle change
-  for (const auto& cc : s.changed_cubes) {
-    if (cc.count == 0) {
-      const std::uint32_t rid = s.record_of(cc.c, false);
-      if (rid != 0) s.records[rid].signature = kNoSignature;
-      continue;
-    }
-    const std::uint32_t rid = s.record_of(cc.c, true);
-    s.records[rid].signature = cc.signature;
-    for (std::uint32_t i = cc.first + cc.count; i-- > cc.first;)  // reversed: list keeps order
-      s.make_triangle(rid, s.new_triangles[i]);
-  }
-
-  // 4. Free vertices no triangle uses any more; tidy records.
-  for (std::uint32_t v : s.released_vertices)
-    if (s.vertex_live(v) && s.refcount[v] == 0) s.free_vertex(v);
-  for (std::uint32_t v : s.created)
-    if (s.vertex_live(v) && s.refcount[v] == 0) s.free_vertex(v);
-  s.released_vertices.clear();
-  for (const Int3& c : s.released_cubes) s.release_record_if_empty(c);
-  s.released_cubes.clear();
-
-  // 5. Normals of the vertices whose fans changed.
-  for (std::uint32_t v : s.normal_dirty) {
-    s.normal_dirty_flag[v] = 0;
-    if (!s.vertex_live(v)) continue;
-    const Vec3f n = detail::unit_normal(s.normal_sum[v]);
-    if (!(n == s.normals[v])) {
-      s.normals[v] = n;
-      s.touch_vertex(v, kNormal);
-    }
-  }
-  s.normal_dirty.clear();
+  s.remesh_region(volume, region, core, margin);  // 1. what each cube holds now
+  s.take_off_changed_normals();                   // 2. with the old positions
+  s.move_vertices_and_make_triangles();           // 3. new positions, new triangles
+  s.free_unused_vertices();                       // 4. vertices no triangle uses; tidy records
+  s.refresh_dirty_normals();                      // 5. normals of the vertices whose fans changed
   s.stats.seconds = clock.seconds();
   return s.stats;
 }

@@ -1,5 +1,5 @@
-// Tool contact (DESIGN.md "Cutting, ablation, collisions"; thesis §7.3): keeps the tissue out of
-// a pressing tool and reports the force it feels.
+// Tool contact (docs/design.md "Cutting, ablation, collisions"; thesis §7.3): keeps the tissue out
+// of a pressing tool and reports the force it feels.
 //
 // One resolve() pass, on the lattice as it is now:
 //   1 gather   the nodes near the tool (node_gatherer.h: broad phase + exact node test);

@@ -1,5 +1,5 @@
 // One render vertex through the deformed lattice: the per-vertex function of the coupler, called
-// by the CPU loop (OpenMP) and the CUDA kernel alike (DESIGN.md "Coupler", thesis §7.1).
+// by the CPU loop (OpenMP) and the CUDA kernel alike (docs/design.md "Coupler", thesis §7.1).
 //
 // A vertex is bound to a cube (its lower corner node `cell`) with local coordinates
 // w = (p_rest − rest(cell)) / h ∈ [0,1]³ (slightly outside near the tissue border). Two modes:

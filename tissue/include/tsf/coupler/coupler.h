@@ -1,4 +1,4 @@
-// The mesh coupler (DESIGN.md "Coupler"): every IMT render vertex follows the deformed CRMS
+// The mesh coupler (docs/design.md "Coupler"): every IMT render vertex follows the deformed CRMS
 // lattice through the cube it is bound to, on the CPU (OpenMP) or on the GPU where the solver's
 // state lives, with the per-frame and per-vertex functions of couple_vertex.h. Two passes: the
 // distinct (cube, sources) frames in use are resolved once each (corners read, missing ones

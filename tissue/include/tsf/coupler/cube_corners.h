@@ -1,5 +1,6 @@
 // The 8 deformed corners of one lattice cube, with missing (deleted or cut-away) corners inferred
-// from the nodes that remain on the vertex's side (DESIGN.md "Coupler"; thesis §7.2, Appendix A).
+// from the nodes that remain on the vertex's side (docs/design.md "Coupler"; thesis §7.2,
+// Appendix A).
 //
 // Corners are numbered c = x + 2y + 4z with x, y, z ∈ {0,1} the offset from the cube's lower
 // corner node `cell`. A vertex may use 32 source nodes (its binding's `sources` bit mask):

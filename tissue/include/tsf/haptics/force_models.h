@@ -1,5 +1,5 @@
-// The three haptic force models (thesis §8.5, DESIGN.md "Haptics") behind one interface, so the
-// loop, the playback and a device driver never depend on which one runs.
+// The three haptic force models (thesis §8.5, docs/design.md "Haptics (1 kHz)") behind one
+// interface, so the loop, the playback and a device driver never depend on which one runs.
 //
 //   model    reads                      cost per evaluation                 use when
 //   voxel    density window, lattice    ~0.52·n³ trilinear reads (n³ grid)  probing, stiff/rigid

@@ -1,5 +1,6 @@
-// Full IMT surfacing of a voxel volume (DESIGN.md R2): 12 tetrahedra per cube on the BCC lattice,
-// vertices by linear interpolation on tetrahedron edges, welded exactly by lattice edge key.
+// Full IMT surfacing of a voxel volume (docs/design.md, section R2): 12 tetrahedra per cube on the
+// BCC lattice, vertices by linear interpolation on tetrahedron edges, welded exactly by lattice
+// edge key.
 //
 // Multithreaded in the vtkFlyingEdges3D style, over blocks of 16³ cubes:
 //   1. skip blocks whose density range (per-brick min/max, VoxelVolume::brick_ranges, recomputed
@@ -9,8 +10,9 @@
 //   3. prefix sums give every block its output range; the arrays are allocated once;
 //   4. write: each block writes its vertices and its triangles in place, resolving vertex keys
 //      to indices arithmetically from the slot masks (no hashing, no locks);
-//   5. area-weighted normals are summed in fixed point (blocks in 27 colour classes share no
-//      vertex), so the result is the same for any thread count.
+//   5. area-weighted normals are summed in fixed point, each thread over a range of z slabs of
+//      blocks (the ranges' insides first, then their first and last slabs: ranges that far apart
+//      share no vertex), so the result is the same for any thread count.
 // Small volumes run on the calling thread.
 #pragma once
 

@@ -1,5 +1,5 @@
 // From a voxel edit to the lattice: which nodes to delete and which springs to break
-// (DESIGN.md "Cutting, ablation, collisions"; thesis §7.2).
+// (docs/design.md "Cutting, ablation, collisions"; thesis §7.2).
 //
 // Node n (voxel-built lattice, node spacing k voxels) owns the k³ voxels
 // [n·k, (n+1)·k) per axis (lattice_builders.h). After an edit:

@@ -1,5 +1,5 @@
-// The interactive tissue: the four representations of DESIGN.md as one object, and the tools that
-// press, ablate and cut it.
+// The interactive tissue: the four representations of docs/design.md "The pipeline" as one object,
+// and the tools that press, ablate and cut it.
 //
 //   R1 VoxelVolume      what edits change (rest space)
 //   R2 ImtSurface       its render surface, re-meshed where R1 changed (rest space)

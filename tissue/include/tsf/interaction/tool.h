@@ -1,4 +1,4 @@
-// Interaction tools and what they do (DESIGN.md "Cutting, ablation, collisions").
+// Interaction tools and what they do (docs/design.md "Cutting, ablation, collisions").
 //
 // A tool is a shape with a pose in the deformed world (tissue space as the tissue looks now, mm):
 //   sphere   radius                      press, ablate (a ball probe or burr)

@@ -1,5 +1,5 @@
 // Linear-elastic hexahedral FEM on the voxel/lattice grid: the static reference the CRMS lattice
-// is measured against (docs/accuracy-vs-time.md, DESIGN.md "What accuracy costs in time").
+// is measured against (docs/accuracy-vs-time.md, docs/design.md "What accuracy costs in time").
 //
 //   HexMesh mesh = make_box_hex_mesh({40, 4, 4}, {0.5, 0.5, 0.5}, {0, 0, 0});
 //   FemHexModel model(mesh, {ElasticMaterial{1e6, 0.0, 1e-3}});
