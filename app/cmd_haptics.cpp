@@ -34,10 +34,10 @@
 #include <string>
 
 #include "commands.h"
+#include "output/output_folder.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_session.h"
-#include "output/output_folder.h"
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"

@@ -12,9 +12,9 @@
 #include <string>
 
 #include "commands.h"
-#include "scene/interaction_run.h"
 #include "output/interrupt.h"
 #include "output/output_folder.h"
+#include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_session.h"
 #include "tsf/common/atomic_file.h"

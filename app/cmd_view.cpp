@@ -17,8 +17,8 @@
 #include <string>
 
 #include "commands.h"
-#include "scene/interaction_run.h"
 #include "output/output_folder.h"
+#include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_outputs.h"
 #include "scene/scene_session.h"
@@ -92,7 +92,8 @@ viewer::ViewScript hand_from_scene_script(const Scene& scene, const viewer::View
   auto frame_of = [&](double t) { return std::round(t / frame_s); };
   for (const SceneTrajectory& t : scene.script.trajectories) {
     const int tool = tool_index(t.tool);
-    for (const interaction::Keyframe& k : t.keyframes) keys.push_back({frame_of(k.time_s), tool, k});
+    for (const interaction::Keyframe& k : t.keyframes)
+      keys.push_back({frame_of(k.time_s), tool, k});
     interaction::Keyframe lift = t.keyframes.back();
     lift.mode = interaction::ToolMode::kIdle;
     keys.push_back({frame_of(t.keyframes.back().time_s) + 1, tool, lift});

@@ -29,8 +29,12 @@ InterruptScope::~InterruptScope() {
   std::signal(SIGTERM, g_previous_term == SIG_ERR ? SIG_DFL : g_previous_term);
 }
 
-bool interrupted() { return g_signal.load() != 0; }
+bool interrupted() {
+  return g_signal.load() != 0;
+}
 
-int interrupt_signal() { return g_signal.load(); }
+int interrupt_signal() {
+  return g_signal.load();
+}
 
 }  // namespace tsf::app

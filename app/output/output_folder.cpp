@@ -33,8 +33,8 @@ OutputFolder OutputFolder::prepare(const fs::path& folder, bool force, const std
                   " is not empty: choose a new folder, or pass --force to replace " +
                   (ours ? "the earlier run's files" : "(only a folder an earlier tsf run wrote)"));
     if (!ours)
-      throw Error(option + ": " + out.path_.string() +
-                  " holds files that no tsf run wrote (no " + kMarker +
+      throw Error(option + ": " + out.path_.string() + " holds files that no tsf run wrote (no " +
+                  kMarker +
                   " marker): --force empties only an earlier run's folder; choose a new folder");
     for (const fs::directory_entry& e : fs::directory_iterator(out.path_)) fs::remove_all(e, ec);
     if (ec) throw Error(option + ": cannot empty " + out.path_.string() + ": " + ec.message());

@@ -105,13 +105,13 @@ RunContext prepare_run(const RunOptions& options) {
                   "' does not exist");
   }
   // Output folder: command line, then the scene, then out/<scene name> here.
-  const fs::path folder = !options.output_folder.empty() ? options.output_folder
+  const fs::path folder = !options.output_folder.empty()   ? options.output_folder
                           : !scene.pipeline.folder.empty() ? scene.pipeline.folder
                                                            : fs::path("out") / scene.name;
   ctx.folder = OutputFolder::prepare(folder, options.force,
                                      options.output_folder.empty() ? "output folder" : "--output");
-  ctx.stages.push_back({"read and check the scene", clock.seconds(),
-                        absolute_path(scene.file).string()});
+  ctx.stages.push_back(
+      {"read and check the scene", clock.seconds(), absolute_path(scene.file).string()});
   return ctx;
 }
 
@@ -175,8 +175,9 @@ InteractionOutcome interaction_stage(RunContext& ctx) {
   run.quiet = ctx.options.quiet;
   // The run's own files, then the scene's `outputs:` names, all inside the folder.
   InteractionOutputs& o = run.outputs;
-  o.report = ctx.folder.file(scene.outputs.report.empty() ? std::filesystem::path("interaction.json")
-                                                          : scene.outputs.report);
+  o.report =
+      ctx.folder.file(scene.outputs.report.empty() ? std::filesystem::path("interaction.json")
+                                                   : scene.outputs.report);
   const bool meshes = spec.meshes || !spec.present;
   o.mesh = meshes ? ctx.folder.file(scene.name + "-final.ply") : fs::path();
   o.rest_mesh = meshes ? ctx.folder.file(scene.name + "-rest.ply") : fs::path();
@@ -213,22 +214,20 @@ InteractionOutcome interaction_stage(RunContext& ctx) {
     ctx.stages.push_back(
         {"surface + lattice + coupler" + (scene.multi_instance ? " (" + r.name + ")" : ""),
          r.setup_s,
-         std::to_string(r.alive_start) + " nodes at " + fixed(r.lattice_spacing_mm.x, 2) +
-             " mm, " + std::to_string(r.topology_start.triangles) + " triangles"});
+         std::to_string(r.alive_start) + " nodes at " + fixed(r.lattice_spacing_mm.x, 2) + " mm, " +
+             std::to_string(r.topology_start.triangles) + " triangles"});
   }
   std::int64_t steps = 0;
   for (const InstanceResult& r : out.result.instances) steps += r.steps;
   ctx.stages.push_back({"scripted interaction", out.result.script_s,
                         std::to_string(out.result.frames) + " frames, " + std::to_string(steps) +
-                            " steps" +
-                            (n > 1 ? " over " + std::to_string(n) + " instances" : "")});
+                            " steps" + (n > 1 ? " over " + std::to_string(n) + " instances" : "")});
   if (out.effect_cost_s > 0)
     ctx.stages.push_back({"effect cost measurement", out.effect_cost_s,
                           "step time with the scene's effects vs all off, interleaved"});
-  ctx.stages.push_back(
-      {"write meshes and states",
-       std::max(0.0, wall - setup_total - out.result.script_s - out.effect_cost_s),
-       o.mesh.empty() ? "none" : o.mesh.filename().string()});
+  ctx.stages.push_back({"write meshes and states",
+                        std::max(0.0, wall - setup_total - out.result.script_s - out.effect_cost_s),
+                        o.mesh.empty() ? "none" : o.mesh.filename().string()});
   return out;
 }
 
@@ -307,9 +306,8 @@ std::pair<std::string, std::string> verdict(const InteractionResult& r) {
   return {"completed", "every frame of the script was played"};
 }
 
-json assemble_report(const RunContext& ctx, const SegmentOutcome& seg,
-                     const InteractionOutcome& io, const std::vector<fs::path>& exported,
-                     double total_s) {
+json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const InteractionOutcome& io,
+                     const std::vector<fs::path>& exported, double total_s) {
   const Scene& scene = ctx.scene;
   const InteractionResult& result = io.result;
   json instances = json::array();
@@ -395,8 +393,8 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg,
       {"interaction", interaction},
       {"energy", energy_json(total)},
       {"exported", exported_json},
-      {"failure", verdict_word == "completed" ? json(nullptr)
-                                              : json(verdict_word + ": " + verdict_reason)},
+      {"failure",
+       verdict_word == "completed" ? json(nullptr) : json(verdict_word + ": " + verdict_reason)},
       {"total_seconds", total_s},
   };
 }

@@ -2,9 +2,9 @@
 #include "run/run_report.h"
 
 #include <cmath>
-#include <functional>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <sstream>
 #include <string>
 
@@ -119,12 +119,12 @@ void verdict_section(const ReportContext& c, std::ostream& md) {
   }
   md << "Played " << seconds(r["rates"].value("simulated_s", 0.0)) << " of the script ("
      << count(interaction.value("frames", 0.0)) << " frames) on " << c.instances.size()
-     << (c.instances.size() == 1 ? " tissue instance" : " tissue instances") << ": "
-     << count(edits) << " edits removed " << number(removed) << " mm³ of tissue; "
+     << (c.instances.size() == 1 ? " tissue instance" : " tissue instances") << ": " << count(edits)
+     << " edits removed " << number(removed) << " mm³ of tissue; "
      << (closed == c.instances.size() ? "every final surface is a closed manifold"
                                       : "**a final surface is not a closed manifold**")
-     << ". Largest tool force " << force(interaction.value("max_tool_force_un", 0.0))
-     << ". Total " << seconds(r.value("total_seconds", 0.0)) << ".\n\n"
+     << ". Largest tool force " << force(interaction.value("max_tool_force_un", 0.0)) << ". Total "
+     << seconds(r.value("total_seconds", 0.0)) << ".\n\n"
      << "Coordinates: " << r.value("frame", "patient (LPS), mm") << ". Scene `"
      << r["scene"].value("file", "") << "`, tsf " << r.value("tsf_version", "") << ", backend "
      << r.value("backend", "") << ". Machine-readable: `run-report.json` (same folder).\n\n";
@@ -193,8 +193,7 @@ void rates_section(const ReportContext& c, std::ostream& md) {
          << " |\n";
   md << "| steps | " << count(rates.value("steps", 0.0)) << " |\n"
      << "| simulated time | " << seconds(rates.value("simulated_s", 0.0)) << " |\n"
-     << "| steps per second (stepping only) | " << number(rates.value("steps_per_s", 0.0))
-     << " |\n"
+     << "| steps per second (stepping only) | " << number(rates.value("steps_per_s", 0.0)) << " |\n"
      << "| node-steps per second | " << number(rates.value("node_steps_per_s", 0.0)) << " |\n"
      << "| real-time factor (simulated / wall, script) | "
      << number(rates.value("real_time_factor", 0.0)) << " |\n\n";
@@ -298,9 +297,8 @@ void instances_section(const ReportContext& c, std::ostream& md) {
        << number(in["lattice_spacing_mm"][0].get<double>()) << " mm | "
        << count(in.value("alive_nodes_start", 0.0)) << " → "
        << count(in.value("alive_nodes_end", 0.0)) << " | " << count(in.value("fixed_nodes", 0.0))
-       << " | "
-       << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline") << " (E "
-       << number(m.value("youngs_modulus_pa", 0.0) * 1e-3) << " kPa) | "
+       << " | " << (m.is_object() && m["id"].is_string() ? m["id"].get<std::string>() : "inline")
+       << " (E " << number(m.value("youngs_modulus_pa", 0.0) * 1e-3) << " kPa) | "
        << in.value("integrator", "") << ", " << seconds(in.value("dt_s", 0.0)) << " | "
        << count(in.value("steps", 0.0)) << " | " << seconds(in["timings_s"].value("stepping", 0.0))
        << " | " << number(in.value("node_steps_per_s", 0.0)) << " | "
@@ -348,8 +346,8 @@ void effects_section(const ReportContext& c, std::ostream& md) {
     for (const json& f : in.value("kernel_features", json::array()))
       features += (features.empty() ? "" : ", ") + f.get<std::string>();
     md << "- " << instance_tag(c, in) << (list.empty() ? "none (the base lattice only)" : list)
-       << "; " << number(in.value("bytes_per_node", 0.0)) << " bytes per node; kernel features: "
-       << (features.empty() ? "none" : features) << "\n";
+       << "; " << number(in.value("bytes_per_node", 0.0))
+       << " bytes per node; kernel features: " << (features.empty() ? "none" : features) << "\n";
   }
   md << "\n";
   for (const json& in : c.instances)

@@ -148,9 +148,8 @@ void apply_trajectories(const Scene& scene, const std::vector<interaction::Traje
 
 /// Advances each instance by a frame; returns the summed contact at the frame's end. The first
 /// instability stops the script (result.instability).
-ContactSample advance_instances(const InteractionRunOptions& options, double t_end,
-                                double frame_s, std::vector<InstanceRun>& runs,
-                                InteractionResult& result) {
+ContactSample advance_instances(const InteractionRunOptions& options, double t_end, double frame_s,
+                                std::vector<InstanceRun>& runs, InteractionResult& result) {
   ContactSample sum{t_end, {0, 0, 0}, {0, 0, 0}, 0};
   for (std::size_t i = 0; i < runs.size(); ++i) {
     InstanceResult& r = runs[i].result;
@@ -168,8 +167,8 @@ ContactSample advance_instances(const InteractionRunOptions& options, double t_e
     const collision::ContactForce& c = model.contact();
     r.max_tool_force_un = std::max(r.max_tool_force_un, length(c.force_un));
     if (c.nodes_held > 0 || !r.contact.empty())
-      r.contact.push_back({t_end, c.force_un, c.torque_un_mm,
-                           static_cast<std::int64_t>(c.nodes_held)});
+      r.contact.push_back(
+          {t_end, c.force_un, c.torque_un_mm, static_cast<std::int64_t>(c.nodes_held)});
     sum.force_un = sum.force_un + c.force_un;
     sum.torque_un_mm = sum.torque_un_mm + c.torque_un_mm;
     sum.nodes_held += static_cast<std::int64_t>(c.nodes_held);
@@ -305,8 +304,8 @@ InteractionResult run_interaction_scene(const Scene& scene, const InteractionRun
     const double t = static_cast<double>(f) * clock.frame_s;
     apply_due_events(scene, t, event_done, runs);
     apply_trajectories(scene, paths, t, clock.frame_s, runs);
-    const ContactSample sum = advance_instances(options, t + clock.frame_s, clock.frame_s, runs,
-                                                result);
+    const ContactSample sum =
+        advance_instances(options, t + clock.frame_s, clock.frame_s, runs, result);
     result.frames = f + 1;
     result.max_tool_force_un = std::max(result.max_tool_force_un, length(sum.force_un));
     if (sum.nodes_held > 0 || !result.contact.empty()) result.contact.push_back(sum);

@@ -99,9 +99,9 @@ struct InstanceResult {
 struct InteractionResult {
   std::vector<InstanceResult> instances;
   double frame_rate_hz = 0;
-  std::int64_t frames = 0;          ///< frames played
-  std::int64_t frames_planned = 0;  ///< frames the script asked for
-  double script_s = 0;              ///< wall time of the script
+  std::int64_t frames = 0;             ///< frames played
+  std::int64_t frames_planned = 0;     ///< frames the script asked for
+  double script_s = 0;                 ///< wall time of the script
   std::vector<ContactSample> contact;  ///< the tool's force: the sum over instances
   double max_tool_force_un = 0;
   std::optional<std::string> instability;  ///< "instance: what" of the first one

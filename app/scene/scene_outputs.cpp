@@ -24,7 +24,8 @@ SceneOutputWriter::~SceneOutputWriter() = default;
 void SceneOutputWriter::frame(const interaction::TissueModel& model, std::int64_t frame,
                               double time_s) {
   last_frame_ = frame;
-  if (states_ && frame % names_.states_every == 0) states_->add_frame(time_s, model.deformed_mesh());
+  if (states_ && frame % names_.states_every == 0)
+    states_->add_frame(time_s, model.deformed_mesh());
 }
 
 void SceneOutputWriter::finish(const interaction::TissueModel& model, double time_s,
@@ -35,7 +36,8 @@ void SceneOutputWriter::finish(const interaction::TissueModel& model, double tim
       states_->add_frame(time_s, model.deformed_mesh());
     states_->finish();
   }
-  if (!names_.mesh.empty()) imt::write_surface_ply(folder_.file(names_.mesh), model.deformed_mesh());
+  if (!names_.mesh.empty())
+    imt::write_surface_ply(folder_.file(names_.mesh), model.deformed_mesh());
   if (!names_.report.empty())
     write_text_atomically(folder_.file(names_.report), report.dump(2) + "\n");
 }

@@ -51,8 +51,8 @@ VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
   const VoxelBox box = voxels_near_box(v.geometry(), lo, hi, 0.0);
   if (box.empty()) {
     const VolumeGeometry& g = v.geometry();
-    const Vec3d last = g.index_to_tissue(
-        {double(g.dims.x - 1), double(g.dims.y - 1), double(g.dims.z - 1)});
+    const Vec3d last =
+        g.index_to_tissue({double(g.dims.x - 1), double(g.dims.y - 1), double(g.dims.z - 1)});
     throw Error(error_prefix + "lattice.crop: the box holds no voxel of the volume (the volume's " +
                 "voxel centres span [" + std::to_string(g.origin.x) + ", " +
                 std::to_string(g.origin.y) + ", " + std::to_string(g.origin.z) + "] to [" +
@@ -251,7 +251,8 @@ interaction::TissueModelOptions instance_model_options(const Scene& scene, std::
   o.surface.snap_epsilon = static_cast<float>(inst.tissue.merge_epsilon);
   o.lattice.node_spacing_voxels =
       box ? inst.tissue.voxels_per_node : inst.lattice.node_spacing_voxels;
-  o.lattice.occupancy_threshold = box ? 0.125f : static_cast<float>(inst.lattice.occupancy_threshold);
+  o.lattice.occupancy_threshold =
+      box ? 0.125f : static_cast<float>(inst.lattice.occupancy_threshold);
   o.lattice.mass_floor = static_cast<float>(inst.lattice.mass_floor);
   o.lattice.density_g_per_mm3 = inst.material.density_g_per_mm3;
   o.solver = instance_solver_config(scene, index);
@@ -279,7 +280,8 @@ std::size_t apply_loads_and_initial_state(const Scene& scene, crms::Solver& solv
   std::vector<Vec3f> forces;
   for (const SceneLoad& load : scene.loads)
     for (std::int64_t n = 0; n < lattice.node_count(); ++n)
-      if (lattice.alive(n) && inside(lattice.geometry().rest_position(n), load.min_mm, load.max_mm)) {
+      if (lattice.alive(n) &&
+          inside(lattice.geometry().rest_position(n), load.min_mm, load.max_mm)) {
         nodes.push_back(n);
         forces.push_back(to_float(load.force_un));
       }

@@ -50,11 +50,10 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
   const fs::path dir = test::scratch_dir("cut-block-scene");
   const fs::path scene = test::source_dir() / "scenes" / "cut-block.yaml";
-  const std::string cmd = exe.string() + " simulate " + scene.string() +
-                          " --backend cpu -q --out " + (dir / "run").string() + " --mesh " +
-                          (dir / "final.ply").string() + " --report " +
-                          (dir / "report.json").string() + " --states " +
-                          (dir / "states.tsfmesh").string();
+  const std::string cmd =
+      exe.string() + " simulate " + scene.string() + " --backend cpu -q --out " +
+      (dir / "run").string() + " --mesh " + (dir / "final.ply").string() + " --report " +
+      (dir / "report.json").string() + " --states " + (dir / "states.tsfmesh").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   expect_closed_mesh(dir / "final.ply", 10000);
   const nlohmann::json r = read_json(dir / "report.json");

@@ -110,11 +110,10 @@ TEST(RunScene, WithNoSceneItRunsTheBundledSinusSceneFromTheRepositoryRoot) {
   const fs::path dir = test::scratch_dir("run-default");
   // No scene argument: scenes/sinus.yaml is found from the working directory (the checkout);
   // coarse voxels and a short script keep it to seconds.
-  const CommandResult r =
-      run_command("cd " + test::source_dir().string() + " && " + exe.string() +
-                      " run --voxel-mm 2 --duration 0.012 " + "--backend cpu -q -o " +
-                      (dir / "out").string(),
-                  dir / "log.txt");
+  const CommandResult r = run_command("cd " + test::source_dir().string() + " && " + exe.string() +
+                                          " run --voxel-mm 2 --duration 0.012 " +
+                                          "--backend cpu -q -o " + (dir / "out").string(),
+                                      dir / "log.txt");
   ASSERT_EQ(r.status, 0) << r.output;
   const nlohmann::json j = nlohmann::json::parse(read_text(dir / "out" / "run-report.json"));
   EXPECT_EQ(j["scene"]["name"], "sinus");

@@ -85,27 +85,27 @@ Outcome run_scene(Cmd command, const std::string& scene_yaml, const std::string&
         o.process = test::run_tsf(exe, "simulate -q " + q);
         report = o.out / "report.json";
       } else {
-        o.process = test::run_tsf(exe, "simulate -q " + q + " --report " +
-                                           test::shell_quoted(dir / "report.json"));
+        o.process = test::run_tsf(
+            exe, "simulate -q " + q + " --report " + test::shell_quoted(dir / "report.json"));
         report = dir / "report.json";
       }
       break;
     case Cmd::kRun:
-      o.process = test::run_tsf(exe, "run -q " + test::shell_quoted(scene) + " -o " +
-                                         test::shell_quoted(o.out));
+      o.process = test::run_tsf(
+          exe, "run -q " + test::shell_quoted(scene) + " -o " + test::shell_quoted(o.out));
       report = o.out / (has_outputs ? "report.json" : "interaction.json");
       break;
     case Cmd::kView:
-      o.process = test::run_tsf(exe, "view -q --offscreen --frames 3 --width 160 --height 120 " +
-                                         q + " --ct none");
+      o.process = test::run_tsf(
+          exe, "view -q --offscreen --frames 3 --width 160 --height 120 " + q + " --ct none");
       report = o.out / "view-report.json";
       break;
     case Cmd::kHaptics:
-      o.process = test::run_tsf(
-          exe, "haptics -q --no-plot " + q + " -t " +
-                   test::shell_quoted(test::source_dir() / "scenes" / "trajectories" /
-                                      "haptics-press-hold.yaml") +
-                   " --model lattice");
+      o.process =
+          test::run_tsf(exe, "haptics -q --no-plot " + q + " -t " +
+                                 test::shell_quoted(test::source_dir() / "scenes" / "trajectories" /
+                                                    "haptics-press-hold.yaml") +
+                                 " --model lattice");
       report = o.out / "metrics.json";
       break;
   }
@@ -135,10 +135,9 @@ std::vector<Cmd> commands() {
   return c;
 }
 
-#define TSF_NEED_EXE()                                                                      \
-  if (!fs::exists(test::tsf_executable_path()))                                            \
-  GTEST_SKIP() << "not run: the tsf executable is not built at "                            \
-               << test::tsf_executable_path()
+#define TSF_NEED_EXE()                          \
+  if (!fs::exists(test::tsf_executable_path())) \
+  GTEST_SKIP() << "not run: the tsf executable is not built at " << test::tsf_executable_path()
 
 // haptics plays --trajectory, not tools: its scenes have none.
 bool tools_for(Cmd c) {
@@ -149,8 +148,9 @@ TEST(SceneKeysByCommand, LoadsReachTheModelInEveryCommand) {
   TSF_NEED_EXE();
   if (!view_built()) std::printf("tsf view is not part of this build: its column is not run\n");
   for (Cmd c : commands()) {
-    const Outcome o = run(c, "loads:\n  - {box: {min: [9, -1, -1], max: [13, 9, 9]}, force: [0, 0, -50]}\n",
-                          tools_for(c), "loads");
+    const Outcome o =
+        run(c, "loads:\n  - {box: {min: [9, -1, -1], max: [13, 9, 9]}, force: [0, 0, -50]}\n",
+            tools_for(c), "loads");
     ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
     ASSERT_TRUE(o.session.is_object()) << name(c) << ": " << o.report.dump().substr(0, 400);
     EXPECT_GT(o.session["loaded_nodes"].get<int>(), 0) << name(c);
@@ -225,8 +225,8 @@ TEST(SceneKeysByCommand, KeysACommandCannotHonourAreRefusedByName) {
       {Cmd::kHaptics, "pipeline: {source: {ct: nowhere.nrrd}}\n", false, "pipeline: tsf haptics"},
   };
   if (view_built()) {
-    cases.push_back({Cmd::kView, "pipeline: {source: {ct: nowhere.nrrd}}\n", true,
-                     "pipeline: tsf view"});
+    cases.push_back(
+        {Cmd::kView, "pipeline: {source: {ct: nowhere.nrrd}}\n", true, "pipeline: tsf view"});
   }
   for (const Case& c : cases) {
     const Outcome o = run(c.command, c.extra, c.tools, "refuse");
@@ -250,19 +250,17 @@ TEST(SceneKeysByCommand, KeysACommandCannotHonourAreRefusedByName) {
   for (Cmd c : commands()) {
     if (c != Cmd::kView && c != Cmd::kHaptics) continue;
     const std::string args =
-        c == Cmd::kView ? "view -q --offscreen --frames 1 " : "haptics -q --no-plot -t " +
-                                                                  test::shell_quoted(
-                                                                      test::source_dir() /
-                                                                      "scenes" / "trajectories" /
-                                                                      "haptics-press-hold.yaml") +
-                                                                  " ";
+        c == Cmd::kView ? "view -q --offscreen --frames 1 "
+                        : "haptics -q --no-plot -t " +
+                              test::shell_quoted(test::source_dir() / "scenes" / "trajectories" /
+                                                 "haptics-press-hold.yaml") +
+                              " ";
     const test::ProcessRun p = test::run_tsf(
         test::tsf_executable_path(),
         args + test::shell_quoted(dir / (c == Cmd::kView ? "two.yaml" : "two-bare.yaml")) +
             " --out " + test::shell_quoted(dir / (std::string("out-") + name(c))));
     EXPECT_NE(p.status, 0) << name(c);
-    EXPECT_NE(p.output.find(std::string("tissues: tsf ") + name(c)), std::string::npos)
-        << p.output;
+    EXPECT_NE(p.output.find(std::string("tissues: tsf ") + name(c)), std::string::npos) << p.output;
   }
   // A lattice-only scene's run length is `tsf simulate`'s: the others refuse it by name.
   std::string lattice_only = std::string(kBase);
@@ -304,8 +302,7 @@ TEST(SceneKeysByCommand, EveryOutputLandsInTheOutputFolderAndAFullFolderIsRefuse
     const test::ProcessRun again = test::run_tsf(test::tsf_executable_path(), args);
     EXPECT_NE(again.status, 0) << name(c);
     EXPECT_NE(again.output.find("is not empty"), std::string::npos) << again.output;
-    const test::ProcessRun forced =
-        test::run_tsf(test::tsf_executable_path(), args + " --force");
+    const test::ProcessRun forced = test::run_tsf(test::tsf_executable_path(), args + " --force");
     EXPECT_EQ(forced.status, 0) << name(c) << ": " << forced.output;
   }
   // A folder of someone else's files is never emptied, even with --force.
@@ -333,11 +330,11 @@ TEST(SceneRunInterrupt, CtrlCStopsAtAFrameAndWritesTheReportMarkedInterrupted) {
   const fs::path dir = test::scratch_dir("interrupt");
   const fs::path out = dir / "out";
   // A script far longer than the signal's delay: SIGINT arrives mid-script.
-  const test::ProcessRun p = test::run_logged(
-      "timeout -s INT 4 " + exe.string() + " simulate -q " +
-          (test::source_dir() / "scenes" / "cut-block.yaml").string() +
-          " --backend cpu --duration 600 --out " + out.string(),
-      dir / "log.txt");
+  const test::ProcessRun p =
+      test::run_logged("timeout -s INT 4 " + exe.string() + " simulate -q " +
+                           (test::source_dir() / "scenes" / "cut-block.yaml").string() +
+                           " --backend cpu --duration 600 --out " + out.string(),
+                       dir / "log.txt");
   EXPECT_NE(p.status, 0) << p.output;
   EXPECT_NE(p.output.find("interrupted"), std::string::npos) << p.output;
   ASSERT_TRUE(fs::exists(out / "report.json")) << p.output;

@@ -210,10 +210,10 @@ script:
       to: {position: [8, 9, -14], rotation: {axis: [0, 1, 0], angle_deg: 90}}
 outputs: {mesh: out.ply, rest_mesh: rest.ply, report: report.json}
 )";
-  const CommandResult r = run_command(
-      test::tsf_executable_path().string() + " simulate " + scene.string() +
-          " --backend cpu --out " + (dir / "out").string(),
-      dir / "log.txt");
+  const CommandResult r =
+      run_command(test::tsf_executable_path().string() + " simulate " + scene.string() +
+                      " --backend cpu --out " + (dir / "out").string(),
+                  dir / "log.txt");
   ASSERT_EQ(r.status, 0) << r.output;
   // The scene's outputs are names inside the output folder.
   const json j = json::parse(read_text(dir / "out" / "report.json"));

@@ -1,5 +1,5 @@
 // The time step a run uses: the one it was given, or a safety factor times the stable estimate
-// (docs/design.md, "Time step"). One rule for every caller: the tissue model and lattice-only
+// (docs/design.md "Time step"). One rule for every caller: the tissue model and lattice-only
 // runs.
 #pragma once
 

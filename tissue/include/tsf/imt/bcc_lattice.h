@@ -1,5 +1,5 @@
 // The body-centred-cubic (BCC) lattice of Interactive Marching Tetrahedra (docs/design.md,
-// section R2; Chan & Purisima's tessellation, thesis §6.2).
+// "The pipeline" (R2); Chan & Purisima's tessellation, thesis §6.2).
 //
 // Points. Voxel samples ("corners") sit at integer indices s; cube c has corners c + d, d ∈ {0,1}³,
 // and a body centre at c + ½ whose value is the mean of its 8 corners (clamped to their range so

@@ -1,6 +1,6 @@
-// Full IMT surfacing of a voxel volume (docs/design.md, section R2): 12 tetrahedra per cube on the
-// BCC lattice, vertices by linear interpolation on tetrahedron edges, welded exactly by lattice
-// edge key.
+// Full IMT surfacing of a voxel volume (docs/design.md, "The pipeline" (R2)): 12 tetrahedra per
+// cube on the BCC lattice, vertices by linear interpolation on tetrahedron edges, welded exactly by
+// lattice edge key.
 //
 // Multithreaded in the vtkFlyingEdges3D style, over blocks of 16³ cubes:
 //   1. skip blocks whose density range (per-brick min/max, VoxelVolume::brick_ranges, recomputed

@@ -1,5 +1,5 @@
-// Interactive Marching Tetrahedra (docs/design.md, section R2; thesis §6.3): the render surface
-// of a voxel volume, re-meshed only where the volume changed.
+// Interactive Marching Tetrahedra (docs/design.md, "The pipeline" (R2); thesis §6.3): the render
+// surface of a voxel volume, re-meshed only where the volume changed.
 //
 // Buffers are pre-allocated and addressed by slot, so the GPU copies of the coupler and the viewer
 // can be patched in place:
