@@ -25,7 +25,15 @@ std::string quote(const std::string& text) {
   return out + "\"";
 }
 
+std::string count(double v);
+
+/// `significant` digits, never in e-notation for the magnitudes a report shows: 1,540 rather than
+/// 1.54e+03.
 std::string number(double v, int significant = 3) {
+  if (std::fabs(v) >= 1e3 && std::fabs(v) < 1e15) {
+    const double scale = std::pow(10.0, std::floor(std::log10(std::fabs(v))) - significant + 1);
+    return count(std::round(v / scale) * scale);
+  }
   char b[64];
   std::snprintf(b, sizeof b, "%.*g", significant, v);
   return b;
@@ -96,6 +104,23 @@ std::string instance_tag(const ReportContext& c, const json& in) {
 
 // ---- verdict: what happened, in one paragraph, and what to try ------------------------------
 
+/// What to try next after a completed run: look at it, hand it on, make it faster.
+std::string next_steps(const ReportContext& c) {
+  if (c.r.value("verdict", "completed") != "completed") return "";
+  std::string view = "`tsf view " + c.r["scene"].value("file", "SCENE") + "`";
+  if (c.r["segmentation"].is_object())
+    view = "`tsf view " +
+           (fs::path(c.r.value("output_folder", "")) / (c.name + "-density.nrrd")).string() + "`";
+  std::string s = "Next: look at the tissue live (" + view + "), hand the meshes on (`tsf export`";
+  const json exported = c.r.value("exported", json::array());
+  if (!exported.empty()) s += "; the GLB is already here";
+  s += ")";
+  if (c.r["rates"].value("real_time_factor", 0.0) < 1.0)
+    s += "; it ran slower than real time: a coarser lattice (`lattice.node_spacing_voxels`) or "
+         "the CUDA backend (`--backend cuda`) speeds it up";
+  return s + ".\n\n";
+}
+
 void verdict_section(const ReportContext& c, std::ostream& md) {
   const json& r = c.r;
   const std::string verdict = r.value("verdict", "completed");
@@ -125,7 +150,7 @@ void verdict_section(const ReportContext& c, std::ostream& md) {
                                       : "**a final surface is not a closed manifold**")
      << ". Largest tool force " << force(interaction.value("max_tool_force_un", 0.0)) << ". Total "
      << seconds(r.value("total_seconds", 0.0)) << ".\n\n"
-     << "Coordinates: " << r.value("frame", "patient (LPS), mm") << ". Scene `"
+     << next_steps(c) << "Coordinates: " << r.value("frame", "patient (LPS), mm") << ". Scene `"
      << r["scene"].value("file", "") << "`, tsf " << r.value("tsf_version", "") << ", backend "
      << r.value("backend", "") << ". Machine-readable: `run-report.json` (same folder).\n\n";
 }
