@@ -41,6 +41,7 @@
 #include "tsf/common/error.h"
 #include "tsf/crms/device_bandwidth.h"
 #include "tsf/crms/effects.h"
+#include "tsf/crms/node_energy.h"
 #include "tsf/crms/node_update.h"
 #include "tsf/crms/stencil.h"
 
@@ -282,16 +283,17 @@ __global__ void scatter_vec3_kernel(float* x, float* y, float* z, const std::int
   z[n] = values[3 * t + 2];
 }
 
-__global__ void positions_kernel(LatticeView lat, ConstStateView s, float3 origin, float3 spacing,
+__global__ void positions_kernel(LatticeView lat, ConstStateView s, Vec3f origin, Vec3f spacing,
                                  float* xyz) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   const int j = blockIdx.y * blockDim.y + threadIdx.y;
   const int k = blockIdx.z * blockDim.z + threadIdx.z;
   if (i >= lat.dims.x || j >= lat.dims.y || k >= lat.dims.z) return;
   const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
-  xyz[3 * n + 0] = origin.x + i * spacing.x + s.u[0][n];
-  xyz[3 * n + 1] = origin.y + j * spacing.y + s.u[1][n];
-  xyz[3 * n + 2] = origin.z + k * spacing.z + s.u[2][n];
+  const Vec3f x = node_position(origin, spacing, i, j, k, {s.u[0][n], s.u[1][n], s.u[2][n]});
+  xyz[3 * n + 0] = x.x;
+  xyz[3 * n + 1] = x.y;
+  xyz[3 * n + 2] = x.z;
 }
 
 template <unsigned F>
@@ -302,24 +304,15 @@ __global__ void __launch_bounds__(256)
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   const int j = blockIdx.y * blockDim.y + threadIdx.y;
   const int k = blockIdx.z * blockDim.z + threadIdx.z;
-  double kinetic = 0, elastic = 0, gravitational = 0;
+  NodeEnergy e;
   if (i < lat.dims.x && j < lat.dims.y && k < lat.dims.z) {
     const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
-    const unsigned fl = lat.flags[n];
-    if (fl & kAliveBit) {
-      const IndexedStencil st{lat, s, n, i, j, k};
-      elastic = elastic_energy<F>(st, lat.rest_length, p.palette);
-      const double m = 1.0 / lat.inv_mass[n];
-      const Vec3f v = st.v(0), u = st.u(0);
-      kinetic = 0.5 * m * (double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
-      if (!(fl & kFixedBit))
-        gravitational = -m * (double(p.gravity.x) * u.x + double(p.gravity.y) * u.y +
-                              double(p.gravity.z) * u.z);
-    }
+    const IndexedStencil st{lat, s, n, i, j, k};
+    e = node_energy<F>(st, lat.rest_length, p);
   }
-  partial[0][t] = kinetic;
-  partial[1][t] = elastic;
-  partial[2][t] = gravitational;
+  partial[0][t] = e.kinetic;
+  partial[1][t] = e.elastic;
+  partial[2][t] = e.gravitational;
   __syncthreads();
   for (int stride = 128; stride > 0; stride >>= 1) {
     if (t < stride)
@@ -624,12 +617,7 @@ class CudaBackend final : public SolverBackend {
         TSF_CUDA_CHECK(cudaMallocHost(&p, 3 * count_ * sizeof(float)));
       snapshots_->attach(pinned_snapshot_[0], pinned_snapshot_[1]);
     }
-    const float3 origin{static_cast<float>(geometry_.origin.x),
-                        static_cast<float>(geometry_.origin.y),
-                        static_cast<float>(geometry_.origin.z)};
-    const float3 spacing{static_cast<float>(geometry_.spacing.x),
-                         static_cast<float>(geometry_.spacing.y),
-                         static_cast<float>(geometry_.spacing.z)};
+    const Vec3f origin = to_float(geometry_.origin), spacing = to_float(geometry_.spacing);
     positions_kernel<<<grid(), kBlock, 0, stream_>>>(lattice_view(), state_view(), origin, spacing,
                                                      staging_);
     TSF_CUDA_CHECK_LAUNCH();
