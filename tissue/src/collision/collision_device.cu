@@ -12,6 +12,7 @@
 #include "collision_device.h"
 #include "tsf/common/cuda_check.h"
 #include "tsf/common/cuda_support.h"
+#include "tsf/common/device_buffer.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/effects.h"
 #include "tsf/crms/node_force.h"
@@ -19,32 +20,6 @@
 
 namespace tsf::collision {
 namespace {
-
-template <typename T>
-class DeviceArray {
- public:
-  DeviceArray() = default;
-  DeviceArray(const DeviceArray&) = delete;
-  DeviceArray& operator=(const DeviceArray&) = delete;
-  ~DeviceArray() {
-    if (data_) cudaFree(data_);
-  }
-  void allocate(std::size_t count) {
-    if (count <= capacity_ && data_) return;
-    if (data_) cudaFree(data_);
-    data_ = nullptr;
-    capacity_ = 0;
-    TSF_CUDA_CHECK(
-        cudaMalloc(reinterpret_cast<void**>(&data_), std::max<std::size_t>(count, 1) * sizeof(T)));
-    capacity_ = count;
-  }
-  T* get() const { return data_; }
-  std::size_t capacity() const { return capacity_; }
-
- private:
-  T* data_ = nullptr;
-  std::size_t capacity_ = 0;
-};
 
 struct GatherHit {
   long long node;
@@ -100,15 +75,9 @@ class CudaCollisionDevice final : public CollisionDevice {
   CudaCollisionDevice() {
     require(cuda_status().available,
             "collision: the CUDA path is not available: " + cuda_status().reason);
-    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    counter_.allocate(1);
-    hits_.allocate(4096);
-  }
-  ~CudaCollisionDevice() override {
-    if (stream_) {
-      cudaStreamSynchronize(stream_);
-      cudaStreamDestroy(stream_);
-    }
+    stream_ = make_stream();
+    counter_.resize(1);
+    hits_.resize(4096);
   }
 
   void gather(const coupler::DeformedLatticeView& lattice, const Vec3f& lo, const Vec3f& hi,
@@ -122,22 +91,23 @@ class CudaCollisionDevice final : public CollisionDevice {
     const WorldTool t = tool ? *tool : WorldTool{};
     unsigned long long found = 0;
     for (int attempt = 0; attempt < 2; ++attempt) {
-      TSF_CUDA_CHECK(cudaMemsetAsync(counter_.get(), 0, sizeof(unsigned long long), stream_));
-      gather_kernel<<<blocks, 256, 0, stream_>>>(lattice, lo, hi, t, tool ? 1 : 0, hits_.get(),
-                                                 hits_.capacity(), counter_.get());
-      TSF_CUDA_CHECK_LAUNCH();
       TSF_CUDA_CHECK(
-          cudaMemcpyAsync(&found, counter_.get(), sizeof(found), cudaMemcpyDeviceToHost, stream_));
-      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+          cudaMemsetAsync(counter_.data(), 0, sizeof(unsigned long long), stream_.get()));
+      gather_kernel<<<blocks, 256, 0, stream_.get()>>>(
+          lattice, lo, hi, t, tool ? 1 : 0, hits_.data(), hits_.capacity(), counter_.data());
+      TSF_CUDA_CHECK_LAUNCH();
+      TSF_CUDA_CHECK(cudaMemcpyAsync(&found, counter_.data(), sizeof(found), cudaMemcpyDeviceToHost,
+                                     stream_.get()));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
       if (found <= hits_.capacity()) break;
-      hits_.allocate(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
+      hits_.resize(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
     }
     require(found <= hits_.capacity(), "collision: gather overflowed its buffer twice");
     host_hits_.resize(static_cast<std::size_t>(found));
     if (found > 0)
-      TSF_CUDA_CHECK(cudaMemcpyAsync(host_hits_.data(), hits_.get(), found * sizeof(GatherHit),
-                                     cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      TSF_CUDA_CHECK(cudaMemcpyAsync(host_hits_.data(), hits_.data(), found * sizeof(GatherHit),
+                                     cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     std::sort(host_hits_.begin(), host_hits_.end(),
               [](const GatherHit& a, const GatherHit& b) { return a.node < b.node; });
     const std::size_t n = host_hits_.size();
@@ -162,32 +132,33 @@ class CudaCollisionDevice final : public CollisionDevice {
     forces.assign(nodes.size(), Vec3f{0, 0, 0});
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
-    nodes_.allocate(nodes.size());
-    forces_.allocate(nodes.size());
+    nodes_.resize(nodes.size());
+    forces_.resize(nodes.size());
     std::vector<long long> ids(nodes.begin(), nodes.end());
-    TSF_CUDA_CHECK(cudaMemcpyAsync(nodes_.get(), ids.data(), ids.size() * sizeof(long long),
-                                   cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(nodes_.data(), ids.data(), ids.size() * sizeof(long long),
+                                   cudaMemcpyHostToDevice, stream_.get()));
     const unsigned blocks = static_cast<unsigned>((count + 127) / 128);
     require(features <= crms::features::kAll,
             "collision: unknown CRMS feature set " + std::to_string(features));
     crms::dispatch_features(features, [&](auto f) {
       constexpr unsigned F = decltype(f)::value;
-      spring_force_kernel<F><<<blocks, 128, 0, stream_>>>(
-          lattice, crms::ConstStateView(state), palette, nodes_.get(), count, forces_.get());
+      spring_force_kernel<F><<<blocks, 128, 0, stream_.get()>>>(
+          lattice, crms::ConstStateView(state), palette, nodes_.data(), count, forces_.data());
     });
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), forces_.get(), nodes.size() * sizeof(Vec3f),
-                                   cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), forces_.data(), nodes.size() * sizeof(Vec3f),
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
  private:
-  cudaStream_t stream_ = nullptr;
-  DeviceArray<unsigned long long> counter_;
-  DeviceArray<GatherHit> hits_;
-  DeviceArray<long long> nodes_;
-  DeviceArray<Vec3f> forces_;
+  DeviceBuffer<unsigned long long> counter_;
+  DeviceBuffer<GatherHit> hits_;
+  DeviceBuffer<long long> nodes_;
+  DeviceBuffer<Vec3f> forces_;
   std::vector<GatherHit> host_hits_;
+  // Last: destroyed first, after waiting for the work that uses the buffers above.
+  UniqueStream stream_;
 };
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "coupler_device.h"
 #include "tsf/common/cuda_check.h"
 #include "tsf/common/cuda_support.h"
+#include "tsf/common/device_buffer.h"
 #include "tsf/common/error.h"
 #include "tsf/coupler/coupler.h"
 
@@ -22,34 +23,6 @@ namespace {
 
 static_assert(sizeof(Vec3f) == 12, "Vec3f arrays are copied as float triples");
 static_assert(kDirtyBlockSlots == 256, "the kernels vote per block of 256 threads");
-
-/// An owning device array (freed on destruction; never copied).
-template <typename T>
-class DeviceArray {
- public:
-  DeviceArray() = default;
-  DeviceArray(const DeviceArray&) = delete;
-  DeviceArray& operator=(const DeviceArray&) = delete;
-  ~DeviceArray() { release(); }
-  void allocate(std::size_t count) {
-    if (data_ && count <= capacity_) return;
-    release();
-    TSF_CUDA_CHECK(
-        cudaMalloc(reinterpret_cast<void**>(&data_), std::max<std::size_t>(count, 1) * sizeof(T)));
-    capacity_ = count;
-  }
-  void release() {
-    if (data_) cudaFree(data_);
-    data_ = nullptr;
-    capacity_ = 0;
-  }
-  T* get() const { return data_; }
-  std::size_t capacity() const { return capacity_; }
-
- private:
-  T* data_ = nullptr;
-  std::size_t capacity_ = 0;
-};
 
 __global__ void resolve_frames_kernel(DeformedLatticeView lattice, const CubeFrame* frames,
                                       std::uint32_t frame_count, int mode, FrameCorners* corners) {
@@ -137,34 +110,29 @@ class CudaCouplerDevice final : public CouplerDevice {
   CudaCouplerDevice() {
     require(cuda_status().available,
             "coupler: the CUDA path is not available: " + cuda_status().reason);
-    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-  }
-  ~CudaCouplerDevice() override {
-    if (stream_) {
-      cudaStreamSynchronize(stream_);
-      cudaStreamDestroy(stream_);
-    }
+    stream_ = make_stream();
   }
 
   void reserve(std::uint32_t slots, std::uint32_t frames) override {
     release_all();
-    bindings_.allocate(slots);
-    rest_normals_.allocate(slots);
-    positions_.allocate(slots);
-    normals_.allocate(slots);
-    dirty_.allocate(blocks_for(slots, kDirtyBlockSlots));
-    frames_.allocate(frames);
-    corners_.allocate(frames);
+    bindings_.resize(slots);
+    rest_normals_.resize(slots);
+    positions_.resize(slots);
+    normals_.resize(slots);
+    dirty_.resize(blocks_for(slots, kDirtyBlockSlots));
+    frames_.resize(frames);
+    corners_.resize(frames);
     const std::size_t n = std::max<std::uint32_t>(slots, 1);
     const std::size_t m = std::max<std::uint32_t>(frames, 1);
     // All bytes 0xff: frame = kNoFrame (unbound vertices), cell = −1 (free frames).
-    TSF_CUDA_CHECK(cudaMemsetAsync(bindings_.get(), 0xff, n * sizeof(VertexFrameBinding), stream_));
-    TSF_CUDA_CHECK(cudaMemsetAsync(frames_.get(), 0xff, m * sizeof(CubeFrame), stream_));
-    TSF_CUDA_CHECK(cudaMemsetAsync(corners_.get(), 0, m * sizeof(FrameCorners), stream_));
-    TSF_CUDA_CHECK(cudaMemsetAsync(rest_normals_.get(), 0, n * sizeof(Vec3f), stream_));
-    TSF_CUDA_CHECK(cudaMemsetAsync(positions_.get(), 0, n * sizeof(Vec3f), stream_));
-    TSF_CUDA_CHECK(cudaMemsetAsync(normals_.get(), 0, n * sizeof(Vec3f), stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(
+        cudaMemsetAsync(bindings_.data(), 0xff, n * sizeof(VertexFrameBinding), stream_.get()));
+    TSF_CUDA_CHECK(cudaMemsetAsync(frames_.data(), 0xff, m * sizeof(CubeFrame), stream_.get()));
+    TSF_CUDA_CHECK(cudaMemsetAsync(corners_.data(), 0, m * sizeof(FrameCorners), stream_.get()));
+    TSF_CUDA_CHECK(cudaMemsetAsync(rest_normals_.data(), 0, n * sizeof(Vec3f), stream_.get()));
+    TSF_CUDA_CHECK(cudaMemsetAsync(positions_.data(), 0, n * sizeof(Vec3f), stream_.get()));
+    TSF_CUDA_CHECK(cudaMemsetAsync(normals_.data(), 0, n * sizeof(Vec3f), stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     capacity_ = slots;
     frame_capacity_ = frames;
   }
@@ -181,24 +149,24 @@ class CudaCouplerDevice final : public CouplerDevice {
       packed_bindings_[i] = bindings[slots[i]];
       packed_normals_[i] = rest_normals[slots[i]];
     }
-    stage_index_.allocate(count);
-    stage_bindings_.allocate(count);
-    stage_normals_.allocate(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.get(), slots, count * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_bindings_.get(), packed_bindings_.data(),
+    stage_index_.resize(count);
+    stage_bindings_.resize(count);
+    stage_normals_.resize(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.data(), slots, count * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_bindings_.data(), packed_bindings_.data(),
                                    count * sizeof(VertexFrameBinding), cudaMemcpyHostToDevice,
-                                   stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_normals_.get(), packed_normals_.data(),
-                                   count * sizeof(Vec3f), cudaMemcpyHostToDevice, stream_));
+                                   stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_normals_.data(), packed_normals_.data(),
+                                   count * sizeof(Vec3f), cudaMemcpyHostToDevice, stream_.get()));
     const auto n = static_cast<std::uint32_t>(count);
-    scatter_kernel<VertexFrameBinding><<<blocks_for(count, 256), 256, 0, stream_>>>(
-        stage_index_.get(), n, capacity_, stage_bindings_.get(), bindings_.get());
+    scatter_kernel<VertexFrameBinding><<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
+        stage_index_.data(), n, capacity_, stage_bindings_.data(), bindings_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    scatter_kernel<Vec3f><<<blocks_for(count, 256), 256, 0, stream_>>>(
-        stage_index_.get(), n, capacity_, stage_normals_.get(), rest_normals_.get());
+    scatter_kernel<Vec3f><<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
+        stage_index_.data(), n, capacity_, stage_normals_.data(), rest_normals_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void upload_frames(const std::uint32_t* frames, std::size_t count,
@@ -211,17 +179,18 @@ class CudaCouplerDevice final : public CouplerDevice {
                     " beyond the device capacity " + std::to_string(frame_capacity_));
       packed_frames_[i] = table[frames[i]];
     }
-    stage_index_.allocate(count);
-    stage_frames_.allocate(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.get(), frames, count * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_frames_.get(), packed_frames_.data(),
-                                   count * sizeof(CubeFrame), cudaMemcpyHostToDevice, stream_));
-    scatter_kernel<CubeFrame><<<blocks_for(count, 256), 256, 0, stream_>>>(
-        stage_index_.get(), static_cast<std::uint32_t>(count), frame_capacity_, stage_frames_.get(),
-        frames_.get());
+    stage_index_.resize(count);
+    stage_frames_.resize(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.data(), frames, count * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_frames_.data(), packed_frames_.data(),
+                                   count * sizeof(CubeFrame), cudaMemcpyHostToDevice,
+                                   stream_.get()));
+    scatter_kernel<CubeFrame><<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
+        stage_index_.data(), static_cast<std::uint32_t>(count), frame_capacity_,
+        stage_frames_.data(), frames_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void couple_all(const DeformedLatticeView& lattice, std::uint32_t frame_count,
@@ -232,21 +201,21 @@ class CudaCouplerDevice final : public CouplerDevice {
     const std::uint32_t blocks = blocks_for(slot_count, kDirtyBlockSlots);
     dirty_blocks.assign(blocks, 0);
     if (frame_count > 0) {
-      resolve_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_>>>(
-          lattice, frames_.get(), frame_count, static_cast<int>(mode), corners_.get());
+      resolve_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_.get()>>>(
+          lattice, frames_.data(), frame_count, static_cast<int>(mode), corners_.data());
       TSF_CUDA_CHECK_LAUNCH();
     }
     if (blocks == 0) {
-      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
       return;
     }
-    couple_all_kernel<<<blocks, kDirtyBlockSlots, 0, stream_>>>(
-        lattice, bindings_.get(), corners_.get(), frame_capacity_, rest_normals_.get(),
-        positions_.get(), normals_.get(), slot_count, static_cast<int>(mode), dirty_.get());
+    couple_all_kernel<<<blocks, kDirtyBlockSlots, 0, stream_.get()>>>(
+        lattice, bindings_.data(), corners_.data(), frame_capacity_, rest_normals_.data(),
+        positions_.data(), normals_.data(), slot_count, static_cast<int>(mode), dirty_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaMemcpyAsync(dirty_blocks.data(), dirty_.get(), blocks,
-                                   cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(dirty_blocks.data(), dirty_.data(), blocks,
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* frames,
@@ -254,31 +223,32 @@ class CudaCouplerDevice final : public CouplerDevice {
                     CouplerMode mode, Vec3f* positions, Vec3f* normals) override {
     if (count == 0) return;
     if (frame_count > 0) {
-      stage_list_.allocate(frame_count);
-      TSF_CUDA_CHECK(cudaMemcpyAsync(stage_list_.get(), frames, frame_count * sizeof(std::uint32_t),
-                                     cudaMemcpyHostToDevice, stream_));
-      resolve_listed_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_>>>(
-          lattice, frames_.get(), stage_list_.get(), static_cast<std::uint32_t>(frame_count),
-          frame_capacity_, static_cast<int>(mode), corners_.get());
+      stage_list_.resize(frame_count);
+      TSF_CUDA_CHECK(cudaMemcpyAsync(stage_list_.data(), frames,
+                                     frame_count * sizeof(std::uint32_t), cudaMemcpyHostToDevice,
+                                     stream_.get()));
+      resolve_listed_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_.get()>>>(
+          lattice, frames_.data(), stage_list_.data(), static_cast<std::uint32_t>(frame_count),
+          frame_capacity_, static_cast<int>(mode), corners_.data());
       TSF_CUDA_CHECK_LAUNCH();
     }
-    stage_index_.allocate(count);
-    out_positions_.allocate(count);
-    out_normals_.allocate(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.get(), slots, count * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_));
-    couple_slots_kernel<<<blocks_for(count, 256), 256, 0, stream_>>>(
-        lattice, bindings_.get(), corners_.get(), frame_capacity_, rest_normals_.get(),
-        positions_.get(), normals_.get(), stage_index_.get(), static_cast<std::uint32_t>(count),
-        capacity_, static_cast<int>(mode), out_positions_.get(), out_normals_.get());
+    stage_index_.resize(count);
+    out_positions_.resize(count);
+    out_normals_.resize(count);
+    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.data(), slots, count * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_.get()));
+    couple_slots_kernel<<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
+        lattice, bindings_.data(), corners_.data(), frame_capacity_, rest_normals_.data(),
+        positions_.data(), normals_.data(), stage_index_.data(), static_cast<std::uint32_t>(count),
+        capacity_, static_cast<int>(mode), out_positions_.data(), out_normals_.data());
     TSF_CUDA_CHECK_LAUNCH();
     packed_positions_.resize(count);
     packed_out_normals_.resize(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_positions_.data(), out_positions_.get(),
-                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_out_normals_.data(), out_normals_.get(),
-                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_positions_.data(), out_positions_.data(),
+                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_out_normals_.data(), out_normals_.data(),
+                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     for (std::size_t i = 0; i < count; ++i) {
       if (slots[i] >= capacity_) continue;
       positions[slots[i]] = packed_positions_[i];
@@ -290,11 +260,11 @@ class CudaCouplerDevice final : public CouplerDevice {
                 Vec3f* normals) override {
     if (count == 0) return;
     require(first + count <= capacity_, "coupler: download beyond the device capacity");
-    TSF_CUDA_CHECK(cudaMemcpyAsync(positions + first, positions_.get() + first,
-                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(normals + first, normals_.get() + first, count * sizeof(Vec3f),
-                                   cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(positions + first, positions_.data() + first,
+                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(normals + first, normals_.data() + first, count * sizeof(Vec3f),
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
  private:
@@ -309,20 +279,21 @@ class CudaCouplerDevice final : public CouplerDevice {
     capacity_ = frame_capacity_ = 0;
   }
 
-  cudaStream_t stream_ = nullptr;
   std::uint32_t capacity_ = 0, frame_capacity_ = 0;
-  DeviceArray<VertexFrameBinding> bindings_;
-  DeviceArray<Vec3f> rest_normals_, positions_, normals_;
-  DeviceArray<std::uint8_t> dirty_;
-  DeviceArray<CubeFrame> frames_;
-  DeviceArray<FrameCorners> corners_;
-  DeviceArray<std::uint32_t> stage_index_, stage_list_;
-  DeviceArray<VertexFrameBinding> stage_bindings_;
-  DeviceArray<CubeFrame> stage_frames_;
-  DeviceArray<Vec3f> stage_normals_, out_positions_, out_normals_;
+  DeviceBuffer<VertexFrameBinding> bindings_;
+  DeviceBuffer<Vec3f> rest_normals_, positions_, normals_;
+  DeviceBuffer<std::uint8_t> dirty_;
+  DeviceBuffer<CubeFrame> frames_;
+  DeviceBuffer<FrameCorners> corners_;
+  DeviceBuffer<std::uint32_t> stage_index_, stage_list_;
+  DeviceBuffer<VertexFrameBinding> stage_bindings_;
+  DeviceBuffer<CubeFrame> stage_frames_;
+  DeviceBuffer<Vec3f> stage_normals_, out_positions_, out_normals_;
   std::vector<VertexFrameBinding> packed_bindings_;
   std::vector<CubeFrame> packed_frames_;
   std::vector<Vec3f> packed_normals_, packed_positions_, packed_out_normals_;
+  // Last: destroyed first, after waiting for the work that uses the buffers above.
+  UniqueStream stream_;
 };
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include "solver_backend.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/effects.h"
+#include "tsf/crms/node_energy.h"
 #include "tsf/crms/node_force.h"
 #include "tsf/crms/stencil.h"
 
@@ -185,20 +186,16 @@ class CpuBackend final : public SolverBackend {
       constexpr unsigned F = decltype(f)::value;
       const LatticeView lat = lattice_view();
       const ConstStateView st = state_view();
-      const float rest[3] = {lat.rest_length[0], lat.rest_length[1], lat.rest_length[2]};
       double kinetic = 0, elastic = 0, gravitational = 0;
 #pragma omp parallel for schedule(static) reduction(+ : kinetic, elastic, gravitational) \
     if (count_ >= kParallelNodes)
       for (std::int64_t n = 0; n < count_; ++n) {
-        const unsigned fl = flags_[n];
-        if (!(fl & kAliveBit)) continue;
         const Int3 c = geometry_.coordinates(n);
         const IndexedStencil s{lat, st, n, c.x, c.y, c.z};
-        elastic += static_cast<double>(elastic_energy<F>(s, rest, p.palette));
-        const double m = 1.0 / static_cast<double>(inv_mass_[n]);
-        const Vec3f v = s.v(0), u = s.u(0);
-        kinetic += 0.5 * m * dot(to_double(v), to_double(v));
-        if (!(fl & kFixedBit)) gravitational -= m * dot(to_double(p.gravity), to_double(u));
+        const NodeEnergy e = node_energy<F>(s, lat.rest_length, p);
+        kinetic += e.kinetic;
+        elastic += e.elastic;
+        gravitational += e.gravitational;
       }
       return EnergySums{kinetic, elastic, gravitational};
     });
@@ -250,10 +247,12 @@ class CpuBackend final : public SolverBackend {
     const LatticeGeometry& g = geometry_;
 #pragma omp parallel for schedule(static)
     for (std::int64_t n = 0; n < count_; ++n) {
-      const Vec3d r = g.rest_position(n);
-      dst[3 * n + 0] = static_cast<float>(r.x + static_cast<double>(s[0][n]));
-      dst[3 * n + 1] = static_cast<float>(r.y + static_cast<double>(s[1][n]));
-      dst[3 * n + 2] = static_cast<float>(r.z + static_cast<double>(s[2][n]));
+      const Int3 c = g.coordinates(n);
+      const Vec3f x =
+          node_position(g.origin, g.spacing, c.x, c.y, c.z, {s[0][n], s[1][n], s[2][n]});
+      dst[3 * n + 0] = x.x;
+      dst[3 * n + 1] = x.y;
+      dst[3 * n + 2] = x.z;
     }
     snapshots_->publish(step);
   }

@@ -1,4 +1,5 @@
-// CPU effect passes: the per-node functions of effect_physics.h in OpenMP loops over rows.
+// CPU effect passes: the per-node functions of effect_physics.h in OpenMP loops over rows, in the
+// order of effects_engine.h.
 #include <omp.h>
 
 #include <array>
@@ -30,7 +31,7 @@ void for_each_node(const LatticeView& lat, Body&& body) {
 class CpuEffects final : public EffectsEngine {
  public:
   CpuEffects(const LatticeGeometry& g, unsigned enabled, const std::vector<RestOffsets>& keyframes)
-      : count_(static_cast<std::size_t>(g.node_count())), enabled_(enabled) {
+      : EffectsEngine(enabled, keyframes.size()), count_(static_cast<std::size_t>(g.node_count())) {
     if (enabled & effect_bits::kRestAnimation) keyframes_ = keyframes;
     if (enabled & effect_bits::kNodeMasking) mask_.assign(count_, 0);
     if (enabled & effect_bits::kPlasticity)
@@ -41,54 +42,6 @@ class CpuEffects final : public EffectsEngine {
     }
     if (enabled & effect_bits::kForceEffects)
       for (auto& c : force_) c.assign(count_, 0.0f);
-  }
-
-  void before_step(const LatticeView& lat, const StateView& state,
-                   const EffectParameters& p) override {
-    if ((enabled_ & effect_bits::kForceEffects) == 0) return;
-    const EffectArrays a = arrays(p);
-    const ConstStateView s = state;
-    if (enabled_ & effect_bits::kFluid)
-      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
-        a.fluid_pressure[n] = cube_pressure(lat, s, a, p, n, i, j, k);
-      });
-    for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
-      const Vec3f f = effect_force(lat, s, a, p, n, i, j, k);
-      a.force[0][n] = f.x;
-      a.force[1][n] = f.y;
-      a.force[2][n] = f.z;
-    });
-    for_each_node(lat, [&](std::int64_t n, int, int, int) {
-      const Vec3f v = kicked_velocity(lat, s, a, p, n);
-      state.v[0][n] = v.x;
-      state.v[1][n] = v.y;
-      state.v[2][n] = v.z;
-    });
-  }
-
-  void after_step(const LatticeView& lat, const StateView& state,
-                  const EffectParameters& p) override {
-    const EffectArrays a = arrays(p);
-    const ConstStateView s = state;
-    if (enabled_ & (effect_bits::kPlasticity | effect_bits::kFluid))
-      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
-        if (enabled_ & effect_bits::kPlasticity) update_plastic_offsets(lat, s, a, p, n, i, j, k);
-        if (enabled_ & effect_bits::kFluid) update_fluid_content(lat, a, p, n, i, j, k);
-      });
-    if (enabled_ & effect_bits::kTearing) {
-      auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
-      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
-        flags[n] = torn_flags(lat, s, p, n, i, j, k);
-      });
-    }
-    if (enabled_ & effect_bits::kNodeMasking) {
-      for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
-        a.node_mask[n] = node_overloaded(lat, s, p, n, i, j, k);
-      });
-      auto* flags = const_cast<std::uint8_t*>(lat.flags);
-      for_each_node(lat,
-                    [&](std::int64_t n, int, int, int) { flags[n] = unmasked_flags(lat, a, n); });
-    }
   }
 
   EffectsState read() const override {
@@ -107,15 +60,58 @@ class CpuEffects final : public EffectsEngine {
     return std::vector<std::uint8_t>(lat.flags, lat.flags + lat.count);
   }
 
-  double bytes_per_node() const override {
-    double b = 0;
-    if (enabled_ & effect_bits::kPlasticity) b += 3 * sizeof(float);
-    if (enabled_ & effect_bits::kFluid) b += 2 * sizeof(float);
-    if (enabled_ & effect_bits::kForceEffects) b += 3 * sizeof(float);
-    if (enabled_ & effect_bits::kRestAnimation)
-      b += 3 * sizeof(float) * static_cast<double>(keyframes_.size());
-    if (enabled_ & effect_bits::kNodeMasking) b += 1;
-    return b;
+ protected:
+  void run_pass(EffectPass pass, const LatticeView& lat, const StateView& state,
+                const EffectParameters& p) override {
+    const EffectArrays a = arrays(p);
+    const ConstStateView s = state;
+    auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
+    switch (pass) {
+      case EffectPass::kCubePressure:
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          a.fluid_pressure[n] = cube_pressure(lat, s, a, p, n, i, j, k);
+        });
+        break;
+      case EffectPass::kEffectForce:
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          const Vec3f f = effect_force(lat, s, a, p, n, i, j, k);
+          a.force[0][n] = f.x;
+          a.force[1][n] = f.y;
+          a.force[2][n] = f.z;
+        });
+        break;
+      case EffectPass::kKick:
+        for_each_node(lat, [&](std::int64_t n, int, int, int) {
+          const Vec3f v = kicked_velocity(lat, s, a, p, n);
+          state.v[0][n] = v.x;
+          state.v[1][n] = v.y;
+          state.v[2][n] = v.z;
+        });
+        break;
+      case EffectPass::kUpdateStores: {
+        const bool plastic = (enabled() & effect_bits::kPlasticity) != 0;
+        const bool fluid = (enabled() & effect_bits::kFluid) != 0;
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          if (plastic) update_plastic_offsets(lat, s, a, p, n, i, j, k);
+          if (fluid) update_fluid_content(lat, a, p, n, i, j, k);
+        });
+        break;
+      }
+      case EffectPass::kTear:
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          flags[n] = torn_flags(lat, s, p, n, i, j, k);
+        });
+        break;
+      case EffectPass::kMarkOverloaded:
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          a.node_mask[n] = node_overloaded(lat, s, p, n, i, j, k);
+        });
+        break;
+      case EffectPass::kUnlinkMasked:
+        for_each_node(lat,
+                      [&](std::int64_t n, int, int, int) { flags[n] = unmasked_flags(lat, a, n); });
+        break;
+    }
   }
 
  private:
@@ -140,7 +136,6 @@ class CpuEffects final : public EffectsEngine {
   }
 
   std::size_t count_;
-  unsigned enabled_;
   std::array<std::vector<float>, 3> plastic_, force_;
   std::vector<float> content_, pressure_;
   std::vector<RestOffsets> keyframes_;

@@ -38,9 +38,11 @@
 #include "solver_backend.h"
 #include "tsf/common/cuda_check.h"
 #include "tsf/common/cuda_support.h"
+#include "tsf/common/device_buffer.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/device_bandwidth.h"
 #include "tsf/crms/effects.h"
+#include "tsf/crms/node_energy.h"
 #include "tsf/crms/node_update.h"
 #include "tsf/crms/stencil.h"
 
@@ -282,16 +284,17 @@ __global__ void scatter_vec3_kernel(float* x, float* y, float* z, const std::int
   z[n] = values[3 * t + 2];
 }
 
-__global__ void positions_kernel(LatticeView lat, ConstStateView s, float3 origin, float3 spacing,
+__global__ void positions_kernel(LatticeView lat, ConstStateView s, Vec3f origin, Vec3f spacing,
                                  float* xyz) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   const int j = blockIdx.y * blockDim.y + threadIdx.y;
   const int k = blockIdx.z * blockDim.z + threadIdx.z;
   if (i >= lat.dims.x || j >= lat.dims.y || k >= lat.dims.z) return;
   const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
-  xyz[3 * n + 0] = origin.x + i * spacing.x + s.u[0][n];
-  xyz[3 * n + 1] = origin.y + j * spacing.y + s.u[1][n];
-  xyz[3 * n + 2] = origin.z + k * spacing.z + s.u[2][n];
+  const Vec3f x = node_position(origin, spacing, i, j, k, {s.u[0][n], s.u[1][n], s.u[2][n]});
+  xyz[3 * n + 0] = x.x;
+  xyz[3 * n + 1] = x.y;
+  xyz[3 * n + 2] = x.z;
 }
 
 template <unsigned F>
@@ -302,24 +305,15 @@ __global__ void __launch_bounds__(256)
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   const int j = blockIdx.y * blockDim.y + threadIdx.y;
   const int k = blockIdx.z * blockDim.z + threadIdx.z;
-  double kinetic = 0, elastic = 0, gravitational = 0;
+  NodeEnergy e;
   if (i < lat.dims.x && j < lat.dims.y && k < lat.dims.z) {
     const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
-    const unsigned fl = lat.flags[n];
-    if (fl & kAliveBit) {
-      const IndexedStencil st{lat, s, n, i, j, k};
-      elastic = elastic_energy<F>(st, lat.rest_length, p.palette);
-      const double m = 1.0 / lat.inv_mass[n];
-      const Vec3f v = st.v(0), u = st.u(0);
-      kinetic = 0.5 * m * (double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
-      if (!(fl & kFixedBit))
-        gravitational = -m * (double(p.gravity.x) * u.x + double(p.gravity.y) * u.y +
-                              double(p.gravity.z) * u.z);
-    }
+    const IndexedStencil st{lat, s, n, i, j, k};
+    e = node_energy<F>(st, lat.rest_length, p);
   }
-  partial[0][t] = kinetic;
-  partial[1][t] = elastic;
-  partial[2][t] = gravitational;
+  partial[0][t] = e.kinetic;
+  partial[1][t] = e.elastic;
+  partial[2][t] = e.gravitational;
   __syncthreads();
   for (int stride = 128; stride > 0; stride >>= 1) {
     if (t < stride)
@@ -348,13 +342,6 @@ __global__ void __launch_bounds__(256)
   xyz[3 * n + 2] = f.z;
 }
 
-template <typename T>
-T* device_alloc(std::size_t count) {
-  void* p = nullptr;
-  TSF_CUDA_CHECK(cudaMalloc(&p, count * sizeof(T)));
-  return static_cast<T*>(p);
-}
-
 class CudaBackend final : public SolverBackend {
  public:
   CudaBackend(const LatticeGeometry& g, const BackendOptions& options)
@@ -362,30 +349,29 @@ class CudaBackend final : public SolverBackend {
         count_(g.node_count()),
         steps_per_graph_(options.cuda_steps_per_graph),
         evaluation_(options.evaluation) {
+    // Every resource is an RAII member (device_buffer.h): a throw below frees what was made.
     const auto n = static_cast<std::size_t>(count_);
-    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-    TSF_CUDA_CHECK(cudaStreamCreateWithFlags(&copy_stream_, cudaStreamNonBlocking));
-    TSF_CUDA_CHECK(cudaEventCreateWithFlags(&staged_, cudaEventDisableTiming));
-    TSF_CUDA_CHECK(cudaEventCreateWithFlags(&copied_, cudaEventDisableTiming));
+    stream_ = make_stream();
+    copy_stream_ = make_stream();
+    staged_ = make_event();
+    copied_ = make_event();
     for (auto& buffer : state_)
       for (auto& component : buffer) {
-        component = device_alloc<float>(n);
-        TSF_CUDA_CHECK(cudaMemsetAsync(component, 0, n * sizeof(float), stream_));
+        component.resize(n);
+        component.fill_zero(stream_.get());
       }
-    flags_ = device_alloc<std::uint8_t>(n);
-    inv_mass_ = device_alloc<float>(n);
-    guard_ = device_alloc<Guard>(1);
-    TSF_CUDA_CHECK(cudaMallocHost(&guard_host_, sizeof(Guard)));
-    TSF_CUDA_CHECK(cudaMallocHost(&energy_host_, 3 * sizeof(double)));
-    energy_device_ = device_alloc<double>(3);
-    staging_ = device_alloc<float>(3 * n);
+    flags_.resize(n);
+    inv_mass_.resize(n);
+    guard_.resize(1);
+    guard_host_.resize(1);
+    energy_host_.resize(3);
+    energy_device_.resize(3);
+    staging_.resize(3 * n);
     // Pinned snapshot buffers are allocated on the first request (most runs never ask).
     snapshots_ = std::make_unique<SnapshotBuffer>(nullptr, nullptr, count_);
-    Guard initial{kNoNode, kNoStep, 0};
-    *guard_host_ = initial;
-    TSF_CUDA_CHECK(
-        cudaMemcpyAsync(guard_, guard_host_, sizeof(Guard), cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    *guard_host_.data() = Guard{kNoNode, kNoStep, 0};
+    guard_.upload(guard_host_.data(), 1, stream_.get());
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     cudaDeviceProp prop{};
     TSF_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
     device_name_ = prop.name;
@@ -393,32 +379,13 @@ class CudaBackend final : public SolverBackend {
   }
 
   ~CudaBackend() override {
-    // Destructors must not throw: release what we can and ignore errors.
-    cudaStreamSynchronize(stream_);
-    cudaStreamSynchronize(copy_stream_);
-    for (auto& g : graphs_)
-      if (g.exec) cudaGraphExecDestroy(g.exec);
-    for (auto& buffer : state_)
-      for (auto* c : buffer) cudaFree(c);
-    cudaFree(flags_);
-    cudaFree(inv_mass_);
-    cudaFree(material_index_);
-    cudaFree(material_weight_);
-    for (auto* c : external_force_) cudaFree(c);
-    cudaFree(guard_);
-    cudaFree(energy_device_);
-    cudaFree(staging_);
-    cudaFree(scatter_nodes_);
-    cudaFree(scatter_values_);
-    cudaFreeHost(guard_host_);
-    cudaFreeHost(energy_host_);
-    for (auto* p : pinned_snapshot_)
-      if (p) cudaFreeHost(p);
-    cudaEventDestroy(staged_);
-    cudaEventDestroy(copied_);
-    cudaStreamDestroy(stream_);
-    cudaStreamDestroy(copy_stream_);
+    // Queued work may still read the buffers the members free next (errors are ignored: a
+    // destructor must not throw).
+    if (stream_) cudaStreamSynchronize(stream_.get());
+    if (copy_stream_) cudaStreamSynchronize(copy_stream_.get());
   }
+  CudaBackend(const CudaBackend&) = delete;
+  CudaBackend& operator=(const CudaBackend&) = delete;
 
   std::string name() const override {
     return "cuda (" + device_name_ + ", shared tiles 32x" + std::to_string(tile_rows_) + "x" +
@@ -428,16 +395,17 @@ class CudaBackend final : public SolverBackend {
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
                       const std::vector<MaterialBlend>& material) override {
     const auto n = static_cast<std::size_t>(count_);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(flags_, flags.data(), n, cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_, inv_mass.data(), n * sizeof(float),
-                                   cudaMemcpyHostToDevice, stream_));
+    TSF_CUDA_CHECK(
+        cudaMemcpyAsync(flags_.data(), flags.data(), n, cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_.data(), inv_mass.data(), n * sizeof(float),
+                                   cudaMemcpyHostToDevice, stream_.get()));
     if (!material.empty()) {
-      if (!material_index_) material_index_ = device_alloc<std::uint32_t>(n);
-      if (!material_weight_) material_weight_ = device_alloc<std::uint32_t>(n);
+      if (material_index_.empty()) material_index_.resize(n);
+      if (material_weight_.empty()) material_weight_.resize(n);
       host_material_ = material;
       upload_materials();
     }
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void update_materials(const std::vector<std::int64_t>& nodes,
@@ -452,18 +420,19 @@ class CudaBackend final : public SolverBackend {
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
     stage_scatter(nodes, flags.data(), flags.size());
-    scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_>>>(
-        flags_, scatter_nodes_, reinterpret_cast<const std::uint8_t*>(scatter_values_), count);
+    scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
+        flags_.data(), scatter_nodes_.data(),
+        reinterpret_cast<const std::uint8_t*>(scatter_values_.data()), count);
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void enable_external_forces() override {
     const auto n = static_cast<std::size_t>(count_);
     for (auto& c : external_force_)
-      if (!c) {
-        c = device_alloc<float>(n);
-        TSF_CUDA_CHECK(cudaMemsetAsync(c, 0, n * sizeof(float), stream_));
+      if (c.empty()) {
+        c.resize(n);
+        c.fill_zero(stream_.get());
       }
   }
   void set_external_forces(const std::vector<std::int64_t>& nodes,
@@ -472,15 +441,14 @@ class CudaBackend final : public SolverBackend {
     const int count = static_cast<int>(nodes.size());
     stage_scatter(nodes, reinterpret_cast<const std::uint8_t*>(forces.data()),
                   forces.size() * sizeof(Vec3f));
-    scatter_vec3_kernel<<<(count + 255) / 256, 256, 0, stream_>>>(
-        external_force_[0], external_force_[1], external_force_[2], scatter_nodes_,
-        reinterpret_cast<const float*>(scatter_values_), count);
+    scatter_vec3_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
+        external_force_[0].data(), external_force_[1].data(), external_force_[2].data(),
+        scatter_nodes_.data(), reinterpret_cast<const float*>(scatter_values_.data()), count);
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
   void clear_external_forces() override {
-    for (auto* c : external_force_)
-      if (c) TSF_CUDA_CHECK(cudaMemsetAsync(c, 0, count_ * sizeof(float), stream_));
+    for (auto& c : external_force_) c.fill_zero(stream_.get());
   }
 
   void write_nodes(const std::vector<std::int64_t>& nodes, const std::vector<Vec3f>& u,
@@ -495,10 +463,11 @@ class CudaBackend final : public SolverBackend {
       }
     stage_scatter(nodes, reinterpret_cast<const std::uint8_t*>(values.data()),
                   values.size() * sizeof(float));
-    scatter_state_kernel<<<(count + 255) / 256, 256, 0, stream_>>>(
-        state_view(), scatter_nodes_, reinterpret_cast<const float*>(scatter_values_), count);
+    scatter_state_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
+        state_view(), scatter_nodes_.data(), reinterpret_cast<const float*>(scatter_values_.data()),
+        count);
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void write_state(const std::vector<Vec3f>& u, const std::vector<Vec3f>& v) override {
@@ -506,9 +475,9 @@ class CudaBackend final : public SolverBackend {
     std::vector<float> component(n);
     for (int q = 0; q < 6; ++q) {
       for (std::size_t m = 0; m < n; ++m) component[m] = q < 3 ? u[m][q] : v[m][q - 3];
-      TSF_CUDA_CHECK(cudaMemcpyAsync(state_[current_][q], component.data(), n * sizeof(float),
-                                     cudaMemcpyHostToDevice, stream_));
-      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      TSF_CUDA_CHECK(cudaMemcpyAsync(state_[current_][q].data(), component.data(),
+                                     n * sizeof(float), cudaMemcpyHostToDevice, stream_.get()));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     }
   }
 
@@ -520,9 +489,9 @@ class CudaBackend final : public SolverBackend {
     for (int q = 0; q < 6; ++q) {
       std::vector<Vec3f>* dst = q < 3 ? u : v;
       if (!dst) continue;
-      TSF_CUDA_CHECK(cudaMemcpyAsync(component.data(), state_[current_][q], n * sizeof(float),
-                                     cudaMemcpyDeviceToHost, stream_));
-      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+      TSF_CUDA_CHECK(cudaMemcpyAsync(component.data(), state_[current_][q].data(),
+                                     n * sizeof(float), cudaMemcpyDeviceToHost, stream_.get()));
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
       for (std::size_t m = 0; m < n; ++m) (*dst)[m][q % 3] = component[m];
     }
   }
@@ -532,7 +501,7 @@ class CudaBackend final : public SolverBackend {
     const LatticeView lat = lattice_view();
     int done = 0;
     while (n - done >= steps_per_graph_) {
-      TSF_CUDA_CHECK(cudaGraphLaunch(graph_for(p, features, lat), stream_));
+      TSF_CUDA_CHECK(cudaGraphLaunch(graph_for(p, features, lat), stream_.get()));
       done += steps_per_graph_;
     }
     const int rest = n - done;
@@ -540,61 +509,63 @@ class CudaBackend final : public SolverBackend {
       dispatch_features(features, [&](auto f) {
         for (int s = 0; s < rest; ++s) launch_step<decltype(f)::value>(lat, p, s);
       });
-      advance_steps_kernel<<<1, 1, 0, stream_>>>(guard_, rest);  // launch_step swapped buffers
+      advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(),
+                                                       rest);  // launch_step swapped buffers
       TSF_CUDA_CHECK_LAUNCH();
     }
     steps_started_ += n;
   }
 
   std::optional<GuardHit> synchronize() override {
-    TSF_CUDA_CHECK(
-        cudaMemcpyAsync(guard_host_, guard_, sizeof(Guard), cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
-    if (guard_host_->bad_step == kNoStep) return std::nullopt;
-    return GuardHit{static_cast<std::int64_t>(guard_host_->bad_node), guard_host_->bad_step};
+    TSF_CUDA_CHECK(cudaMemcpyAsync(guard_host_.data(), guard_.data(), sizeof(Guard),
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    if (guard_host_.data()->bad_step == kNoStep) return std::nullopt;
+    return GuardHit{static_cast<std::int64_t>(guard_host_.data()->bad_node),
+                    guard_host_.data()->bad_step};
   }
 
   void reset_guard() override {
-    TSF_CUDA_CHECK(
-        cudaMemcpyAsync(guard_host_, guard_, sizeof(Guard), cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
-    guard_host_->bad_node = kNoNode;
-    guard_host_->bad_step = kNoStep;
-    TSF_CUDA_CHECK(
-        cudaMemcpyAsync(guard_, guard_host_, sizeof(Guard), cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(guard_host_.data(), guard_.data(), sizeof(Guard),
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    guard_host_.data()->bad_node = kNoNode;
+    guard_host_.data()->bad_step = kNoStep;
+    TSF_CUDA_CHECK(cudaMemcpyAsync(guard_.data(), guard_host_.data(), sizeof(Guard),
+                                   cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   EnergySums energy(const StepParameters& p, unsigned features) override {
-    TSF_CUDA_CHECK(cudaMemsetAsync(energy_device_, 0, 3 * sizeof(double), stream_));
+    TSF_CUDA_CHECK(cudaMemsetAsync(energy_device_.data(), 0, 3 * sizeof(double), stream_.get()));
     const LatticeView lat = lattice_view();
     dispatch_features(features, [&](auto f) {
       energy_kernel<decltype(f)::value>
-          <<<grid(), kBlock, 0, stream_>>>(lat, state_view(), p, energy_device_);
+          <<<grid(), kBlock, 0, stream_.get()>>>(lat, state_view(), p, energy_device_.data());
     });
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_, energy_device_, 3 * sizeof(double),
-                                   cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
-    return EnergySums{energy_host_[0], energy_host_[1], energy_host_[2]};
+    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_.data(), energy_device_.data(), 3 * sizeof(double),
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    return EnergySums{energy_host_.data()[0], energy_host_.data()[1], energy_host_.data()[2]};
   }
 
   void spring_forces(const StepParameters& p, unsigned features,
                      std::vector<Vec3f>& forces) override {
     // The snapshot staging buffer (3 floats per node) is free while no copy is in flight.
     poll_snapshot();
-    if (copy_in_flight_) TSF_CUDA_CHECK(cudaStreamSynchronize(copy_stream_));
+    if (copy_in_flight_) TSF_CUDA_CHECK(cudaStreamSynchronize(copy_stream_.get()));
     poll_snapshot();
     const LatticeView lat = lattice_view();
     dispatch_features(features, [&](auto f) {
       force_kernel<decltype(f)::value>
-          <<<grid(), kBlock, 0, stream_>>>(lat, state_view(), p, staging_);
+          <<<grid(), kBlock, 0, stream_.get()>>>(lat, state_view(), p, staging_.data());
     });
     TSF_CUDA_CHECK_LAUNCH();
     forces.resize(static_cast<std::size_t>(count_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), staging_, 3 * count_ * sizeof(float),
-                                   cudaMemcpyDeviceToHost, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), staging_.data(), 3 * count_ * sizeof(float),
+                                   cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   LatticeView lattice_view() const override {
@@ -604,11 +575,11 @@ class CudaBackend final : public SolverBackend {
     l.stride_y = geometry_.dims.x;
     l.stride_z = static_cast<std::int64_t>(geometry_.dims.x) * geometry_.dims.y;
     for (int a = 0; a < 3; ++a) l.rest_length[a] = static_cast<float>(geometry_.spacing[a]);
-    l.flags = flags_;
-    l.inv_mass = inv_mass_;
-    l.material_index = material_index_;
-    l.material_weight = material_weight_;
-    for (int a = 0; a < 3; ++a) l.external_force[a] = external_force_[a];
+    l.flags = flags_.data();
+    l.inv_mass = inv_mass_.data();
+    l.material_index = material_index_.data();
+    l.material_weight = material_weight_.data();
+    for (int a = 0; a < 3; ++a) l.external_force[a] = external_force_[a].data();
     return l;
   }
   StateView state_view() const override { return buffer_view(current_); }
@@ -620,31 +591,25 @@ class CudaBackend final : public SolverBackend {
       return;
     }
     if (!snapshots_->attached()) {
-      for (auto& p : pinned_snapshot_)
-        TSF_CUDA_CHECK(cudaMallocHost(&p, 3 * count_ * sizeof(float)));
-      snapshots_->attach(pinned_snapshot_[0], pinned_snapshot_[1]);
+      for (auto& p : pinned_snapshot_) p.resize(3 * static_cast<std::size_t>(count_));
+      snapshots_->attach(pinned_snapshot_[0].data(), pinned_snapshot_[1].data());
     }
-    const float3 origin{static_cast<float>(geometry_.origin.x),
-                        static_cast<float>(geometry_.origin.y),
-                        static_cast<float>(geometry_.origin.z)};
-    const float3 spacing{static_cast<float>(geometry_.spacing.x),
-                         static_cast<float>(geometry_.spacing.y),
-                         static_cast<float>(geometry_.spacing.z)};
-    positions_kernel<<<grid(), kBlock, 0, stream_>>>(lattice_view(), state_view(), origin, spacing,
-                                                     staging_);
+    const Vec3f origin = to_float(geometry_.origin), spacing = to_float(geometry_.spacing);
+    positions_kernel<<<grid(), kBlock, 0, stream_.get()>>>(lattice_view(), state_view(), origin,
+                                                           spacing, staging_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaEventRecord(staged_, stream_));
-    TSF_CUDA_CHECK(cudaStreamWaitEvent(copy_stream_, staged_, 0));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(snapshots_->back(), staging_, 3 * count_ * sizeof(float),
-                                   cudaMemcpyDeviceToHost, copy_stream_));
-    TSF_CUDA_CHECK(cudaEventRecord(copied_, copy_stream_));
+    TSF_CUDA_CHECK(cudaEventRecord(staged_.get(), stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamWaitEvent(copy_stream_.get(), staged_.get(), 0));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(snapshots_->back(), staging_.data(), 3 * count_ * sizeof(float),
+                                   cudaMemcpyDeviceToHost, copy_stream_.get()));
+    TSF_CUDA_CHECK(cudaEventRecord(copied_.get(), copy_stream_.get()));
     copy_in_flight_ = true;
     in_flight_step_ = step;
   }
 
   void poll_snapshot() override {
     if (!copy_in_flight_) return;
-    const cudaError_t state = cudaEventQuery(copied_);
+    const cudaError_t state = cudaEventQuery(copied_.get());
     if (state == cudaErrorNotReady) return;
     TSF_CUDA_CHECK(state);
     snapshots_->publish(in_flight_step_);
@@ -652,12 +617,12 @@ class CudaBackend final : public SolverBackend {
   }
   const SnapshotBuffer& snapshots() const override { return *snapshots_; }
 
-  void* native_stream() const override { return stream_; }
+  void* native_stream() const override { return stream_.get(); }
 
   double bytes_per_node() const override {
     double b = 2 * 6 * sizeof(float) + sizeof(std::uint8_t) + sizeof(float);
-    if (material_index_) b += 2 * sizeof(std::uint32_t);
-    if (external_force_[0]) b += 3 * sizeof(float);
+    if (material_index_.data()) b += 2 * sizeof(std::uint32_t);
+    if (external_force_[0].data()) b += 3 * sizeof(float);
     return b;
   }
 
@@ -666,7 +631,7 @@ class CudaBackend final : public SolverBackend {
     StepParameters parameters;
     unsigned features = 0;
     int parity = 0;
-    cudaGraphExec_t exec = nullptr;
+    UniqueGraphExec exec;
   };
 
   dim3 grid() const {
@@ -678,8 +643,8 @@ class CudaBackend final : public SolverBackend {
   StateView buffer_view(int which) const {
     StateView v;
     for (int a = 0; a < 3; ++a) {
-      v.u[a] = state_[which][a];
-      v.v[a] = state_[which][3 + a];
+      v.u[a] = state_[which][a].data();
+      v.v[a] = state_[which][3 + a].data();
     }
     return v;
   }
@@ -713,17 +678,18 @@ class CudaBackend final : public SolverBackend {
                         (geometry_.dims.y + tile_rows_ - 1) / tile_rows_,
                         (geometry_.dims.z + planes_per_block_ - 1) / planes_per_block_);
         if (tile_rows_ == 8)
-          shared_step_kernel<F, 8><<<grid, dim3(kTileX, 8), 0, stream_>>>(
-              lat, in, out, p, guard_, local_step, planes_per_block_);
+          shared_step_kernel<F, 8><<<grid, dim3(kTileX, 8), 0, stream_.get()>>>(
+              lat, in, out, p, guard_.data(), local_step, planes_per_block_);
         else
-          shared_step_kernel<F, 4><<<grid, dim3(kTileX, 4), 0, stream_>>>(
-              lat, in, out, p, guard_, local_step, planes_per_block_);
+          shared_step_kernel<F, 4><<<grid, dim3(kTileX, 4), 0, stream_.get()>>>(
+              lat, in, out, p, guard_.data(), local_step, planes_per_block_);
         TSF_CUDA_CHECK_LAUNCH();
         current_ = 1 - current_;
         return;
       }
     }
-    step_kernel<F><<<grid(), kBlock, 0, stream_>>>(lat, in, out, p, guard_, local_step);
+    step_kernel<F>
+        <<<grid(), kBlock, 0, stream_.get()>>>(lat, in, out, p, guard_.data(), local_step);
     TSF_CUDA_CHECK_LAUNCH();
     current_ = 1 - current_;
   }
@@ -734,46 +700,45 @@ class CudaBackend final : public SolverBackend {
     for (const CachedGraph& g : graphs_)
       if (g.features == features && g.parity == current_ &&
           std::memcmp(&g.parameters, &p, sizeof(StepParameters)) == 0)
-        return g.exec;
-    if (graphs_.size() >= 8) {
-      TSF_CUDA_CHECK(cudaGraphExecDestroy(graphs_.front().exec));
-      graphs_.erase(graphs_.begin());
-    }
+        return g.exec.get();
+    if (graphs_.size() >= 8) graphs_.erase(graphs_.begin());
     const int parity = current_;
-    cudaGraph_t graph = nullptr;
-    TSF_CUDA_CHECK(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal));
+    TSF_CUDA_CHECK(cudaStreamBeginCapture(stream_.get(), cudaStreamCaptureModeThreadLocal));
     dispatch_features(features, [&](auto f) {
       for (int s = 0; s < steps_per_graph_; ++s) launch_step<decltype(f)::value>(lat, p, s);
     });
-    advance_steps_kernel<<<1, 1, 0, stream_>>>(guard_, steps_per_graph_);
-    TSF_CUDA_CHECK(cudaStreamEndCapture(stream_, &graph));
+    advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(), steps_per_graph_);
+    cudaGraph_t captured = nullptr;
+    TSF_CUDA_CHECK(cudaStreamEndCapture(stream_.get(), &captured));
+    const UniqueGraph graph(captured);
     CachedGraph cached;
     cached.parameters = p;
     cached.features = features;
     cached.parity = parity;
-    TSF_CUDA_CHECK(cudaGraphInstantiate(&cached.exec, graph, 0));
-    TSF_CUDA_CHECK(cudaGraphDestroy(graph));
-    graphs_.push_back(cached);
-    return cached.exec;
+    cudaGraphExec_t exec = nullptr;
+    TSF_CUDA_CHECK(cudaGraphInstantiate(&exec, graph.get(), 0));
+    cached.exec.reset(exec);
+    graphs_.push_back(std::move(cached));
+    return graphs_.back().exec.get();
   }
 
   /// Uploads node indices and raw values for a scatter kernel (buffers grow as needed).
   void stage_scatter(const std::vector<std::int64_t>& nodes, const std::uint8_t* values,
                      std::size_t value_bytes) {
     if (nodes.size() > scatter_capacity_ || value_bytes > scatter_value_capacity_) {
-      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
-      cudaFree(scatter_nodes_);
-      cudaFree(scatter_values_);
+      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+      scatter_nodes_.release();
+      scatter_values_.release();
       scatter_capacity_ = std::max<std::size_t>(nodes.size(), 2 * scatter_capacity_);
       scatter_value_capacity_ = std::max<std::size_t>(value_bytes, 2 * scatter_value_capacity_);
-      scatter_nodes_ = device_alloc<std::int64_t>(scatter_capacity_);
-      scatter_values_ = device_alloc<std::uint8_t>(scatter_value_capacity_);
+      scatter_nodes_.resize(scatter_capacity_);
+      scatter_values_.resize(scatter_value_capacity_);
     }
-    TSF_CUDA_CHECK(cudaMemcpyAsync(scatter_nodes_, nodes.data(),
+    TSF_CUDA_CHECK(cudaMemcpyAsync(scatter_nodes_.data(), nodes.data(),
                                    nodes.size() * sizeof(std::int64_t), cudaMemcpyHostToDevice,
-                                   stream_));
-    TSF_CUDA_CHECK(
-        cudaMemcpyAsync(scatter_values_, values, value_bytes, cudaMemcpyHostToDevice, stream_));
+                                   stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(scatter_values_.data(), values, value_bytes,
+                                   cudaMemcpyHostToDevice, stream_.get()));
   }
 
   LatticeGeometry geometry_;
@@ -783,12 +748,13 @@ class CudaBackend final : public SolverBackend {
   int tile_rows_ = 4;
   int planes_per_block_ = 1;
   std::string device_name_;
-  cudaStream_t stream_ = nullptr, copy_stream_ = nullptr;
-  cudaEvent_t staged_ = nullptr, copied_ = nullptr;
-  float* state_[2][6] = {};
+  // Streams and events first: they outlive the buffers (the destructor waits on the streams).
+  UniqueStream stream_, copy_stream_;
+  UniqueEvent staged_, copied_;
+  DeviceBuffer<float> state_[2][6];  // [buffer][ux,uy,uz,vx,vy,vz]
   int current_ = 0;
-  std::uint8_t* flags_ = nullptr;
-  float* inv_mass_ = nullptr;
+  DeviceBuffer<std::uint8_t> flags_;
+  DeviceBuffer<float> inv_mass_;
   void upload_materials() {
     const std::size_t n = host_material_.size();
     std::vector<std::uint32_t> index(n), weight(n);
@@ -796,30 +762,30 @@ class CudaBackend final : public SolverBackend {
       index[m] = host_material_[m].index;
       weight[m] = host_material_[m].weight;
     }
-    TSF_CUDA_CHECK(cudaMemcpyAsync(material_index_, index.data(), n * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(material_weight_, weight.data(), n * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));  // the staging vectors go out of scope
+    TSF_CUDA_CHECK(cudaMemcpyAsync(material_index_.data(), index.data(), n * sizeof(std::uint32_t),
+                                   cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(material_weight_.data(), weight.data(),
+                                   n * sizeof(std::uint32_t), cudaMemcpyHostToDevice,
+                                   stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));  // the staging vectors go out of scope
   }
 
   std::vector<MaterialBlend> host_material_;
-  std::uint32_t* material_index_ = nullptr;
-  std::uint32_t* material_weight_ = nullptr;
-  float* external_force_[3] = {nullptr, nullptr, nullptr};
-  Guard* guard_ = nullptr;
-  Guard* guard_host_ = nullptr;
-  double* energy_device_ = nullptr;
-  double* energy_host_ = nullptr;
-  float* staging_ = nullptr;
-  float* pinned_snapshot_[2] = {nullptr, nullptr};
+  DeviceBuffer<std::uint32_t> material_index_, material_weight_;
+  DeviceBuffer<float> external_force_[3];
+  DeviceBuffer<Guard> guard_;
+  PinnedBuffer<Guard> guard_host_;
+  DeviceBuffer<double> energy_device_;
+  PinnedBuffer<double> energy_host_;
+  DeviceBuffer<float> staging_;  // positions for snapshots, spring forces for queries
+  PinnedBuffer<float> pinned_snapshot_[2];
   std::unique_ptr<SnapshotBuffer> snapshots_;
   bool copy_in_flight_ = false;
   std::int64_t in_flight_step_ = 0;
   std::int64_t steps_started_ = 0;
   std::vector<CachedGraph> graphs_;
-  std::int64_t* scatter_nodes_ = nullptr;
-  std::uint8_t* scatter_values_ = nullptr;
+  DeviceBuffer<std::int64_t> scatter_nodes_;
+  DeviceBuffer<std::uint8_t> scatter_values_;
   std::size_t scatter_capacity_ = 0, scatter_value_capacity_ = 0;
 };
 
@@ -834,26 +800,18 @@ std::unique_ptr<SolverBackend> make_cuda_backend(const LatticeGeometry& geometry
 double measure_device_copy_bandwidth(std::size_t buffer_bytes, int repetitions) {
   require(cuda_status().available, "cannot measure device bandwidth: " + cuda_status().reason);
   require(buffer_bytes > 0 && repetitions > 0, "bandwidth measurement needs bytes and repeats");
-  void* a = nullptr;
-  void* b = nullptr;
-  TSF_CUDA_CHECK(cudaMalloc(&a, buffer_bytes));
-  TSF_CUDA_CHECK(cudaMalloc(&b, buffer_bytes));
-  TSF_CUDA_CHECK(cudaMemset(a, 1, buffer_bytes));
-  cudaEvent_t start, stop;
-  TSF_CUDA_CHECK(cudaEventCreate(&start));
-  TSF_CUDA_CHECK(cudaEventCreate(&stop));
-  TSF_CUDA_CHECK(cudaMemcpy(b, a, buffer_bytes, cudaMemcpyDeviceToDevice));  // warm-up
-  TSF_CUDA_CHECK(cudaEventRecord(start));
+  DeviceBuffer<std::uint8_t> a(buffer_bytes), b(buffer_bytes);
+  const UniqueEvent start = make_event(cudaEventDefault), stop = make_event(cudaEventDefault);
+  TSF_CUDA_CHECK(cudaMemset(a.data(), 1, buffer_bytes));
+  TSF_CUDA_CHECK(
+      cudaMemcpy(b.data(), a.data(), buffer_bytes, cudaMemcpyDeviceToDevice));  // warm-up
+  TSF_CUDA_CHECK(cudaEventRecord(start.get()));
   for (int r = 0; r < repetitions; ++r)
-    TSF_CUDA_CHECK(cudaMemcpyAsync(b, a, buffer_bytes, cudaMemcpyDeviceToDevice));
-  TSF_CUDA_CHECK(cudaEventRecord(stop));
-  TSF_CUDA_CHECK(cudaEventSynchronize(stop));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(b.data(), a.data(), buffer_bytes, cudaMemcpyDeviceToDevice));
+  TSF_CUDA_CHECK(cudaEventRecord(stop.get()));
+  TSF_CUDA_CHECK(cudaEventSynchronize(stop.get()));
   float ms = 0.0f;
-  TSF_CUDA_CHECK(cudaEventElapsedTime(&ms, start, stop));
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
-  cudaFree(a);
-  cudaFree(b);
+  TSF_CUDA_CHECK(cudaEventElapsedTime(&ms, start.get(), stop.get()));
   return 2.0 * static_cast<double>(buffer_bytes) * repetitions / (ms * 1e-3);
 }
 

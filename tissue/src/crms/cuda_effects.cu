@@ -1,5 +1,6 @@
 // CUDA effect passes: one thread per node around the per-node functions of effect_physics.h, on
-// the CUDA backend's stream so that they interleave with its steps without host waits.
+// the CUDA backend's stream so that they interleave with its steps without host waits, in the
+// order of effects_engine.h.
 #include <cuda_runtime.h>
 
 #include <array>
@@ -9,6 +10,7 @@
 
 #include "effects_engine.h"
 #include "tsf/common/cuda_check.h"
+#include "tsf/common/device_buffer.h"
 
 namespace tsf::crms {
 namespace {
@@ -93,88 +95,47 @@ class CudaEffects final : public EffectsEngine {
  public:
   CudaEffects(const LatticeGeometry& g, unsigned enabled, const std::vector<RestOffsets>& keyframes,
               void* stream)
-      : count_(static_cast<std::size_t>(g.node_count())),
-        enabled_(enabled),
+      : EffectsEngine(enabled, keyframes.size()),
+        count_(static_cast<std::size_t>(g.node_count())),
         stream_(static_cast<cudaStream_t>(stream)) {
+    // Every array is a DeviceBuffer (device_buffer.h): a throw below frees what was allocated.
     if (enabled & effect_bits::kPlasticity)
-      for (auto& c : arrays_.plastic_offset) c = allocate();
+      for (auto& c : plastic_) allocate_zeroed(c);
     if (enabled & effect_bits::kFluid) {
-      arrays_.fluid_content = allocate();
-      arrays_.fluid_pressure = allocate();
+      allocate_zeroed(content_);
+      allocate_zeroed(pressure_);
     }
     if (enabled & effect_bits::kForceEffects)
-      for (auto& c : arrays_.force) c = allocate();
-    if (enabled & effect_bits::kRestAnimation)
-      for (const RestOffsets& key : keyframes) {
-        std::array<float*, 3> device{};
+      for (auto& c : force_) allocate_zeroed(c);
+    if (enabled & effect_bits::kRestAnimation) {
+      keyframes_.resize(keyframes.size());
+      for (std::size_t key = 0; key < keyframes.size(); ++key)
         for (int c = 0; c < 3; ++c) {
-          device[c] = allocate();
-          TSF_CUDA_CHECK(cudaMemcpyAsync(device[c], key[c].data(), count_ * sizeof(float),
-                                         cudaMemcpyHostToDevice, stream_));
+          keyframes_[key][c].resize(count_);
+          keyframes_[key][c].upload(keyframes[key][c].data(), count_, stream_);
         }
-        keyframes_.push_back(device);
-      }
-    if (enabled & effect_bits::kNodeMasking) {
-      TSF_CUDA_CHECK(cudaMalloc(&arrays_.node_mask, count_));
-      TSF_CUDA_CHECK(cudaMemsetAsync(arrays_.node_mask, 0, count_, stream_));
     }
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    if (enabled & effect_bits::kNodeMasking) {
+      mask_.resize(count_);
+      mask_.fill_zero(stream_);
+    }
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));  // the host keyframes may go out of scope
   }
   ~CudaEffects() override {
-    cudaStreamSynchronize(stream_);
-    for (float* p : owned_) cudaFree(p);
-    cudaFree(arrays_.node_mask);
-  }
-  CudaEffects(const CudaEffects&) = delete;
-  CudaEffects& operator=(const CudaEffects&) = delete;
-
-  void before_step(const LatticeView& lat, const StateView& state,
-                   const EffectParameters& p) override {
-    if ((enabled_ & effect_bits::kForceEffects) == 0) return;
-    const ConstStateView s = state;
-    const EffectArrays a = arrays(p);
-    if (enabled_ & effect_bits::kFluid) {
-      cube_pressure_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
-      TSF_CUDA_CHECK_LAUNCH();
-    }
-    effect_force_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
-    TSF_CUDA_CHECK_LAUNCH();
-    kick_kernel<<<grid(), kBlock, 0, stream_>>>(lat, state, a, p);
-    TSF_CUDA_CHECK_LAUNCH();
-  }
-
-  void after_step(const LatticeView& lat, const StateView& state,
-                  const EffectParameters& p) override {
-    const ConstStateView s = state;
-    const EffectArrays a = arrays(p);
-    auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
-    if (enabled_ & (effect_bits::kPlasticity | effect_bits::kFluid)) {
-      update_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
-      TSF_CUDA_CHECK_LAUNCH();
-    }
-    if (enabled_ & effect_bits::kTearing) {
-      tear_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, flags);
-      TSF_CUDA_CHECK_LAUNCH();
-    }
-    if (enabled_ & effect_bits::kNodeMasking) {
-      node_mask_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
-      TSF_CUDA_CHECK_LAUNCH();
-      unmask_kernel<<<grid(), kBlock, 0, stream_>>>(lat, a, flags);
-      TSF_CUDA_CHECK_LAUNCH();
-    }
+    cudaStreamSynchronize(stream_);  // queued passes may still use the arrays freed next
   }
 
   EffectsState read() const override {
     EffectsState r;
-    if (arrays_.plastic_offset[0]) {
+    if (!plastic_[0].empty()) {
       std::array<std::vector<float>, 3> c;
-      for (int a = 0; a < 3; ++a) c[a] = copy(arrays_.plastic_offset[a]);
+      for (int a = 0; a < 3; ++a) c[a] = copy(plastic_[a]);
       r.plastic_offset.resize(count_);
       for (std::size_t n = 0; n < count_; ++n) r.plastic_offset[n] = {c[0][n], c[1][n], c[2][n]};
     }
-    if (arrays_.fluid_content) {
-      r.fluid_content = copy(arrays_.fluid_content);
-      r.fluid_pressure = copy(arrays_.fluid_pressure);
+    if (!content_.empty()) {
+      r.fluid_content = copy(content_);
+      r.fluid_pressure = copy(pressure_);
     }
     return r;
   }
@@ -187,50 +148,74 @@ class CudaEffects final : public EffectsEngine {
     return flags;
   }
 
-  double bytes_per_node() const override {
-    double b = 0;
-    if (enabled_ & effect_bits::kPlasticity) b += 3 * sizeof(float);
-    if (enabled_ & effect_bits::kFluid) b += 2 * sizeof(float);
-    if (enabled_ & effect_bits::kForceEffects) b += 3 * sizeof(float);
-    if (enabled_ & effect_bits::kRestAnimation)
-      b += 3 * sizeof(float) * static_cast<double>(keyframes_.size());
-    if (enabled_ & effect_bits::kNodeMasking) b += 1;
-    return b;
+ protected:
+  void run_pass(EffectPass pass, const LatticeView& lat, const StateView& state,
+                const EffectParameters& p) override {
+    const ConstStateView s = state;
+    const EffectArrays a = arrays(p);
+    auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
+    switch (pass) {
+      case EffectPass::kCubePressure:
+        cube_pressure_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
+        break;
+      case EffectPass::kEffectForce:
+        effect_force_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
+        break;
+      case EffectPass::kKick:
+        kick_kernel<<<grid(), kBlock, 0, stream_>>>(lat, state, a, p);
+        break;
+      case EffectPass::kUpdateStores:
+        update_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
+        break;
+      case EffectPass::kTear:
+        tear_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, flags);
+        break;
+      case EffectPass::kMarkOverloaded:
+        node_mask_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
+        break;
+      case EffectPass::kUnlinkMasked:
+        unmask_kernel<<<grid(), kBlock, 0, stream_>>>(lat, a, flags);
+        break;
+    }
+    TSF_CUDA_CHECK_LAUNCH();
   }
 
  private:
-  /// The arrays with the animation's keyframes around the current time.
+  /// The arrays, with the animation's keyframes around the current time.
   EffectArrays arrays(const EffectParameters& p) const {
-    EffectArrays a = arrays_;
+    EffectArrays a;
+    for (int c = 0; c < 3; ++c) {
+      a.plastic_offset[c] = plastic_[c].data();
+      a.force[c] = force_[c].data();
+    }
+    a.fluid_content = content_.data();
+    a.fluid_pressure = pressure_.data();
+    a.node_mask = mask_.data();
     if (!keyframes_.empty())
       for (int c = 0; c < 3; ++c) {
-        a.rest_from[c] = keyframes_[static_cast<std::size_t>(p.rest_from_key)][c];
-        a.rest_to[c] = keyframes_[static_cast<std::size_t>(p.rest_to_key)][c];
+        a.rest_from[c] = keyframes_[static_cast<std::size_t>(p.rest_from_key)][c].data();
+        a.rest_to[c] = keyframes_[static_cast<std::size_t>(p.rest_to_key)][c].data();
       }
     return a;
   }
   unsigned grid() const { return static_cast<unsigned>((count_ + kBlock - 1) / kBlock); }
-  float* allocate() {
-    float* p = nullptr;
-    TSF_CUDA_CHECK(cudaMalloc(&p, count_ * sizeof(float)));
-    owned_.push_back(p);
-    TSF_CUDA_CHECK(cudaMemsetAsync(p, 0, count_ * sizeof(float), stream_));
-    return p;
+  void allocate_zeroed(DeviceBuffer<float>& buffer) {
+    buffer.resize(count_);
+    buffer.fill_zero(stream_);
   }
-  std::vector<float> copy(const float* device) const {
+  std::vector<float> copy(const DeviceBuffer<float>& device) const {
     std::vector<float> host(count_);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(host.data(), device, count_ * sizeof(float),
-                                   cudaMemcpyDeviceToHost, stream_));
+    device.download(host.data(), count_, stream_);
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
     return host;
   }
 
   std::size_t count_;
-  unsigned enabled_;
-  cudaStream_t stream_;
-  EffectArrays arrays_;
-  std::vector<std::array<float*, 3>> keyframes_;  // device rest offsets (entries in owned_)
-  std::vector<float*> owned_;
+  cudaStream_t stream_;  // the backend's (not owned)
+  std::array<DeviceBuffer<float>, 3> plastic_, force_;
+  DeviceBuffer<float> content_, pressure_;
+  std::vector<std::array<DeviceBuffer<float>, 3>> keyframes_;  // device rest offsets
+  DeviceBuffer<std::uint8_t> mask_;
 };
 
 }  // namespace

@@ -1,14 +1,17 @@
 // The passes of the optional effects (effect_physics.h) where the backend keeps its arrays: host
-// memory for the CPU backend, device memory on the CPU backend's CUDA twin. Private to
-// tissue/src/crms: the solver creates an engine only when the scene enables an effect, and the
+// memory for the CPU backend, device memory for the CUDA backend. The order of the passes is the
+// one table below (docs/effects.md, "The effects"); a backend only says how one pass runs. Private
+// to tissue/src/crms: the solver creates an engine only when the scene enables an effect, and the
 // engine allocates only the arrays of the enabled effects.
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
 
+#include "tsf/crms/animation_timeline.h"
 #include "tsf/crms/effect_physics.h"
 #include "tsf/crms/effects_config.h"
 #include "tsf/crms/lattice_geometry.h"
@@ -16,25 +19,89 @@
 
 namespace tsf::crms {
 
+/// The effect passes of a step (effect_physics.h, passes 1–6; pass 4 is the core step).
+enum class EffectPass : int {
+  kCubePressure,    ///< 1. fluid: each cube's pressure from its volume change
+  kEffectForce,     ///< 2. each node's effect force
+  kKick,            ///< 3. v += dt·F_eff/m on moving nodes
+  kUpdateStores,    ///< 5. plastic offsets creep and recover, fluid flows
+  kTear,            ///< 6. over-strained links are cleared
+  kMarkOverloaded,  ///< 6a. node masking: nodes whose largest tension exceeds the limit
+  kUnlinkMasked,    ///< 6b. node masking: every link with a marked end is cleared
+};
+
+/// A pass and the effects that need it (it runs when any of `when_any` is enabled).
+struct EffectPassEntry {
+  EffectPass pass;
+  unsigned when_any;
+};
+
+/// The order of the passes, written once for every backend: before the core step (on the state
+/// it reads; the kick changes its velocities in place) and after it (on the state it wrote).
+inline constexpr EffectPassEntry kPassesBeforeStep[] = {
+    {EffectPass::kCubePressure, effect_bits::kFluid},
+    {EffectPass::kEffectForce, effect_bits::kForceEffects},
+    {EffectPass::kKick, effect_bits::kForceEffects},
+};
+inline constexpr EffectPassEntry kPassesAfterStep[] = {
+    {EffectPass::kUpdateStores, effect_bits::kPlasticity | effect_bits::kFluid},
+    {EffectPass::kTear, effect_bits::kTearing},
+    {EffectPass::kMarkOverloaded, effect_bits::kNodeMasking},
+    {EffectPass::kUnlinkMasked, effect_bits::kNodeMasking},
+};
+
+/// Runs the pass lists above; a backend supplies one pass over all nodes (run_pass) and the
+/// arrays. `enabled`: effect_bits; `keyframes`: how many rest keyframes the engine keeps.
 class EffectsEngine {
  public:
+  EffectsEngine(unsigned enabled, std::size_t keyframes)
+      : enabled_(enabled), keyframes_(keyframes) {}
   virtual ~EffectsEngine() = default;
-  /// Passes 1–3 on the state the next core step reads (its velocities are kicked in place).
-  virtual void before_step(const LatticeView& lattice, const StateView& state,
-                           const EffectParameters& p) = 0;
+  EffectsEngine(const EffectsEngine&) = delete;
+  EffectsEngine& operator=(const EffectsEngine&) = delete;
+
+  unsigned enabled() const { return enabled_; }
+  /// Passes 1–3 on the state the next core step reads.
+  void before_step(const LatticeView& lattice, const StateView& state, const EffectParameters& p) {
+    run(kPassesBeforeStep, lattice, state, p);
+  }
   /// Passes 5–6 on the state the core step wrote (tearing clears link bits in `lattice.flags`).
-  virtual void after_step(const LatticeView& lattice, const StateView& state,
-                          const EffectParameters& p) = 0;
+  void after_step(const LatticeView& lattice, const StateView& state, const EffectParameters& p) {
+    run(kPassesAfterStep, lattice, state, p);
+  }
   /// Copies the effect arrays to the host (waits for queued work).
   virtual EffectsState read() const = 0;
   /// Copies the lattice flags (#nodes) from where the backend keeps them.
   virtual std::vector<std::uint8_t> read_flags(const LatticeView& lattice) const = 0;
   /// Bytes kept per node by the enabled effects.
-  virtual double bytes_per_node() const = 0;
-};
+  double bytes_per_node() const {
+    double b = 0;
+    if (enabled_ & effect_bits::kPlasticity) b += 3 * sizeof(float);
+    if (enabled_ & effect_bits::kFluid) b += 2 * sizeof(float);
+    if (enabled_ & effect_bits::kForceEffects) b += 3 * sizeof(float);
+    if (enabled_ & effect_bits::kRestAnimation)
+      b += 3 * sizeof(float) * static_cast<double>(keyframes_);
+    if (enabled_ & effect_bits::kNodeMasking) b += 1;
+    return b;
+  }
 
-/// Rest offsets of one animation keyframe: per axis, #nodes floats (mm), the spring n → n+axis.
-using RestOffsets = std::array<std::vector<float>, 3>;
+ protected:
+  /// One pass over every node (or cube), where the backend keeps its arrays. Tearing and node
+  /// masking write the backend's own flags array (`lattice.flags`).
+  virtual void run_pass(EffectPass pass, const LatticeView& lattice, const StateView& state,
+                        const EffectParameters& p) = 0;
+
+ private:
+  template <std::size_t N>
+  void run(const EffectPassEntry (&passes)[N], const LatticeView& lattice, const StateView& state,
+           const EffectParameters& p) {
+    for (const EffectPassEntry& e : passes)
+      if (enabled_ & e.when_any) run_pass(e.pass, lattice, state, p);
+  }
+
+  unsigned enabled_;
+  std::size_t keyframes_;
+};
 
 /// `enabled`: effect_bits; `keyframes`: the animation's rest offsets (kRestAnimation).
 std::unique_ptr<EffectsEngine> make_cpu_effects(const LatticeGeometry& geometry, unsigned enabled,

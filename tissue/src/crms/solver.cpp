@@ -11,9 +11,11 @@
 #include "tsf/common/cuda_support.h"
 #include "tsf/common/error.h"
 #include "tsf/crms/crms_math.h"
+#include "tsf/crms/effect_energy.h"
+#include "tsf/crms/effect_stable_step.h"
 #include "tsf/crms/effects.h"
 #include "tsf/crms/implicit_euler.h"
-#include "tsf/crms/lattice_builders.h"
+#include "tsf/crms/node_energy.h"
 #include "tsf/crms/stencil.h"
 
 namespace tsf::crms {
@@ -48,44 +50,10 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   palette_.count = static_cast<int>(config_.materials.size());
   for (int m = 0; m < palette_.count; ++m)
     palette_.entry[m] = calibrate_springs(config_.materials[m], g.spacing, symmetric);
-  std::vector<RestOffsets> keyframes;
-  if (config_.effects.animation.enabled) prepare_animation(keyframes);
-  stable_ = estimate_stable_time_step(lattice_, palette_, symmetric);
-  const AnimationConfig& animation = config_.effects.animation;
-  if (animation.enabled &&
-      (!animation.material_tracks.empty() || !animation.cut_triggers.empty())) {
-    // Tracks and triggers may move nodes to stiffer entries: the step must hold for their
-    // targets too (blends in between are no stiffer than both ends).
-    Lattice target = lattice_;
-    for (const MaterialTrack& t : animation.material_tracks)
-      for (std::int64_t n : t.nodes) target.set_material(n, t.entry);
-    for (const CutTrigger& t : animation.cut_triggers)
-      for (std::int64_t n : t.nodes) target.set_material(n, t.entry);
-    const StableTimeStep at_targets = estimate_stable_time_step(target, palette_, symmetric);
-    if (at_targets.symplectic_euler_s < stable_.symplectic_euler_s) stable_ = at_targets;
-  }
-  // Effects that add stiffness lower the stable step: anisotropy scales the linear springs by up
-  // to the factor; the fluid adds at most 3K/E to the top mode's stiffness (checkerboard along
-  // all three axes: 12·K·h against the linear springs' 4·E·h per axis, effect_physics.h).
-  double stiffening = 1.0;
-  if (config_.effects.anisotropy.enabled) {
-    double factor = config_.effects.anisotropy.stiffness_factor;
-    if (palette_.count > 1)
-      for (const Material& m : config_.materials) factor = std::max(factor, m.anisotropy_factor);
-    stiffening *= std::max(1.0, factor);
-  }
-  if (config_.effects.fluid.enabled) {
-    double youngs_min = config_.materials.front().youngs_modulus_pa;
-    for (const Material& m : config_.materials)
-      youngs_min = std::min(youngs_min, m.youngs_modulus_pa);
-    stiffening *= 1.0 + 3.0 * config_.effects.fluid.bulk_modulus_pa / youngs_min;
-  }
-  if (stiffening > 1.0) {
-    const double f = std::sqrt(stiffening);
-    stable_.symplectic_euler_s /= f;
-    stable_.explicit_euler_s /= f;
-    stable_.omega_max *= f;
-  }
+  if (config_.effects.animation.enabled)
+    timeline_ = AnimationTimeline(config_.effects.animation, lattice_,
+                                  static_cast<int>(config_.materials.size()), palette_.count);
+  stable_ = stable_time_step_with_effects(lattice_, palette_, config_);
   require_compiled_feature_set(features());
 
   Backend backend = config_.backend;
@@ -116,138 +84,17 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   if (config_.effects.tearing.enabled) effect_bits_ |= effect_bits::kTearing;
   if (config_.effects.tearing.enabled && config_.effects.tearing.node_force_threshold_un > 0)
     effect_bits_ |= effect_bits::kNodeMasking;
+  const std::vector<RestOffsets>& keyframes = timeline_.rest_offsets();
   if (!keyframes.empty()) effect_bits_ |= effect_bits::kRestAnimation;
   if (effect_bits_ != 0)
     effects_ = on_cuda_ ? make_cuda_effects(g, effect_bits_, keyframes, backend_->native_stream())
                         : make_cpu_effects(g, effect_bits_, keyframes);
 }
 
-void Solver::prepare_animation(std::vector<RestOffsets>& keyframes) {
-  const AnimationConfig& a = config_.effects.animation;
-  const std::int64_t count = lattice_.node_count();
-  const auto materials = static_cast<int>(config_.materials.size());
-  require(
-      (a.material_tracks.empty() && a.cut_triggers.empty()) || palette_.count > 1,
-      "effects.animation: material tracks and cut triggers need a heterogeneous palette (at least "
-      "2 materials), the scene has 1");
-  auto check_nodes = [&](const std::vector<std::int64_t>& nodes, const std::string& field) {
-    for (std::int64_t n : nodes)
-      require(n >= 0 && n < count, "effects.animation." + field + ": node " + std::to_string(n) +
-                                       " is outside the lattice's " + std::to_string(count) +
-                                       " nodes");
+MaterialUpdate Solver::backend_material_update() {
+  return [this](const std::vector<std::int64_t>& nodes, const std::vector<MaterialBlend>& blends) {
+    backend_->update_materials(nodes, blends);
   };
-  for (std::size_t t = 0; t < a.material_tracks.size(); ++t) {
-    const std::string field = "material_tracks[" + std::to_string(t) + "]";
-    check_nodes(a.material_tracks[t].nodes, field);
-    require(a.material_tracks[t].entry < materials,
-            "effects.animation." + field +
-                ".entry = " + std::to_string(a.material_tracks[t].entry) + " but only " +
-                std::to_string(materials) + " materials are configured");
-  }
-  for (std::size_t t = 0; t < a.cut_triggers.size(); ++t) {
-    const std::string field = "cut_triggers[" + std::to_string(t) + "]";
-    check_nodes(a.cut_triggers[t].nodes, field);
-    require(a.cut_triggers[t].entry < materials,
-            "effects.animation." + field + ".entry = " + std::to_string(a.cut_triggers[t].entry) +
-                " but only " + std::to_string(materials) + " materials are configured");
-    std::vector<std::int64_t> sorted = a.cut_triggers[t].nodes;
-    std::sort(sorted.begin(), sorted.end());
-    trigger_nodes_.push_back(std::move(sorted));
-  }
-  trigger_fired_.assign(a.cut_triggers.size(), false);
-  track_origin_.resize(a.material_tracks.size());
-  track_done_.assign(a.material_tracks.size(), false);
-
-  // Rest keyframes → per-spring rest-length offsets |h·e + Δr| − h (the spring n → n+axis).
-  if (a.rest_keyframes.empty()) return;
-  const LatticeGeometry& g = lattice_.geometry();
-  auto offsets_of = [&](const std::vector<Vec3f>& r) {
-    RestOffsets o;
-    for (auto& c : o) c.assign(static_cast<std::size_t>(count), 0.0f);
-    if (r.empty()) return o;
-    for (std::int64_t n = 0; n < count; ++n)
-      for (int ax = 0; ax < 3; ++ax) {
-        const std::int64_t m = lattice_.neighbour(n, make_direction(ax, 1));
-        if (m < 0) continue;
-        Vec3d edge = to_double(r[m]) - to_double(r[n]);
-        edge[ax] += g.spacing[ax];
-        o[ax][n] = static_cast<float>(std::sqrt(dot(edge, edge)) - g.spacing[ax]);
-      }
-    return o;
-  };
-  if (a.rest_keyframes.front().time_s > 0.0) {  // the grid's own rest shape until the first one
-    keyframes.push_back(offsets_of({}));
-    rest_times_.push_back(0.0);
-  }
-  for (std::size_t k = 0; k < a.rest_keyframes.size(); ++k) {
-    const std::vector<Vec3f>& r = a.rest_keyframes[k].rest_displacement_mm;
-    require(r.empty() || static_cast<std::int64_t>(r.size()) == count,
-            "effects.animation.rest_keyframes[" + std::to_string(k) + "] has " +
-                std::to_string(r.size()) + " rest displacements, expected " +
-                std::to_string(count) + " (one per lattice node)");
-    keyframes.push_back(offsets_of(r));
-    rest_times_.push_back(a.rest_keyframes[k].time_s);
-  }
-  rest_offsets_ = keyframes;  // host copy for the effects' energy
-}
-
-void Solver::set_animation_time(EffectParameters& p, double time_s) const {
-  if (rest_times_.empty()) return;
-  std::size_t to = 0;
-  while (to < rest_times_.size() && rest_times_[to] <= time_s) ++to;
-  if (to == 0 || to == rest_times_.size()) {  // before the first / after the last: hold it
-    const int k = to == 0 ? 0 : static_cast<int>(rest_times_.size()) - 1;
-    p.rest_from_key = p.rest_to_key = k;
-    p.rest_blend = 0.0f;
-    return;
-  }
-  p.rest_from_key = static_cast<int>(to) - 1;
-  p.rest_to_key = static_cast<int>(to);
-  p.rest_blend =
-      static_cast<float>((time_s - rest_times_[to - 1]) / (rest_times_[to] - rest_times_[to - 1]));
-}
-
-void Solver::apply_material_tracks() {
-  const auto& tracks = config_.effects.animation.material_tracks;
-  for (std::size_t t = 0; t < tracks.size(); ++t) {
-    const MaterialTrack& track = tracks[t];
-    if (track_done_[t] || time_s_ < track.start_s) continue;
-    if (track_origin_[t].empty())
-      for (std::int64_t n : track.nodes) track_origin_[t].push_back(lattice_.material(n));
-    const double s = track.end_s > track.start_s
-                         ? std::min(1.0, (time_s_ - track.start_s) / (track.end_s - track.start_s))
-                         : 1.0;
-    std::vector<MaterialBlend> blends(track.nodes.size());
-    for (std::size_t i = 0; i < track.nodes.size(); ++i) {
-      // The target entry plus the origin's 3 heaviest components (make_material_blend sorts).
-      const MaterialBlend o = track_origin_[t][i];
-      const std::array<int, 4> entries{track.entry, o.entry(0), o.entry(1), o.entry(2)};
-      const std::array<double, 4> shares{255.0 * s, (1.0 - s) * o.weight_of(0),
-                                         (1.0 - s) * o.weight_of(1), (1.0 - s) * o.weight_of(2)};
-      blends[i] = make_material_blend(entries, shares);
-      lattice_.set_material(track.nodes[i], blends[i]);
-    }
-    backend_->update_materials(track.nodes, blends);
-    track_done_[t] = s >= 1.0;
-  }
-}
-
-void Solver::fire_cut_triggers(const std::vector<std::int64_t>& edited) {
-  const auto& triggers = config_.effects.animation.cut_triggers;
-  for (std::size_t t = 0; t < triggers.size(); ++t) {
-    if (trigger_fired_[t]) continue;
-    bool hit = false;
-    for (std::int64_t n : edited)
-      hit = hit || std::binary_search(trigger_nodes_[t].begin(), trigger_nodes_[t].end(), n);
-    if (!hit) continue;
-    std::vector<MaterialBlend> blends(triggers[t].nodes.size(),
-                                      MaterialBlend::single(triggers[t].entry));
-    for (std::int64_t n : triggers[t].nodes) lattice_.set_material(n, blends.front());
-    backend_->update_materials(triggers[t].nodes, blends);
-    trigger_fired_[t] = true;
-    fired_triggers_.push_back(triggers[t].name.empty() ? "cut trigger " + std::to_string(t)
-                                                       : triggers[t].name);
-  }
 }
 
 BackendOptions backend_options(const SolverConfig& config) {
@@ -320,7 +167,8 @@ void Solver::step_async(int n, double dt) {
   require(config_.integrator != Integrator::kImplicitEuler,
           "step_async: implicit Euler steps synchronously, use step()");
   if (instability_ || n == 0) return;
-  if (!track_done_.empty()) apply_material_tracks();
+  if (timeline_.has_material_tracks())
+    timeline_.apply_material_tracks(time_s_, lattice_, backend_material_update());
   if (effects_) {
     step_with_effects(n, dt);
   } else {
@@ -363,7 +211,7 @@ EffectParameters Solver::effect_parameters(double dt) const {
         p.material_aniso_extra[ax][m] =
             len2 > 0.0 ? static_cast<float>((factor - 1.0) * axis[ax] * axis[ax] / len2) : 0.0f;
     }
-  set_animation_time(p, time_s_);
+  timeline_.set_time(p, time_s_);
   return p;
 }
 
@@ -376,7 +224,7 @@ void Solver::step_with_effects(int n, double dt) {
   const int check_every = on_cuda_ ? 64 : 1;
   int s = 0;
   for (; s < n; ++s) {
-    set_animation_time(e, time_s_ + s * dt);
+    timeline_.set_time(e, time_s_ + s * dt);
     effects_->before_step(backend_->lattice_view(), backend_->state_view(), e);
     backend_->step(1, p, features());
     effects_->after_step(backend_->lattice_view(), backend_->state_view(), e);
@@ -419,78 +267,15 @@ void Solver::sync_torn_links() {
 
 double Solver::effects_energy_nj() const {
   if ((effect_bits_ & (effect_bits::kSpringEffects | effect_bits::kFluid)) == 0) return 0.0;
-  // Host copies of what the effect energies read.
-  std::vector<Vec3f> u;
-  backend_->read_state(&u, nullptr);
-  const auto count = static_cast<std::size_t>(lattice_.node_count());
-  std::vector<float> soa[3], zero(count, 0.0f);
-  for (int a = 0; a < 3; ++a) {
-    soa[a].resize(count);
-    for (std::size_t n = 0; n < count; ++n) soa[a][n] = u[n][a];
-  }
-  const std::vector<std::uint8_t> flags = (effect_bits_ & effect_bits::kTearing)
-                                              ? effects_->read_flags(backend_->lattice_view())
-                                              : lattice_.packed_flags();
-  std::vector<std::uint32_t> material_index(count), material_weight(count);
-  for (std::size_t n = 0; n < count; ++n) {
-    const MaterialBlend b = lattice_.material(static_cast<std::int64_t>(n));
-    material_index[n] = b.index;
-    material_weight[n] = b.weight;
-  }
-  LatticeView lat = backend_->lattice_view();
-  lat.flags = flags.data();
-  lat.material_index = material_index.data();
-  lat.material_weight = material_weight.data();
-  lat.inv_mass = nullptr;
-  for (auto& f : lat.external_force) f = nullptr;
-  ConstStateView st;
-  for (int a = 0; a < 3; ++a) {
-    st.u[a] = soa[a].data();
-    st.v[a] = zero.data();
-  }
-  const EffectsState effects = effects_->read();
-  const EffectParameters p = effect_parameters(1.0);
-  const LatticeGeometry& g = lattice_.geometry();
-  double energy = 0.0;
-  for (std::int64_t n = 0; n < lattice_.node_count(); ++n) {
-    if ((flags[n] & kAliveBit) == 0) continue;
-    const Int3 c = g.coordinates(n);
-    const IndexedStencil s{lat, st, n, c.x, c.y, c.z};
-    const unsigned links = flags[n] & kLinkBits;
-    if (p.enabled & effect_bits::kSpringEffects)
-      for (int ax = 0; ax < 3; ++ax) {
-        const int d = make_direction(ax, 1);
-        if (((links >> d) & 1u) == 0) continue;
-        const Arm<float> arm = arm_of(s, links, s.u(0), s.v(0), lat.rest_length, d);
-        float ks = 0, kd = 0;
-        linear_constants(s, p, d, ks, kd);
-        const double stretch = static_cast<double>(arm.stretch);
-        double delta = effects.plastic_offset.empty()
-                           ? 0.0
-                           : static_cast<double>(effects.plastic_offset[n][ax]);
-        if (!rest_offsets_.empty()) {
-          const double from = rest_offsets_[static_cast<std::size_t>(p.rest_from_key)][ax][n];
-          const double to = rest_offsets_[static_cast<std::size_t>(p.rest_to_key)][ax][n];
-          delta += from + static_cast<double>(p.rest_blend) * (to - from);
-        }
-        const double extra = (p.enabled & effect_bits::kAnisotropy)
-                                 ? static_cast<double>(spring_aniso_extra(s, p, d))
-                                 : 0.0;
-        const double k_per_l = static_cast<double>(ks) / static_cast<double>(lat.rest_length[ax]);
-        energy += 0.5 * k_per_l *
-                  ((1.0 + extra) * (stretch - delta) * (stretch - delta) - stretch * stretch);
-      }
-    if ((p.enabled & effect_bits::kFluid) && cube_exists(lat, c.x, c.y, c.z)) {
-      const double v0 = static_cast<double>(lat.rest_length[0]) *
-                        static_cast<double>(lat.rest_length[1]) *
-                        static_cast<double>(lat.rest_length[2]);
-      const double strain =
-          (static_cast<double>(cube_edges(lat, st, c.x, c.y, c.z).volume()) - v0) / v0;
-      const double excess = strain - static_cast<double>(effects.fluid_content[n]);
-      energy += 0.5 * config_.effects.fluid.bulk_modulus_pa * excess * excess * v0;
-    }
-  }
-  return energy;
+  EffectEnergyInputs in;
+  backend_->read_state(&in.displacement_mm, nullptr);
+  in.flags = (effect_bits_ & effect_bits::kTearing) ? effects_->read_flags(backend_->lattice_view())
+                                                    : lattice_.packed_flags();
+  in.material.resize(static_cast<std::size_t>(lattice_.node_count()));
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n) in.material[n] = lattice_.material(n);
+  in.effects = effects_->read();
+  return effects_elastic_energy_nj(lattice_.geometry(), in, effect_parameters(1.0),
+                                   timeline_.rest_offsets(), config_.effects.fluid.bulk_modulus_pa);
 }
 
 StepReport Solver::synchronize() {
@@ -627,7 +412,8 @@ void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
     lattice_.set_alive(n, false);
   }
   refresh_flags(nodes);
-  if (!trigger_nodes_.empty()) fire_cut_triggers(nodes);
+  if (timeline_.has_cut_triggers())
+    timeline_.fire_cut_triggers(nodes, lattice_, backend_material_update());
 }
 
 void Solver::break_springs(const std::vector<SpringRef>& springs) {
@@ -643,7 +429,8 @@ void Solver::break_springs(const std::vector<SpringRef>& springs) {
     if (other >= 0) touched.push_back(other);
   }
   refresh_flags(touched);
-  if (!trigger_nodes_.empty()) fire_cut_triggers(touched);
+  if (timeline_.has_cut_triggers())
+    timeline_.fire_cut_triggers(touched, lattice_, backend_material_update());
 }
 
 void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {
@@ -668,8 +455,10 @@ std::vector<Vec3f> Solver::positions() const {
   std::vector<Vec3f> u;
   backend_->read_state(&u, nullptr);
   const LatticeGeometry& g = lattice_.geometry();
-  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
-    u[n] = to_float(g.rest_position(n) + to_double(u[n]));
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n) {
+    const Int3 c = g.coordinates(n);
+    u[n] = node_position(g.origin, g.spacing, c.x, c.y, c.z, u[n]);
+  }
   return u;
 }
 

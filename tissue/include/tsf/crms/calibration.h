@@ -9,7 +9,7 @@
 //     The lattice's Poisson ratio is 0 along its axes, whatever the constants (a lattice with
 //     central-force diagonal springs is the one locked near ν = 1/4 by the Cauchy relations;
 //     CRMS has no diagonals). Lateral contraction (ν > 0) cannot be expressed; volume-preserving
-//     behaviour needs the fluid-pressure effect (issue 6).
+//     behaviour needs the fluid-pressure effect (docs/effects.md, "The effects").
 //   * Engineering shear γ in the xy plane changes the node's 4 xy angles by ±γ. With the
 //     symmetric (potential) form the energy per cell is 4·½kθγ², so G = 4kθ/V. The gather form
 //     keeps only the vertex terms of that potential's gradient; in the long-wave limit this is

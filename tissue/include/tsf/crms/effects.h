@@ -8,8 +8,9 @@
 // Bits fall in two groups:
 //   knobs   — alternative formulations of the same physics, measured against each other
 //   effects — extra physics that needs per-node data
-// Issue 6 adds plasticity, anisotropy, fluid pressure, animation and tearing as further effect
-// bits with their own arrays in LatticeView (node_state_view.h).
+// The optional effects (plasticity, anisotropy, fluid pressure, animation, tearing; see
+// docs/effects.md) are not feature bits: they have their own bits and arrays (effect_physics.h)
+// and run as separate passes around the core step (effects_engine.h).
 //
 // Which sets are compiled is an explicit list (CompiledFeatureSets), not every subset of the
 // bits: each set costs a few kernels of compile time per backend, and 2^kCount stops being

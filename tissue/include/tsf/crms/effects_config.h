@@ -1,4 +1,5 @@
-// Optional CRMS effects (issue 6): which extra physics a scene switches on, and its parameters.
+// Optional CRMS effects (docs/effects.md): which extra physics a scene switches on, and its
+// parameters.
 //
 // Effects run as separate passes around the core step (effect_physics.h): a "kick" pass before it
 // adds the effects' forces to the velocity (v += dt·F_effects/m, exactly the symplectic Euler

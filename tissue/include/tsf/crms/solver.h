@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "tsf/common/vec3.h"
+#include "tsf/crms/animation_timeline.h"
 #include "tsf/crms/lattice.h"
 #include "tsf/crms/node_state_view.h"
 #include "tsf/crms/snapshot_buffer.h"
@@ -125,7 +126,7 @@ class Solver {
   void set_state(const std::vector<Vec3f>& displacements_mm,
                  const std::vector<Vec3f>& velocities_mm_s);
 
-  // ---- topology edits (cutting, issue 7) ----
+  // ---- topology edits (cutting, docs/deform-cut.md) ----
   /// Deletes nodes during the run: they stop moving and their springs vanish on both ends.
   void delete_nodes(const std::vector<std::int64_t>& nodes);
   /// Breaks springs on both ends.
@@ -166,7 +167,7 @@ class Solver {
   /// Springs broken by tearing since construction (synchronises).
   std::int64_t torn_springs() const;
   /// Names of the animation's cut triggers that have fired, in firing order.
-  const std::vector<std::string>& fired_triggers() const { return fired_triggers_; }
+  const std::vector<std::string>& fired_triggers() const { return timeline_.fired_triggers(); }
   /// Simulated time since construction, s (Σ n·dt over the steps).
   double time_s() const { return time_s_; }
 
@@ -179,16 +180,11 @@ class Solver {
   void step_with_effects(int n, double dt);
   /// Clears on the host lattice the links that tearing removed on the backend.
   void sync_torn_links();
-  /// Elastic energy the effects add to the core's (plastic rest lengths, anisotropy, fluid), nJ.
+  /// Elastic energy the effects add to the core's (effect_energy.h), nJ.
   double effects_energy_nj() const;
-  /// Animation: validates tracks and triggers, turns rest keyframes into rest offsets.
-  void prepare_animation(std::vector<std::array<std::vector<float>, 3>>& keyframes);
-  /// Animation: the rest keyframes around time_s into p.
-  void set_animation_time(EffectParameters& p, double time_s) const;
-  /// Animation: moves the blends of the tracks' nodes to where they are at time_s_.
-  void apply_material_tracks();
-  /// Animation: fires the cut triggers that watch one of `edited`.
-  void fire_cut_triggers(const std::vector<std::int64_t>& edited);
+  /// Where the timeline sends material changes: the host lattice is edited by the timeline, the
+  /// backend's copy here.
+  MaterialUpdate backend_material_update();
 
   Lattice lattice_;
   SolverConfig config_;
@@ -203,14 +199,7 @@ class Solver {
   std::unique_ptr<EffectsEngine> effects_;
   std::int64_t torn_synced_ = 0;  // springs already cleared on the host lattice by sync_torn_links
   double time_s_ = 0.0;
-  // Animation (effects.animation): keyframe times and host rest offsets, track state, triggers.
-  std::vector<double> rest_times_;
-  std::vector<std::array<std::vector<float>, 3>> rest_offsets_;
-  std::vector<std::vector<MaterialBlend>> track_origin_;
-  std::vector<bool> track_done_;
-  std::vector<std::vector<std::int64_t>> trigger_nodes_;  // sorted
-  std::vector<bool> trigger_fired_;
-  std::vector<std::string> fired_triggers_;
+  AnimationTimeline timeline_;  // effects.animation (empty when off)
 };
 
 }  // namespace tsf::crms
