@@ -110,7 +110,7 @@ const LibraryMaterial& library_material(const Field& f, const std::string& id,
 std::string read_material(const Field& f, crms::Material& m, LibraryRef& library) {
   if (!f.defined()) f.fail("is required (a material library id or an inline material)");
   if (f.node().IsScalar()) {
-    const LibraryMaterial& found = library_material(f, f.text(), library);
+    const LibraryMaterial found = library_material(f, f.text(), library);
     m = found.crms_material();
     return found.id;
   }
@@ -582,7 +582,7 @@ Scene read_scene(const std::filesystem::path& file) {
     if (top["material"].defined() || s.pipeline.material.empty()) {
       single.material_id = read_material(top["material"], single.material, library);
     } else {
-      const LibraryMaterial& m =
+      const LibraryMaterial m =
           library_material(top["pipeline"]["material"], s.pipeline.material, library);
       single.material = m.crms_material();
       single.material_id = m.id;
