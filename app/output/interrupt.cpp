@@ -4,6 +4,8 @@
 #include <csignal>
 #include <cstdlib>
 
+#include <unistd.h>
+
 namespace tsf::app {
 namespace {
 
@@ -14,6 +16,11 @@ Handler g_previous_term = SIG_DFL;
 
 extern "C" void on_signal(int sig) {
   if (g_signal.exchange(sig) != 0) std::_Exit(128 + sig);  // the second signal: stop now
+  static const char kMessage[] =
+      "\ntsf: stopping after the current stage or frame and writing the report (press Ctrl-C "
+      "again to stop at once)\n";
+  // write(2) is async-signal-safe; its result is of no use here.
+  [[maybe_unused]] const ssize_t n = write(2, kMessage, sizeof kMessage - 1);
 }
 
 }  // namespace

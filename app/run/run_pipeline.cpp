@@ -406,9 +406,26 @@ json run_pipeline(const RunOptions& options) {
   RunContext ctx = prepare_run(options);
   InterruptScope interrupts;
   const SegmentOutcome seg = segment_stage(ctx);
-  if (interrupted())
-    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) +
-                ") after segmentation; nothing was simulated (" + ctx.folder.path().string() + ")");
+  if (interrupted()) {
+    // Stopped before the simulation: the report says so, with what was done.
+    json stages = json::array();
+    for (const Stage& s : ctx.stages)
+      stages.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"detail", s.detail}});
+    const std::string why = "interrupted (signal " + std::to_string(interrupt_signal()) +
+                            ") after segmentation; nothing was simulated";
+    write_text_atomically(ctx.folder.file("run-report.json"),
+                          json{{"tsf_version", TSF_VERSION_STRING},
+                               {"scene", {{"name", ctx.scene.name},
+                                          {"file", absolute_path(ctx.scene.file).string()}}},
+                               {"verdict", "interrupted"},
+                               {"verdict_reason", why},
+                               {"stages", stages},
+                               {"segmentation", seg.report},
+                               {"failure", why}}
+                                  .dump(2) +
+                              "\n");
+    throw Error(why + " (" + ctx.folder.path().string() + ")");
+  }
   const InteractionOutcome io = interaction_stage(ctx);
   const std::vector<fs::path> exported = export_stage(ctx, io.result);
   const json report = assemble_report(ctx, seg, io, exported, total_clock.seconds());
