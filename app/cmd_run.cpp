@@ -1,7 +1,8 @@
 // `tsf run [SCENE]`: the main job (README). Default: the bundled sinus scene on the sample
 // cranium CT: import → segment → surface → lattice → scripted interaction → outputs and a report
-// (app/run/run_pipeline.h). `tsf run --materials` prints the material library with the lattice
-// parameters the CRMS calibration derives from it (docs/materials.md).
+// (app/run/run_pipeline.h). `tsf run SCENE --ct PATH [--series UID]` runs the scene on another
+// patient's CT (docs/patients.md). `tsf run --materials` prints the material library with the
+// lattice parameters the CRMS calibration derives from it (docs/materials.md).
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -16,6 +17,8 @@ namespace {
 
 struct RunArguments {
   std::string scene;
+  std::string ct;
+  std::string series;
   std::string output;
   std::string backend;
   double duration_s = -1;
@@ -64,6 +67,14 @@ void add_run_command(CLI::App& app) {
       "cranium CT): import, segment, surface, lattice, scripted interaction, meshes and a report");
   sub->add_option("scene", args->scene,
                   "scene file (YAML, docs/scenes.md); default: scenes/sinus.yaml of the checkout");
+  sub->add_option("--ct", args->ct,
+                  "another patient's CT for this run: a DICOM folder, DICOMDIR or file, or a "
+                  "NRRD/MHA/NIfTI volume; replaces the scene's pipeline.source.ct and its series "
+                  "(docs/patients.md)")
+      ->check(CLI::ExistingPath);
+  sub->add_option("--series", args->series,
+                  "DICOM SeriesInstanceUID to use when the CT folder holds several (`tsf info "
+                  "FOLDER` lists them); replaces pipeline.source.series");
   sub->add_option("-o,--output", args->output,
                   "output folder: everything the run writes goes here (default: "
                   "pipeline.outputs.folder of the scene, else out/<scene name>); must be new or "
@@ -93,6 +104,8 @@ void add_run_command(CLI::App& app) {
     RunOptions o;
     o.scene = args->scene.empty() ? default_scene_path() : std::filesystem::path(args->scene);
     o.output_folder = args->output;
+    o.ct = args->ct;
+    o.series = args->series;
     if (args->duration_s >= 0) o.duration_s = args->duration_s;
     if (args->voxel_mm > 0) o.voxel_mm = args->voxel_mm;
     o.backend = args->backend;

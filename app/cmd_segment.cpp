@@ -18,6 +18,7 @@ namespace {
 
 struct SegmentArguments {
   std::string input;
+  std::string series;
   std::string preset = "sinus";
   std::string output;
   std::optional<double> voxel_mm;
@@ -46,6 +47,7 @@ std::string vec_text(const std::vector<double>& v) {
 void run_segment(const SegmentArguments& a) {
   tsf::segment::SegmentJob job;
   job.input = a.input;
+  job.series_uid = a.series;
   job.output_prefix = a.output;
   job.preset = tsf::segment::load_segment_preset(a.preset);
   auto& p = job.preset;
@@ -76,8 +78,11 @@ void run_segment(const SegmentArguments& a) {
   job.show_progress = !a.quiet;
 
   const auto result = tsf::segment::run_segment_job(job);
-  if (a.quiet) return;
   const auto& r = result.report;
+  // The import's warnings go to stderr even with --quiet (they are in PREFIX-report.json too).
+  for (const auto& w : r["warnings"])
+    std::fprintf(stderr, "tsf segment: warning: %s\n", w.get<std::string>().c_str());
+  if (a.quiet) return;
   std::printf("tsf segment: %s with preset '%s' -> %d×%d×%d voxels of %.3g mm in %.2f s\n",
               a.input.c_str(), p.name.c_str(), r["grid"]["dims"][0].get<int>(),
               r["grid"]["dims"][1].get<int>(), r["grid"]["dims"][2].get<int>(),
@@ -109,8 +114,12 @@ void add_segment_command(CLI::App& app) {
       "density ramp, bone hysteresis, classes, clean-up, air spaces and mucosa, seeded regions, "
       "material weights.");
   sub->add_option("volume", args->input,
-                  "HU volume file (NRRD, MHA, NIfTI), e.g. the output of `tsf import`")
+                  "HU volume file (NRRD, MHA, NIfTI), e.g. the output of `tsf import`, or a "
+                  "DICOM folder, DICOMDIR or file")
       ->required();
+  sub->add_option("-s,--series", args->series,
+                  "DICOM SeriesInstanceUID to segment when the folder holds several "
+                  "(`tsf info FOLDER` lists them)");
   sub->add_option("-p,--preset", args->preset,
                   "preset name (sinus, head-bone, soft-tissue) or path to a YAML preset file")
       ->capture_default_str();

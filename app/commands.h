@@ -7,6 +7,7 @@
 namespace tsf::app {
 
 void add_import_command(CLI::App& app);    // cmd_import.cpp    (TSF_WITH_ITK)
+void add_info_command(CLI::App& app);      // cmd_info.cpp      (TSF_WITH_ITK)
 void add_segment_command(CLI::App& app);   // cmd_segment.cpp   (TSF_WITH_ITK)
 void add_surface_command(CLI::App& app);   // cmd_surface.cpp
 void add_simulate_command(CLI::App& app);  // cmd_simulate.cpp

@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
       "tsf " TSF_VERSION_STRING
       ": turns a CT scan into an interactive, cuttable soft-tissue asset.\n"
       "Pipeline: import -> segment -> surface / simulate -> export / view; `tsf run` does it all "
-      "from a scene file."};
+      "from a scene file. A new patient's CT: `tsf info CT`, then `tsf run SCENE --ct CT`."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "tsf " TSF_VERSION_STRING);
 
@@ -36,6 +36,12 @@ int main(int argc, char** argv) {
 #else
   tsf::app::add_unavailable_command(app, "import", "Read a CT (DICOM, NRRD, MHA, NIfTI) into HU",
                                     "TSF_WITH_ITK");
+#endif
+#ifdef TSF_HAVE_INFO
+  tsf::app::add_info_command(app);
+#else
+  tsf::app::add_unavailable_command(
+      app, "info", "Describe a CT: series, geometry, extent (LPS), HU range", "TSF_WITH_ITK");
 #endif
 #ifdef TSF_HAVE_SEGMENT
   tsf::app::add_segment_command(app);

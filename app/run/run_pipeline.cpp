@@ -1,5 +1,6 @@
 // `tsf run`: the pipeline of run_pipeline.h, as named stages that pass typed results:
-//   prepare_run        read the scene, check its keys for `tsf run`, backend, output folder
+//   prepare_run        read the scene, check its keys for `tsf run`, backend, the CT's series and
+//                      geometry against the crops and tools (headers only), output folder
 //   segment_stage      import → segment (when the scene has a pipeline section)
 //   interaction_stage  the scene session: surface, lattice, coupler, the script (energy per frame,
 //                      effect cost after it)
@@ -8,6 +9,7 @@
 #include "run/run_pipeline.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <set>
 #include <vector>
@@ -29,6 +31,10 @@
 #include "tsf/version.h"
 #ifdef TSF_HAVE_EXPORT
 #include "tsf/export/mesh_export.h"
+#endif
+#ifdef TSF_HAVE_IMPORT
+#include "tsf/import/ct_geometry.h"
+#include "tsf/import/volume_file_reader.h"
 #endif
 #ifdef TSF_HAVE_SEGMENT
 #include "tsf/segment/segment_job.h"
@@ -57,6 +63,10 @@ struct RunContext {
   Scene scene;
   OutputFolder folder;
   std::vector<Stage> stages;
+  /// Said before and while the run worked: the CT check's ("scene: ...") and the import's
+  /// ("import: ...", from segment's report). run-report.json `warnings`, run-report.md "Warnings".
+  std::vector<std::string> warnings;
+  json ct = nullptr;  ///< the CT's geometry as checked before segmenting (null without pipeline)
 };
 
 struct SegmentOutcome {
@@ -88,12 +98,209 @@ json vec(const Vec3d& v) {
 
 // ---- prepare: everything checkable before the long stages ------------------------------------
 
+std::string point_text(const Vec3d& p) {
+  return "(" + fixed(p.x, 1) + ", " + fixed(p.y, 1) + ", " + fixed(p.z, 1) + ")";
+}
+
+#ifdef TSF_HAVE_IMPORT
+std::string box_text(const import::Box3& b) {
+  return point_text(b.lo) + " to " + point_text(b.hi) + " mm";
+}
+
+/// How far a tool reaches from its pose's position (its bounding radius), mm.
+double tool_reach_mm(const interaction::Tool& t) {
+  switch (t.shape) {
+    case collision::ToolShape::kSphere:
+      return t.radius_mm;
+    case collision::ToolShape::kCapsule:
+      return t.radius_mm + t.half_length_mm;
+    default:
+      return length(t.half_extents_mm);
+  }
+}
+
+/// Closest approach of the polyline through `points` to `box`, mm (0 when it enters the box).
+double path_distance(const std::vector<Vec3d>& points, const import::Box3& box) {
+  double best = 1e300;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    best = std::min(best, box.distance(points[k]));
+    if (k == 0) continue;
+    constexpr int kSamples = 64;
+    for (int n = 1; n < kSamples; ++n)
+      best = std::min(best, box.distance(points[k - 1] + (points[k] - points[k - 1]) *
+                                                             (static_cast<double>(n) / kSamples)));
+  }
+  return best;
+}
+
+/// Reads the CT's geometry only (a volume file's header; the DICOM headers, no pixels), chooses
+/// the series as the import will, and checks every instance's crop box against the volume and
+/// every tool path against the tissue, before anything is segmented. Fails on a crop that misses
+/// the volume (printing both); a tool path that never comes near the tissue is a warning.
+void check_ct_before_segmenting(RunContext& ctx, const std::string& ct_key,
+                                const std::string& series_key) {
+  Stopwatch clock;
+  const Scene& scene = ctx.scene;
+  const RunSpec& spec = scene.pipeline;
+  import::ImportOptions io;
+  io.series_uid = spec.series;
+  import::CtGeometry g;
+  std::string modality = "CT";
+  std::error_code ec;
+  if (fs::is_regular_file(spec.ct, ec) && import::is_volume_file_path(spec.ct)) {
+    if (!spec.series.empty())
+      throw Error(series_key + ": a series UID (" + spec.series + ") was given but '" +
+                  spec.ct.string() + "' is a volume file, not a DICOM folder");
+    g = import::volume_file_geometry(spec.ct, io.max_voxels);
+  } else {
+    import::CatalogOptions copt;
+    copt.show_progress = !ctx.options.quiet;
+    const import::DicomCatalog catalog = import::catalog_dicom(spec.ct, copt);
+    const auto usable = catalog.usable_series();
+    if (spec.series.empty() && usable.size() > 1) {
+      std::string list;
+      for (const import::DicomSeries* u : usable) list += "\n  " + import::one_line_summary(*u);
+      throw Error(ct_key + ": '" + spec.ct.string() + "' holds " + std::to_string(usable.size()) +
+                  " usable DICOM series; choose one with `--series UID` on tsf run, or with "
+                  "`pipeline.source.series: UID` in the scene (`tsf info " +
+                  spec.ct.string() + "` describes each):" + list);
+    }
+    try {
+      const import::DicomSeries& chosen = import::select_dicom_series(catalog, io);
+      g = import::dicom_series_geometry(chosen);
+      modality = chosen.modality;
+    } catch (const Error& e) {
+      throw Error((spec.series.empty() ? ct_key : series_key) + ": " + e.what());
+    }
+    if (modality != "CT")
+      throw Error(ct_key + ": series " + g.series_instance_uid + " has modality " +
+                  (modality.empty() ? std::string("(none)") : modality) +
+                  ": tsf run segments CT (Hounsfield units); choose a CT series (`tsf info " +
+                  spec.ct.string() + "`)");
+  }
+  const import::Box3 patient = import::patient_extent(g);
+  const import::Box3 tissue = import::tissue_extent(g);
+  const bool identity = import::identity_direction(g.direction);
+  const std::string frames_note =
+      identity ? std::string()
+               : "; in tissue space (origin + index × spacing, the frame scenes' crops and tools "
+                 "use for this volume, whose axes are not the patient axes) " +
+                     box_text(tissue);
+
+  // Every crop must hold part of the volume; the tissue the tools act on is each instance's crop
+  // within the volume (the whole volume without a crop).
+  std::vector<import::Box3> tissue_boxes;
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    const SceneLattice& sl = scene.instances[i].lattice;
+    if (!sl.cropped) {
+      tissue_boxes.push_back(tissue);
+      continue;
+    }
+    const import::Box3 crop{sl.crop_min_mm, sl.crop_max_mm};
+    if (!crop.intersects(tissue))
+      throw Error(scene.instance_prefix(i) + "lattice.crop: the box " + box_text(crop) +
+                  " misses the CT '" + spec.ct.string() + "'" +
+                  (g.series_instance_uid.empty() ? "" : " (series " + g.series_instance_uid + ")") +
+                  ", whose voxel centres span " + box_text(patient) +
+                  " in patient coordinates (LPS)" + frames_note +
+                  ". Scenes place crops, anchors and tools in millimetres of the scan they were "
+                  "written for: move lattice.crop (and the anchors and tool paths) onto this CT "
+                  "(docs/patients.md). Nothing was segmented.");
+    import::Box3 inside = crop;
+    for (int a = 0; a < 3; ++a) {
+      inside.lo[a] = std::max(crop.lo[a], tissue.lo[a]);
+      inside.hi[a] = std::min(crop.hi[a], tissue.hi[a]);
+    }
+    tissue_boxes.push_back(inside);
+  }
+
+  // Tool paths: a trajectory or a stroke that never comes near the tissue touches nothing.
+  constexpr double kNearMm = 5.0;  // beyond the tool's own reach
+  constexpr double kFarMm = 50.0;  // keyframes this far outside the volume are suspicious
+  auto check_path = [&](const std::string& what, const std::string& tool_name,
+                        const std::vector<Vec3d>& points) {
+    const SceneTool* tool = scene.find_tool(tool_name);
+    const double reach = (tool ? tool_reach_mm(tool->tool) : 0.0) + kNearMm;
+    double nearest = 1e300;
+    for (const import::Box3& b : tissue_boxes)
+      nearest = std::min(nearest, path_distance(points, b));
+    if (nearest > reach) {
+      ctx.warnings.push_back(
+          "scene: " + what + " never comes near the tissue: its closest approach is " +
+          fixed(nearest, 1) + " mm from the tissue box" + (tissue_boxes.size() > 1 ? "es" : "") +
+          " (" + box_text(tissue_boxes.front()) + (tissue_boxes.size() > 1 ? ", ..." : "") +
+          "), beyond the tool's reach of " + fixed(reach, 1) +
+          " mm: it will touch nothing on this CT");
+      return;
+    }
+    std::size_t far = 0;
+    Vec3d first_far;
+    for (const Vec3d& p : points)
+      if (tissue.distance(p) > kFarMm && far++ == 0) first_far = p;
+    if (far > 0)
+      ctx.warnings.push_back(
+          "scene: " + what + ": " + std::to_string(far) + " of " + std::to_string(points.size()) +
+          " positions lie more than " + fixed(kFarMm, 0) + " mm outside the CT's volume (first " +
+          point_text(first_far) + " mm; the volume spans " + box_text(tissue) + ")");
+  };
+  for (const SceneTrajectory& t : scene.script.trajectories) {
+    std::vector<Vec3d> points;
+    for (const interaction::Keyframe& k : t.keyframes) points.push_back(k.pose.position);
+    check_path("the trajectory of tool '" + t.tool + "'", t.tool, points);
+  }
+  for (const SceneEvent& e : scene.script.events)
+    check_path("the stroke of tool '" + e.tool + "' at " + fixed(e.time_s, 3) + " s", e.tool,
+               {e.from.position, e.to.position});
+
+  auto v3 = [](const Vec3d& v) { return json::array({v.x, v.y, v.z}); };
+  auto box_json = [&](const import::Box3& b) { return json{{"min", v3(b.lo)}, {"max", v3(b.hi)}}; };
+  ctx.ct = {{"path", absolute_path(spec.ct).string()},
+            {"kind", g.kind},
+            {"series_instance_uid", g.series_instance_uid},
+            {"dims", {g.dims.x, g.dims.y, g.dims.z}},
+            {"spacing_mm", v3(g.spacing)},
+            {"origin_mm", v3(g.origin)},
+            {"direction", g.direction},
+            {"orientation",
+             g.orientation_recorded ? json(import::orientation_code(g.direction)) : json(nullptr)},
+            {"orientation_recorded", g.orientation_recorded},
+            {"extent_lps_mm", box_json(patient)},
+            {"extent_tissue_mm", box_json(tissue)},
+            {"check_seconds", clock.seconds()}};
+  // Warnings go to stderr even with --quiet (which silences progress and the summary).
+  for (const std::string& w : ctx.warnings)
+    std::fprintf(stderr, "tsf run: warning: %s\n", w.c_str());
+  ctx.stages.push_back({"check the CT against the scene (headers only)", clock.seconds(),
+                        std::to_string(g.dims.x) + "×" + std::to_string(g.dims.y) + "×" +
+                            std::to_string(g.dims.z) + " voxels, extent " + box_text(patient) +
+                            " (LPS)"});
+}
+#endif
+
 RunContext prepare_run(const RunOptions& options) {
   Stopwatch clock;
-  RunContext ctx{options, read_scene(options.scene), {}, {}};
+  RunContext ctx{options, read_scene(options.scene), {}, {}, {}, nullptr};
   Scene& scene = ctx.scene;
   check_scene_for_command(scene, SceneCommand::kRun);
   override_backend(scene, options.backend);
+  // --ct / --series: another patient's CT for this run, through the same scene.
+  std::string ct_key = scene.file.string() + ": pipeline.source.ct";
+  std::string series_key = scene.file.string() + ": pipeline.source.series";
+  if (!options.ct.empty() || !options.series.empty()) {
+    if (!scene.pipeline.present)
+      throw Error(scene.file.string() + ": " + (options.ct.empty() ? "--series" : "--ct") +
+                  " replaces pipeline.source, but the scene has no pipeline section (it builds "
+                  "its tissue from lattice.volume; docs/scenes.md)");
+    if (!options.ct.empty()) {
+      scene.pipeline.ct = options.ct;
+      scene.pipeline.series.clear();  // the scene's series belongs to the scene's CT
+      ct_key = "--ct";
+    }
+    if (!options.series.empty()) {
+      scene.pipeline.series = options.series;
+      series_key = "--series";
+    }
+  }
   if (scene.pipeline.present) {
     for (std::size_t i = 0; i < scene.instances.size(); ++i)
       if (scene.instances[i].lattice.source != SceneLattice::Source::kVolume)
@@ -101,8 +308,13 @@ RunContext prepare_run(const RunOptions& options) {
                     "lattice.source: a scene with a pipeline section builds its lattice from the "
                     "segmented CT: expected source: volume");
     if (!fs::exists(scene.pipeline.ct))
-      throw Error(scene.file.string() + ": pipeline.source.ct: '" + scene.pipeline.ct.string() +
-                  "' does not exist");
+      throw Error(ct_key + ": '" + scene.pipeline.ct.string() + "' does not exist");
+#ifdef TSF_HAVE_IMPORT
+    ctx.stages.push_back(
+        {"read and check the scene", clock.seconds(), absolute_path(scene.file).string()});
+    check_ct_before_segmenting(ctx, ct_key, series_key);
+    clock.restart();
+#endif
   }
   // Output folder: command line, then the scene, then out/<scene name> here.
   const fs::path folder = !options.output_folder.empty()   ? options.output_folder
@@ -110,8 +322,12 @@ RunContext prepare_run(const RunOptions& options) {
                                                            : fs::path("out") / scene.name;
   ctx.folder = OutputFolder::prepare(folder, options.force,
                                      options.output_folder.empty() ? "output folder" : "--output");
-  ctx.stages.push_back(
-      {"read and check the scene", clock.seconds(), absolute_path(scene.file).string()});
+  if (ctx.stages.empty())
+    ctx.stages.push_back(
+        {"read and check the scene", clock.seconds(), absolute_path(scene.file).string()});
+  else
+    ctx.stages.push_back(
+        {"prepare the output folder", clock.seconds(), ctx.folder.path().string()});
   return ctx;
 }
 
@@ -125,6 +341,7 @@ SegmentOutcome segment_stage(RunContext& ctx) {
   Stopwatch clock;
   segment::SegmentJob job;
   job.input = spec.ct;
+  job.series_uid = spec.series;
   job.preset = segment::load_segment_preset(spec.preset);
   const double voxel = ctx.options.voxel_mm ? *ctx.options.voxel_mm : spec.voxel_mm;
   if (voxel > 0) {
@@ -141,9 +358,15 @@ SegmentOutcome segment_stage(RunContext& ctx) {
   const segment::SegmentJobResult seg = segment::run_segment_job(job);
   const double wall = clock.seconds();
   out.report = seg.report;
+  for (const json& w : seg.report.value("warnings", json::array())) {
+    ctx.warnings.push_back("import: " + w.get<std::string>());
+    std::fprintf(stderr, "tsf run: warning: import: %s\n", w.get<std::string>().c_str());
+  }
   const double read_s = seg.report["input"].value("read_seconds", 0.0);
   const double write_s = seg.report["outputs"].value("write_seconds", 0.0);
-  ctx.stages.push_back({"import (read CT)", read_s, absolute_path(spec.ct).string()});
+  ctx.stages.push_back({"import (read CT)", read_s,
+                        absolute_path(spec.ct).string() +
+                            (spec.series.empty() ? "" : " (series " + spec.series + ")")});
   ctx.stages.push_back({"segment (preset " + job.preset.name + ")",
                         std::max(0.0, wall - read_s - write_s),
                         fixed(seg.report["grid"].value("voxel_mm", 0.0), 2) + " mm voxels"});
@@ -370,6 +593,8 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const Int
       {"frame", "patient (LPS), mm"},
       {"verdict", verdict_word},
       {"verdict_reason", verdict_reason},
+      {"warnings", ctx.warnings},
+      {"ct", ctx.ct},
       {"output_folder", ctx.folder.path().string()},
       {"interaction_report", io.report_path.string()},
       {"material", instances.empty() ? json(nullptr) : instances[0]["material"]},

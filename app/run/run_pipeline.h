@@ -22,14 +22,19 @@ struct RunOptions {
   std::filesystem::path output_folder;  ///< overrides pipeline.outputs.folder
   std::optional<double> duration_s;     ///< overrides script.duration (short CI runs)
   std::optional<double> voxel_mm;       ///< overrides pipeline.segmentation.voxel_mm
-  std::string backend;                  ///< cpu | cuda | auto (empty: the scene's)
-  bool force = false;                   ///< replace an earlier run's files in the output folder
+  /// Another patient's CT for this run (`--ct`): replaces pipeline.source.ct and its series
+  /// (pipeline.source.series is dropped unless `series` is given too).
+  std::filesystem::path ct;
+  std::string series;   ///< `--series UID`: replaces pipeline.source.series
+  std::string backend;  ///< cpu | cuda | auto (empty: the scene's)
+  bool force = false;   ///< replace an earlier run's files in the output folder
   bool quiet = false;
 };
 
 /// Runs the pipeline and writes everything under the output folder; returns the JSON report (also
-/// written, with run-report.md). Cheap checks (scene keys, backend, output folder) come before
-/// the long stages. Throws tsf::Error naming the stage, file or key on bad input or failure; an
+/// written, with run-report.md). Cheap checks (scene keys, backend, the CT's series and geometry
+/// against every instance's crop and the tools' paths, output folder) come before the long
+/// stages. Throws tsf::Error naming the stage, file or key on bad input or failure; an
 /// unstable or interrupted run throws after its report is written.
 nlohmann::json run_pipeline(const RunOptions& options);
 

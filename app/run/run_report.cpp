@@ -155,6 +155,16 @@ void verdict_section(const ReportContext& c, std::ostream& md) {
      << r.value("backend", "") << ". Machine-readable: `run-report.json` (same folder).\n\n";
 }
 
+// ---- warnings: what the import and the pre-segmentation checks said -------------------------
+
+void warnings_section(const ReportContext& c, std::ostream& md) {
+  const json warnings = c.r.value("warnings", json::array());
+  if (warnings.empty()) return;
+  md << "## Warnings\n\n";
+  for (const json& w : warnings) md << "- " << w.get<std::string>() << "\n";
+  md << "\n";
+}
+
 void glance_section(const ReportContext& c, std::ostream& md) {
   const json& rates = c.r["rates"];
   const json latency = c.r["interaction"].value("edit_latency_us", json::object());
@@ -440,6 +450,7 @@ fs::path write_run_report(const json& r, const fs::path& folder, bool plots) {
                         r.value("instances", json::array())};
   std::ostringstream md;
   verdict_section(c, md);
+  warnings_section(c, md);
   glance_section(c, md);
   stages_section(c, md);
   rates_section(c, md);

@@ -20,8 +20,27 @@ RunSpec read_run_spec(const fs::path& scene_file) {
   p.expect_keys({"source", "segmentation", "material", "material_library", "outputs"});
 
   const YamlField source = p["source"].required();
-  source.expect_keys({"ct"});
+  source.expect_keys({"ct", "series"});
   spec.ct = resolve(source["ct"].required().text());
+  if (source["series"].node().IsDefined() && source["series"].node().IsNull())
+    source["series"].fail(
+        "expected a DICOM SeriesInstanceUID, got nothing (leave the key out to "
+        "use the only series)");
+  if (source["series"].defined()) {
+    // A DICOM UID: digits and dots, at most 64 characters (PS3.5 §9.1). A YAML number (an
+    // unquoted UID with one dot) is read as text too, so the check is on the characters.
+    const YamlField f = source["series"];
+    spec.series = f.text();
+    const bool ok = !spec.series.empty() && spec.series.size() <= 64 &&
+                    spec.series.find_first_not_of("0123456789.") == std::string::npos &&
+                    spec.series.front() != '.' && spec.series.back() != '.' &&
+                    spec.series.find("..") == std::string::npos;
+    if (!ok)
+      f.fail(
+          "expected a DICOM SeriesInstanceUID (digits and dots, at most 64 characters, e.g. "
+          "1.2.840.113619.2.55.3), got '" +
+          spec.series + "'; `tsf info " + spec.ct.string() + "` lists the series");
+  }
 
   const YamlField seg = p["segmentation"];
   seg.expect_keys({"preset", "voxel_mm", "smoothing_mm"});

@@ -5,6 +5,7 @@
 //
 //   pipeline:
 //     source: {ct: ../data-samples/ct-head-cranium/cranium.nrrd}   # volume file or DICOM folder
+//     # source: {ct: /scans/patient-17, series: 1.2.840.113619.2.55.3}  # one DICOM series of many
 //     segmentation: {preset: sinus, voxel_mm: 0}
 //     material: turbinate_soft_tissue          # id in the material library
 //     outputs: {folder: ../out/sinus, report: true, meshes: true, plots: true, energy_every: 1}
@@ -19,6 +20,9 @@ struct RunSpec {
   bool present = false;
   // source
   std::filesystem::path ct;  ///< CT volume (NRRD, MetaImage, NIfTI) or DICOM folder/DICOMDIR
+  /// DICOM SeriesInstanceUID when the folder holds several series (import's series_uid); empty
+  /// = the only usable series. `tsf run --ct/--series` replace ct and series for one run.
+  std::string series;
   // segmentation
   std::string preset = "sinus";  ///< preset name or YAML path (tsf segment --preset)
   double voxel_mm = 0;           ///< isotropic voxel size; 0 = the preset's

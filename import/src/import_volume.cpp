@@ -15,6 +15,7 @@
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/import/ct_geometry.h"
 #include "tsf/import/dicom_catalog.h"
 #include "tsf/import/dicom_pixel_reader.h"
 #include "tsf/import/imaging_library_setup.h"
@@ -408,6 +409,10 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
 }
 
 }  // namespace
+
+const DicomSeries& select_dicom_series(const DicomCatalog& catalog, const ImportOptions& options) {
+  return select_series(catalog, options);
+}
 
 ImportResult import_volume(const fs::path& path, const ImportOptions& options) {
   Stopwatch total;

@@ -21,7 +21,8 @@ SegmentJobResult run_segment_job(const SegmentJob& job) {
                 "out/cranium-density.nrrd, ...)");
 
   Stopwatch clock;
-  const HuImage::Pointer input = read_hu_volume(job.input, job.show_progress);
+  const HuVolumeInput imported = import_hu_volume(job.input, job.series_uid, job.show_progress);
+  const HuImage::Pointer input = imported.image;
   const double read_seconds = clock.seconds();
 
   SegmentationOptions options;
@@ -50,7 +51,12 @@ SegmentJobResult run_segment_job(const SegmentJob& job) {
       {"dims", {in_size[0], in_size[1], in_size[2]}},
       {"spacing_mm", {in_spacing[0], in_spacing[1], in_spacing[2]}},
       {"origin_mm", {input->GetOrigin()[0], input->GetOrigin()[1], input->GetOrigin()[2]}},
+      {"kind", imported.kind},
+      {"series_instance_uid", imported.series_instance_uid},
       {"read_seconds", read_seconds}};
+  // The import's warnings (resampling, gantry tilt, no patient orientation, ...), each as the
+  // import wrote it.
+  report["warnings"] = imported.warnings;
   report["overrides"] = job.overrides;
   report["outputs"] = {{"density", out.volume_paths.density.string()},
                        {"labels", out.volume_paths.labels.string()},

@@ -6,6 +6,8 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "tsf/segment/segment_image_types.h"
 
@@ -15,5 +17,19 @@ namespace tsf::segment {
 /// DICOM series at `path`. Throws tsf::Error naming the path when it is missing, not a readable
 /// image or series, not 3-D, or holds non-finite values.
 HuImage::Pointer read_hu_volume(const std::filesystem::path& path, bool show_progress = true);
+
+/// The volume and what its import said about it: the warnings (resampled uneven spacing or
+/// gantry tilt, no patient orientation recorded, ...) travel into segment's report.
+struct HuVolumeInput {
+  HuImage::Pointer image;
+  std::vector<std::string> warnings;  ///< tsf::import::ImportReport::warnings
+  std::string kind;                   ///< "dicom", "nrrd", "metaimage" or "nifti"
+  std::string series_instance_uid;    ///< DICOM: the series that was imported
+};
+
+/// read_hu_volume with the import's warnings; `series_uid` picks a DICOM series when the path
+/// holds several (empty: the only usable one).
+HuVolumeInput import_hu_volume(const std::filesystem::path& path, const std::string& series_uid,
+                               bool show_progress = true);
 
 }  // namespace tsf::segment

@@ -2,7 +2,8 @@
 //
 // Outputs for PREFIX:
 //   PREFIX-density.nrrd  PREFIX-labels.nrrd  PREFIX-weights.nrrd (tsf::import::write_tissue_volume)
-//   PREFIX-report.json   grid, class volumes (ml) and bounding boxes (mm), stage times, parameters
+//   PREFIX-report.json   grid, class volumes (ml) and bounding boxes (mm), stage times, parameters,
+//                        and `warnings`: what the import said (resampling, tilt, no orientation)
 //   PREFIX-preview.png   labelled axial/coronal/sagittal slices (unless write_preview is false)
 // Every file is written atomically (temporary then rename); on an error nothing half-written is
 // left behind.
@@ -20,7 +21,8 @@
 namespace tsf::segment {
 
 struct SegmentJob {
-  std::filesystem::path input;          ///< HU volume file (read_hu_volume)
+  std::filesystem::path input;          ///< HU volume file or DICOM folder (import_hu_volume)
+  std::string series_uid;               ///< DICOM series to import; empty = the only usable one
   SegmentPreset preset;                 ///< with command-line overrides applied
   std::vector<std::string> overrides;   ///< what the command line changed, for the report
   std::filesystem::path output_prefix;  ///< PREFIX
