@@ -126,7 +126,7 @@ Outcome run(Cmd command, const std::string& extra, bool with_tools, const std::s
 /// `tsf view` needs VTK in the build; the test says when it is not.
 bool view_built() {
   const test::ProcessRun p = test::run_tsf(test::tsf_executable_path(), "view --help");
-  return p.status == 0;
+  return p.status == 0 && p.output.find("--offscreen") != std::string::npos;
 }
 
 std::vector<Cmd> commands() {
