@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "commands.h"
 #include "output/interrupt.h"
@@ -87,60 +89,49 @@ void run_interactive(const Scene& scene, const SimulateArguments& args) {
   if (result.instability) throw Error("unstable: " + *result.instability);
 }
 
-void run_simulate(const SimulateArguments& args) {
-  Scene scene = read_scene(args.scene);
-  check_scene_for_command(scene, SceneCommand::kSimulate);
-  override_backend(scene, args.backend);
-  if (scene.interactive) return run_interactive(scene, args);
-  if (args.duration_s >= 0 || !args.mesh.empty() || !args.states.empty())
-    throw Error(
-        "--duration, --mesh and --states need a scene with a script (tissue, tools, script)");
-  // The report: --report, else report.json in --out when an output folder is given.
-  std::filesystem::path report_path = absolute_path(args.report);
-  if (report_path.empty() && !args.out.empty())
-    report_path = OutputFolder::prepare(args.out, args.force, "--out").file("report.json");
-  const std::int64_t steps = args.steps >= 0 ? args.steps : scene.steps;
-
-  LatticeRun built = build_lattice_run(scene);
-  crms::Solver& solver = *built.solver;
-  const crms::Lattice& l = solver.lattice();
-  const double stable = solver.stable_dt();
-  const double dt = built.dt_s;
-  const std::int64_t fixed = built.fixed_nodes;
-  const double setup_s = built.setup_s;
-  const crms::SolverConfig& config = solver.config();
-
-  json energy = json::array();
-  auto sample = [&] {
-    const crms::EnergyReport e = solver.energy();
-    energy.push_back({{"step", solver.steps_done()},
-                      {"time_s", static_cast<double>(solver.steps_done()) * dt},
-                      {"kinetic_nj", e.kinetic_nj},
-                      {"elastic_nj", e.elastic_nj},
-                      {"gravitational_nj", e.gravitational_nj},
-                      {"total_nj", e.total_nj()}});
-  };
-  sample();
-  Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(steps));
+/// What a lattice-only run measured (typed; the report is made from it at the edge).
+struct LatticeRunResult {
+  std::int64_t steps_requested = 0;
   double stepping_s = 0;
+  std::vector<std::pair<std::int64_t, crms::EnergyReport>> energy;  ///< (step, energy)
+  double max_displacement_mm = 0;
+  bool interrupted = false;
+};
+
+/// Steps the lattice in chunks of solver.report_every, sampling energy after each, until the
+/// steps are done, an instability halts it or a signal arrives.
+LatticeRunResult step_lattice(const Scene& scene, LatticeRun& built, std::int64_t steps) {
+  crms::Solver& solver = *built.solver;
+  LatticeRunResult r;
+  r.steps_requested = steps;
+  r.energy.emplace_back(solver.steps_done(), solver.energy());
+  Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(steps));
   std::int64_t done = 0;
   InterruptScope interrupts;
   while (done < steps && !solver.instability() && !interrupted()) {
     const auto chunk = static_cast<int>(std::min<std::int64_t>(scene.report_every, steps - done));
     Stopwatch clock;
-    solver.step(chunk, dt);
-    stepping_s += clock.seconds();
+    solver.step(chunk, built.dt_s);
+    r.stepping_s += clock.seconds();
     done += chunk;
     progress.set(static_cast<std::uint64_t>(done));
-    sample();
+    r.energy.emplace_back(solver.steps_done(), solver.energy());
   }
   progress.finish();
-
-  double max_displacement = 0;
+  r.interrupted = interrupted();
   for (const Vec3f& u : solver.displacements())
-    max_displacement = std::max(max_displacement, std::sqrt(static_cast<double>(dot(u, u))));
+    r.max_displacement_mm =
+        std::max(r.max_displacement_mm, std::sqrt(static_cast<double>(dot(u, u))));
+  return r;
+}
+
+json lattice_report_json(const Scene& scene, const LatticeRun& built, const LatticeRunResult& r) {
+  const crms::Solver& solver = *built.solver;
+  const crms::Lattice& l = solver.lattice();
+  const crms::SolverConfig& config = solver.config();
+  const double stable = solver.stable_dt();
   const std::int64_t run = solver.steps_done();
-  const double rate = stepping_s > 0 ? static_cast<double>(run) / stepping_s : 0.0;
+  const double rate = r.stepping_s > 0 ? static_cast<double>(run) / r.stepping_s : 0.0;
   json instability = nullptr;
   if (const auto& inst = solver.instability())
     instability = {{"step", inst->step},
@@ -150,12 +141,20 @@ void run_simulate(const SimulateArguments& args) {
                    {"rest_position_mm", to_json(inst->rest_position_mm)},
                    {"position_mm", to_json(inst->position_mm)},
                    {"message", inst->describe()}};
+  json energy = json::array();
+  for (const auto& [step, e] : r.energy)
+    energy.push_back({{"step", step},
+                      {"time_s", static_cast<double>(step) * built.dt_s},
+                      {"kinetic_nj", e.kinetic_nj},
+                      {"elastic_nj", e.elastic_nj},
+                      {"gravitational_nj", e.gravitational_nj},
+                      {"total_nj", e.total_nj()}});
   const crms::SpringConstants& k = solver.palette().entry[0];
-  json report = {
+  return {
       {"tsf_version", TSF_VERSION_STRING},
       {"scene", {{"name", scene.name}, {"file", absolute_path(scene.file).string()}}},
       {"frame", "patient (LPS), mm"},
-      {"interrupted", interrupted()},
+      {"interrupted", r.interrupted},
       {"backend", solver.backend_name()},
       {"integrator", crms::to_string(config.integrator)},
       {"angular_form", crms::to_string(config.angular_form)},
@@ -167,7 +166,7 @@ void run_simulate(const SimulateArguments& args) {
         {"spacing_mm", to_json(l.geometry().spacing)},
         {"origin_mm", to_json(l.geometry().origin)},
         {"alive_nodes", l.alive_count()},
-        {"fixed_nodes", fixed},
+        {"fixed_nodes", built.fixed_nodes},
         {"total_mass_g", l.total_mass()},
         {"bytes_per_node", solver.bytes_per_node()}}},
       {"springs",
@@ -176,44 +175,72 @@ void run_simulate(const SimulateArguments& args) {
         {"k_angular_un_mm", json::array({k.k_angular[0], k.k_angular[1], k.k_angular[2]})},
         {"c_angular_un_mm_s", json::array({k.c_angular[0], k.c_angular[1], k.c_angular[2]})}}},
       {"stable_dt", stable_json(solver.stable_time_step())},
-      {"dt_s", dt},
-      {"dt_over_stable", stable > 0 ? dt / stable : static_cast<double>(INFINITY)},
-      {"steps_requested", steps},
+      {"dt_s", built.dt_s},
+      {"dt_over_stable", stable > 0 ? built.dt_s / stable : static_cast<double>(INFINITY)},
+      {"steps_requested", r.steps_requested},
       {"steps_run", run},
-      {"setup_s", setup_s},
-      {"stepping_s", stepping_s},
+      {"setup_s", built.setup_s},
+      {"stepping_s", r.stepping_s},
       {"steps_per_s", rate},
       {"node_steps_per_s", rate * static_cast<double>(l.node_count())},
-      {"max_displacement_mm", max_displacement},
+      {"max_displacement_mm", r.max_displacement_mm},
       {"instability", instability},
       {"energy", energy},
   };
-  if (!report_path.empty()) write_text_atomically(report_path, report.dump(2) + "\n");
+}
 
-  if (interrupted())
-    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) + ") after " +
-                std::to_string(run) + " of " + std::to_string(steps) + " steps");
-  if (args.quiet) {
-    if (solver.instability()) throw Error("unstable: " + solver.instability()->describe());
-    return;
-  }
+void print_lattice_summary(const Scene& scene, const LatticeRun& built, const LatticeRunResult& r) {
+  const crms::Solver& solver = *built.solver;
+  const crms::Lattice& l = solver.lattice();
+  const double stable = solver.stable_dt();
+  const std::int64_t run = solver.steps_done();
+  const double rate = r.stepping_s > 0 ? static_cast<double>(run) / r.stepping_s : 0.0;
   std::printf(
       "%s: %lld nodes (%lld alive, %lld fixed) on %s, %s, dt %.3g s (%.2f× the stable "
       "%.3g s)\n",
       scene.name.c_str(), static_cast<long long>(l.node_count()),
-      static_cast<long long>(l.alive_count()), static_cast<long long>(fixed),
-      solver.backend_name().c_str(), crms::to_string(config.integrator), dt,
-      stable > 0 ? dt / stable : 0.0, stable);
+      static_cast<long long>(l.alive_count()), static_cast<long long>(built.fixed_nodes),
+      solver.backend_name().c_str(), crms::to_string(solver.config().integrator), built.dt_s,
+      stable > 0 ? built.dt_s / stable : 0.0, stable);
   std::string effects;
   for (const std::string& e : solver.active_effects()) effects += (effects.empty() ? "" : ", ") + e;
   std::printf("effects: %s\n", effects.empty() ? "none" : effects.c_str());
   std::printf(
       "%lld steps in %.3f s: %.4g steps/s, %.4g node-steps/s; energy %.6g -> %.6g nJ; max "
       "displacement %.4g mm\n",
-      static_cast<long long>(run), stepping_s, rate, rate * static_cast<double>(l.node_count()),
-      energy.front()["total_nj"].get<double>(), energy.back()["total_nj"].get<double>(),
-      max_displacement);
-  if (solver.instability()) throw Error("unstable: " + solver.instability()->describe());
+      static_cast<long long>(run), r.stepping_s, rate, rate * static_cast<double>(l.node_count()),
+      r.energy.front().second.total_nj(), r.energy.back().second.total_nj(), r.max_displacement_mm);
+}
+
+/// A lattice-only scene: build, step, report, summary.
+void run_lattice_only(const Scene& scene, const SimulateArguments& args) {
+  if (args.duration_s >= 0 || !args.mesh.empty() || !args.states.empty())
+    throw Error(
+        "--duration, --mesh and --states need a scene with a script (tissue, tools, script)");
+  // The report: --report, else report.json in --out when an output folder is given.
+  std::filesystem::path report_path = absolute_path(args.report);
+  if (report_path.empty() && !args.out.empty())
+    report_path = OutputFolder::prepare(args.out, args.force, "--out").file("report.json");
+  LatticeRun built = build_lattice_run(scene);
+  const LatticeRunResult r = step_lattice(scene, built, args.steps >= 0 ? args.steps : scene.steps);
+  if (!report_path.empty())
+    write_text_atomically(report_path, lattice_report_json(scene, built, r).dump(2) + "\n");
+  if (r.interrupted)
+    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) + ") after " +
+                std::to_string(built.solver->steps_done()) + " of " +
+                std::to_string(r.steps_requested) + " steps");
+  if (!args.quiet) print_lattice_summary(scene, built, r);
+  if (const auto& inst = built.solver->instability()) throw Error("unstable: " + inst->describe());
+}
+
+void run_simulate(const SimulateArguments& args) {
+  Scene scene = read_scene(args.scene);
+  check_scene_for_command(scene, SceneCommand::kSimulate);
+  override_backend(scene, args.backend);
+  if (scene.interactive)
+    run_interactive(scene, args);
+  else
+    run_lattice_only(scene, args);
 }
 
 }  // namespace

@@ -180,47 +180,53 @@ bool is_yaml(const std::filesystem::path& p) {
   return e == ".yaml" || e == ".yml";
 }
 
-void run_view(const ViewArguments& args) {
-  const std::filesystem::path input = args.input;
-  if (args.offscreen && args.frames == 0) throw Error("--frames: expected at least 1 frame, got 0");
-
-  if (!args.ct.empty() && args.ct != "none" && !std::filesystem::exists(args.ct))
-    throw Error("--ct: no such file: " + args.ct);
-  // Cheap checks first (scene, tools, script, display), then the tissue model.
+/// What `tsf view` shows, read and checked before the (slow) model: the scene (absent for a bare
+/// density volume), its tools, the view script and its options.
+struct ViewInputs {
   std::optional<Scene> scene;
   std::vector<viewer::NamedTool> tools;
+  viewer::ViewScript script;
+  bool scene_script = false;  ///< the scene's script is the hand (offscreen, no --script)
+};
+
+ViewInputs read_view_inputs(const ViewArguments& args) {
+  const std::filesystem::path input = args.input;
+  if (args.offscreen && args.frames == 0) throw Error("--frames: expected at least 1 frame, got 0");
+  if (!args.ct.empty() && args.ct != "none" && !std::filesystem::exists(args.ct))
+    throw Error("--ct: no such file: " + args.ct);
   const std::string ext = input.extension().string();
   if (!is_yaml(input) && ext != ".nrrd" && ext != ".nhdr" && ext != ".mha" && ext != ".mhd")
     throw Error(input.string() +
                 ": expected a scene (.yaml) or a density volume (PREFIX-density.nrrd from `tsf "
                 "segment`)");
+  ViewInputs in;
   if (is_yaml(input)) {
-    scene = read_scene(input);
-    check_scene_for_command(*scene, SceneCommand::kView);
-    override_backend(*scene, args.backend);
-    for (const SceneTool& t : scene->tools) tools.push_back({t.name, t.tool});
+    in.scene = read_scene(input);
+    check_scene_for_command(*in.scene, SceneCommand::kView);
+    override_backend(*in.scene, args.backend);
+    for (const SceneTool& t : in.scene->tools) in.tools.push_back({t.name, t.tool});
   }
-  if (tools.empty()) tools = default_tools();
+  if (in.tools.empty()) in.tools = default_tools();
   viewer::ViewOptions defaults;
   defaults.offscreen = args.offscreen;
   // The scene's script plays offscreen unless --script replaces it (a view script: camera,
   // slices and the hand); in the live window the mouse is the tool.
-  const bool scene_script = scene && scene->script_given && args.script.empty();
-  if (scene_script) defaults.frame_s = 1.0 / scene->script.frame_rate_hz;
-  viewer::ViewScript script;
-  script.options = defaults;
+  const bool has_script = in.scene && in.scene->script_given;
+  in.scene_script = has_script && args.script.empty() && args.offscreen;
+  if (has_script && args.script.empty()) defaults.frame_s = 1.0 / in.scene->script.frame_rate_hz;
+  in.script.options = defaults;
   if (!args.script.empty())
-    script = viewer::read_view_script(args.script, tools, defaults);
-  else if (scene_script && args.offscreen)
-    script = hand_from_scene_script(*scene, defaults, defaults.frame_s);
-  viewer::ViewOptions& o = script.options;
+    in.script = viewer::read_view_script(args.script, in.tools, defaults);
+  else if (in.scene_script)
+    in.script = hand_from_scene_script(*in.scene, defaults, defaults.frame_s);
+  viewer::ViewOptions& o = in.script.options;
   if (args.width > 0) o.width = args.width;
   if (args.height > 0) o.height = args.height;
   if (args.frame_time > 0) o.frame_s = args.frame_time;
   if (args.no_slices) o.slices.show = false;
   o.offscreen = args.offscreen;
   o.validate();
-  if (!args.quiet && scene && scene->script_given)
+  if (!args.quiet && has_script)
     std::printf("tsf view: %s\n",
                 !args.script.empty()
                     ? "script: the view script given with --script replaces the scene's script"
@@ -228,113 +234,118 @@ void run_view(const ViewArguments& args) {
                     ? "script: playing the scene's script (trajectories and events as the hand)"
                     : "script: not played in the live window (the mouse is the tool; "
                       "--offscreen plays it)");
-  const viewer::DisplayStatus display = viewer::x_display_status();
-  if (!display.available) throw Error("tsf view: " + display.reason);
-  // Where offscreen frames and the scene's outputs go (checked before the model is built).
-  OutputFolder folder;
-  if (args.offscreen || (scene && scene->outputs_given))
-    folder = OutputFolder::prepare(args.out, args.force, "--out");
+  return in;
+}
 
+/// The tissue model: the scene's (one builder for every command), or a bare density volume
+/// with one soft material and its bone held.
+struct ViewModel {
   std::unique_ptr<interaction::TissueModel> model;
-  Stopwatch setup;
-  VolumeGeometry tissue_geometry;
-  nlohmann::json session_summary = nullptr;
-  if (scene) {
-    TissueInstance built = build_tissue_instance(*scene, 0);
-    session_summary = built.summary;
-    tissue_geometry = built.patient_frame;
-    model = std::move(built.model);
-  } else {
-#ifdef TSF_HAVE_IMPORT
-    interaction::TissueModelOptions mo;
-    if (!args.backend.empty()) mo.solver.backend = parse_backend(args.backend);
-    mo.solver.materials.at(0).youngs_modulus_pa = 30000;
-    mo.solver.materials.at(0).viscosity_pa_s = 5;
-    mo.solver.stability.kinetic_damping = 0.01;
-    // Bone holds still (no gravity: nothing else holds the tissue).
-    mo.anchor = [](crms::Lattice& l) {
-      crms::fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
-    };
-    model = std::make_unique<interaction::TissueModel>(import::read_tissue_volume(input), mo);
-    tissue_geometry = model->volume().geometry();
-#else
-    throw Error(input.string() +
-                ": reading a volume needs a build with ITK (reconfigure with -DTSF_WITH_ITK=ON); "
-                "give a scene file (.yaml) instead");
-#endif
-  }
-  // The scene's outputs: the rest mesh now, states every states_every frames, the final mesh and
-  // the report at the end (scene_outputs.h names them inside --out).
-  SceneOutputWriter outputs(scene ? &*scene : nullptr, folder, tissue_geometry, *model);
-  viewer::SimulationSession session(std::move(model), tools);
+  VolumeGeometry patient_frame;
+  nlohmann::json session = nullptr;
+};
 
-  // Slice planes: the CT the tissue came from (--ct, else the one its segmentation report
-  // names) with the labels over it; else the whole tissue volume when the scene is a crop of it;
-  // else the tissue's own volume (the viewer's default).
-  std::optional<viewer::SliceVolume> slice_volume;
+ViewModel build_view_model(const ViewArguments& args, const ViewInputs& in) {
+  ViewModel vm;
+  if (in.scene) {
+    TissueInstance built = build_tissue_instance(*in.scene, 0);
+    vm.session = built.summary;
+    vm.patient_frame = built.patient_frame;
+    vm.model = std::move(built.model);
+    return vm;
+  }
 #ifdef TSF_HAVE_IMPORT
+  interaction::TissueModelOptions mo;
+  if (!args.backend.empty()) mo.solver.backend = parse_backend(args.backend);
+  mo.solver.materials.at(0).youngs_modulus_pa = 30000;
+  mo.solver.materials.at(0).viscosity_pa_s = 5;
+  mo.solver.stability.kinetic_damping = 0.01;
+  // Bone holds still (no gravity: nothing else holds the tissue).
+  mo.anchor = [](crms::Lattice& l) {
+    crms::fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
+  };
+  vm.model = std::make_unique<interaction::TissueModel>(import::read_tissue_volume(args.input), mo);
+  vm.patient_frame = vm.model->volume().geometry();
+  return vm;
+#else
+  throw Error(args.input +
+              ": reading a volume needs a build with ITK (reconfigure with -DTSF_WITH_ITK=ON); "
+              "give a scene file (.yaml) instead");
+#endif
+}
+
+/// Slice planes: the CT the tissue came from (--ct, else the one its segmentation report names)
+/// with the labels over it; else the whole tissue volume when the scene is a crop of it; else
+/// none (the viewer then slices the tissue's own volume).
+std::optional<viewer::SliceVolume> view_slices(const ViewArguments& args, const ViewInputs& in,
+                                               const interaction::TissueModel& model) {
+  std::optional<viewer::SliceVolume> slices;
+#ifdef TSF_HAVE_IMPORT
+  const std::optional<Scene>& scene = in.scene;
   std::filesystem::path density;
   if (!scene)
-    density = input;
+    density = args.input;
   else if (scene->instances[0].lattice.source == SceneLattice::Source::kVolume)
     density = scene->instances[0].lattice.volume;
   std::optional<VoxelVolume> whole;
   if (scene && scene->instances[0].lattice.cropped && !density.empty())
     whole = import::read_tissue_volume(density);
-  const VoxelVolume& labels = whole ? *whole : session.model().volume();
+  const VoxelVolume& labels = whole ? *whole : model.volume();
   std::filesystem::path ct = args.ct;
   if (ct.empty() && !density.empty()) ct = find_source_ct(density);
   if (!ct.empty() && args.ct != "none")
-    slice_volume = ct_slices(ct, labels);
+    slices = ct_slices(ct, labels);
   else if (whole)
-    slice_volume = viewer::slices_from_tissue(*whole);
+    slices = viewer::slices_from_tissue(*whole);
 #else
+  (void)in;
+  (void)model;
   if (!args.ct.empty() && args.ct != "none")
     throw Error("--ct: reading a CT needs a build with ITK (reconfigure with -DTSF_WITH_ITK=ON)");
 #endif
-  if (!args.quiet)
-    std::printf("tsf view: %s on %s, lattice %d x %d x %d, %zu triangles (setup %.2f s)\n",
-                input.string().c_str(), session.stats().backend.c_str(),
-                session.stats().lattice_dims.x, session.stats().lattice_dims.y,
-                session.stats().lattice_dims.z, session.stats().live_triangles, setup.seconds());
-  const viewer::SliceVolume* slices = slice_volume ? &*slice_volume : nullptr;
+  return slices;
+}
 
-  if (!args.offscreen) {
-    o.close_after_frames = args.frames;
-    if (!args.quiet) std::printf("%s\n", viewer::kViewerKeyHelp);
-    viewer::Viewer v(session, slices, o);
-    const int frames = v.run_window();
-    if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
-    outputs.finish(session.model(), frames * o.frame_s, {{"frames", frames}});
-    return;
-  }
-  int frames = args.frames;
-  if (frames < 0 && scene_script) {  // default: the scene script's duration
+/// Frames to render offscreen: --frames, else the scene script's duration, else the view
+/// script's last keyframe plus 0.05 s of settling, else 60.
+int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
+  if (args.frames >= 0) return args.frames;
+  const viewer::ViewOptions& o = in.script.options;
+  if (in.scene_script) {
     double end = 0;
-    for (const SceneTrajectory& t : scene->script.trajectories)
+    for (const SceneTrajectory& t : in.scene->script.trajectories)
       end = std::max(end, t.keyframes.back().time_s);
-    for (const SceneEvent& e : scene->script.events) end = std::max(end, e.time_s);
-    const double duration = scene->script.duration_s >= 0 ? scene->script.duration_s : end + 0.1;
-    frames = std::max(1, static_cast<int>(std::ceil(duration / o.frame_s - 1e-9)));
+    for (const SceneEvent& e : in.scene->script.events) end = std::max(end, e.time_s);
+    const double duration =
+        in.scene->script.duration_s >= 0 ? in.scene->script.duration_s : end + 0.1;
+    return std::max(1, static_cast<int>(std::ceil(duration / o.frame_s - 1e-9)));
   }
-  if (frames < 0)  // default: the script's last keyframe plus a second of settling, else 60
-    frames = script.hand.empty() ? 60
-                                 : static_cast<int>(script.hand.end_time()) + 1 +
-                                       static_cast<int>(std::ceil(0.05 / o.frame_s));
-  Progress progress("view " + input.filename().string(), static_cast<std::uint64_t>(frames),
+  return in.script.hand.empty() ? 60
+                                : static_cast<int>(in.script.hand.end_time()) + 1 +
+                                      static_cast<int>(std::ceil(0.05 / o.frame_s));
+}
+
+void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
+                           viewer::SimulationSession& session, const viewer::SliceVolume* slices,
+                           const OutputFolder& folder, SceneOutputWriter& outputs,
+                           const nlohmann::json& session_summary) {
+  const viewer::ViewOptions& o = in.script.options;
+  const int frames = offscreen_frame_count(args, in);
+  Progress progress("view " + std::filesystem::path(args.input).filename().string(),
+                    static_cast<std::uint64_t>(frames),
                     !args.quiet && Progress::stderr_is_terminal());
   const viewer::OffscreenResult r =
-      viewer::render_offscreen(session, slices, script, frames, folder.path(), [&](int f) {
+      viewer::render_offscreen(session, slices, in.script, frames, folder.path(), [&](int f) {
         progress.set(static_cast<std::uint64_t>(f + 1));
         outputs.frame(session.model(), f + 1, (f + 1) * o.frame_s);
       });
   progress.finish();
   const nlohmann::json report = {
       {"tsf_version", TSF_VERSION_STRING},
-      {"input", absolute_path(input).string()},
+      {"input", absolute_path(args.input).string()},
       {"frame", "patient (LPS), mm"},
       {"session", session_summary},
-      {"script", args.script.empty() ? (scene_script ? "the scene's script" : "")
+      {"script", args.script.empty() ? (in.scene_script ? "the scene's script" : "")
                                      : absolute_path(args.script).string()},
       {"frames", r.frames},
       {"width", o.width},
@@ -355,6 +366,40 @@ void run_view(const ViewArguments& args) {
         "%zu triangles at the end)\n",
         r.frames, folder.path().c_str(), r.mean_render_s * 1e3, r.mean_simulate_s * 1e3,
         r.last.live_triangles);
+}
+
+void run_view(const ViewArguments& args) {
+  // Cheap checks first (scene, tools, script, display, output folder), then the tissue model.
+  ViewInputs in = read_view_inputs(args);
+  const viewer::DisplayStatus display = viewer::x_display_status();
+  if (!display.available) throw Error("tsf view: " + display.reason);
+  OutputFolder folder;
+  if (args.offscreen || (in.scene && in.scene->outputs_given))
+    folder = OutputFolder::prepare(args.out, args.force, "--out");
+
+  Stopwatch setup;
+  ViewModel vm = build_view_model(args, in);
+  // The scene's outputs: the rest mesh now, states every states_every frames, the final mesh and
+  // the report at the end (names inside --out).
+  SceneOutputWriter outputs(in.scene ? &*in.scene : nullptr, folder, vm.patient_frame, *vm.model);
+  viewer::SimulationSession session(std::move(vm.model), in.tools);
+  const std::optional<viewer::SliceVolume> slice_volume = view_slices(args, in, session.model());
+  const viewer::SliceVolume* slices = slice_volume ? &*slice_volume : nullptr;
+  if (!args.quiet)
+    std::printf("tsf view: %s on %s, lattice %d x %d x %d, %zu triangles (setup %.2f s)\n",
+                args.input.c_str(), session.stats().backend.c_str(), session.stats().lattice_dims.x,
+                session.stats().lattice_dims.y, session.stats().lattice_dims.z,
+                session.stats().live_triangles, setup.seconds());
+  if (args.offscreen)
+    return render_view_offscreen(args, in, session, slices, folder, outputs, vm.session);
+  viewer::ViewOptions o = in.script.options;
+  o.close_after_frames = args.frames;
+  if (!args.quiet) std::printf("%s\n", viewer::kViewerKeyHelp);
+  viewer::Viewer v(session, slices, o);
+  const int frames = v.run_window();
+  if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
+  outputs.finish(session.model(), frames * o.frame_s,
+                 {{"frames", frames}, {"session", vm.session}});
 }
 
 }  // namespace
