@@ -40,7 +40,6 @@ struct Grid {
   double dir[3][3]{};  // dir[r][c]: column c = index axis c in LPS
   int a_lr = 0, a_ap = 1, a_si = 2;
   int sign_lr = 1, sign_si = 1, sign_face = 1;
-  double mid_idx = 0.0;  // along a_lr
 
   std::size_t index(int i, int j, int k) const {
     return static_cast<std::size_t>(i) +
@@ -55,9 +54,26 @@ struct Grid {
     return p;
   }
   Vec3d column(int c) const { return {dir[0][c], dir[1][c], dir[2][c]}; }
-  double lat(const int idx[3]) const { return (idx[a_lr] - mid_idx) * s * sign_lr; }
-  double ant(const int idx[3]) const { return idx[a_ap] * s * sign_face; }
-  double sup(const int idx[3]) const { return idx[a_si] * s * sign_si; }
+  // The midsagittal plane (point, unit normal toward left) and the anterior and superior axes.
+  Vec3d plane_p, plane_n{1, 0, 0}, ant_axis{0, -1, 0}, sup_axis{0, 0, 1};
+  double lat(const int idx[3]) const {
+    return dot(physical(idx[0], idx[1], idx[2]) - plane_p, plane_n);
+  }
+  double ant(const int idx[3]) const {
+    return dot(physical(idx[0], idx[1], idx[2]), ant_axis) * sign_face;
+  }
+  double sup(const int idx[3]) const { return dot(physical(idx[0], idx[1], idx[2]), sup_axis); }
+  /// The voxel nearest to an LPS point, or false outside the grid.
+  bool nearest(const Vec3d& p, int idx[3]) const {
+    for (int c = 0; c < 3; ++c) {
+      const double t = (dir[0][c] * (p.x - origin[0]) + dir[1][c] * (p.y - origin[1]) +
+                        dir[2][c] * (p.z - origin[2])) /
+                       s;
+      idx[c] = static_cast<int>(std::lround(t));
+      if (idx[c] < 0 || idx[c] >= n[c]) return false;
+    }
+    return true;
+  }
 };
 
 /// Bounding box, centroid and volume of a set of voxels, in LPS.
@@ -173,49 +189,71 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
     };
     const std::size_t total = use_bone ? bone_count : tissue_count;
     const std::size_t stride = std::max<std::size_t>(1, total / 300000);
-    std::vector<std::array<int, 3>> pts;
-    double sum_lr = 0.0;
+    std::vector<Vec3d> pts;
+    Vec3d c{0, 0, 0};
     std::size_t seen = 0;
     for (int k = 0; k < g.n[2]; ++k)
       for (int j = 0; j < g.n[1]; ++j)
         for (int i = 0; i < g.n[0]; ++i) {
           if (!in_mask(g.index(i, j, k))) continue;
           if (seen++ % stride) continue;
-          pts.push_back({i, j, k});
-          sum_lr += pts.back()[g.a_lr];
+          pts.push_back(g.physical(i, j, k));
+          c = c + pts.back();
         }
-    const double c0 = sum_lr / static_cast<double>(pts.size());
-    const int radius = static_cast<int>(std::ceil(15.0 / g.s));
-    int best_c2 = static_cast<int>(std::lround(2.0 * c0));
-    double best_overlap = -1.0;
-    for (int c2 = static_cast<int>(std::lround(2.0 * c0)) - 2 * radius;
-         c2 <= static_cast<int>(std::lround(2.0 * c0)) + 2 * radius; ++c2) {
+    c = c * (1.0 / static_cast<double>(pts.size()));
+    // Mirror planes through c + d·n, n turned by θ about the superior axis from the L/R axis
+    // (a head may lie yawed in the scanner): coarse, then fine around the best.
+    const Vec3d lr = g.column(g.a_lr) * static_cast<double>(g.sign_lr);
+    const Vec3d ap = g.column(g.a_ap);
+    constexpr double kDeg = 3.14159265358979323846 / 180.0;
+    auto normal_at = [&](double theta) {
+      return lr * std::cos(theta * kDeg) + ap * std::sin(theta * kDeg);
+    };
+    auto overlap = [&](double theta, double d) {
+      const Vec3d nrm = normal_at(theta);
       std::size_t hit = 0;
-      for (const auto& p : pts) {
-        std::array<int, 3> m = p;
-        m[g.a_lr] = c2 - p[g.a_lr];
-        if (m[g.a_lr] < 0 || m[g.a_lr] >= g.n[g.a_lr]) continue;
-        hit += in_mask(g.index(m[0], m[1], m[2])) ? 1 : 0;
+      int idx[3];
+      for (const Vec3d& p : pts) {
+        const Vec3d q = p - nrm * (2.0 * (dot(p - c, nrm) - d));
+        if (g.nearest(q, idx)) hit += in_mask(g.index(idx[0], idx[1], idx[2])) ? 1 : 0;
       }
-      const double overlap = static_cast<double>(hit) / static_cast<double>(pts.size());
-      if (overlap > best_overlap) {
-        best_overlap = overlap;
-        best_c2 = c2;
+      return static_cast<double>(hit) / static_cast<double>(pts.size());
+    };
+    double best_theta = 0.0, best_d = 0.0, best_overlap = -1.0;
+    const double d_step = std::max(1.0, g.s);
+    for (double theta = -30.0; theta <= 30.0 + 1e-9; theta += 3.0)
+      for (double d = -15.0; d <= 15.0 + 1e-9; d += d_step) {
+        const double o = overlap(theta, d);
+        if (o > best_overlap + 1e-6) {
+          best_overlap = o;
+          best_theta = theta;
+          best_d = d;
+        }
       }
-    }
-    g.mid_idx = 0.5 * best_c2;
-    double centre[3] = {0, 0, 0};
-    for (const auto& p : pts)
-      for (int a = 0; a < 3; ++a) centre[a] += p[a];
-    for (double& c : centre) c /= static_cast<double>(pts.size());
-    centre[g.a_lr] = g.mid_idx;
+    const double coarse_theta = best_theta, coarse_d = best_d;
+    for (double theta = coarse_theta - 2.0; theta <= coarse_theta + 2.0 + 1e-9; theta += 1.0)
+      for (double d = coarse_d - d_step; d <= coarse_d + d_step + 1e-9; d += 0.25 * d_step) {
+        const double o = overlap(theta, d);
+        if (o > best_overlap + 1e-6) {
+          best_overlap = o;
+          best_theta = theta;
+          best_d = d;
+        }
+      }
+    g.plane_n = normal_at(best_theta);
+    g.plane_p = c + g.plane_n * best_d;
+    const Vec3d ant0 = ap - g.plane_n * dot(ap, g.plane_n);
+    g.ant_axis = ant0 * (1.0 / std::sqrt(length_squared(ant0)));
+    g.sup_axis = g.column(g.a_si) * static_cast<double>(g.sign_si);
     AnatomyPlane& m = out.midsagittal;
     m.found = true;
-    m.point_mm = g.physical(centre[0], centre[1], centre[2]);
-    m.normal = g.column(g.a_lr) * static_cast<double>(g.sign_lr);
+    m.point_mm = g.plane_p;
+    m.normal = g.plane_n;
     m.confidence = clamp01((best_overlap - 0.2) / 0.5) * (use_bone ? 1.0 : 0.7);
     m.reason = std::string("left-right mirror plane of the ") + (use_bone ? "bone" : "tissue") +
-               ": " + fmt(100.0 * best_overlap, 0) + " % of its voxels have a mirror image";
+               ", turned " + fmt(best_theta, 0) +
+               " deg about the vertical: " + fmt(100.0 * best_overlap, 0) +
+               " % of its voxels have a mirror image";
   }
 
   // ---- facing: which end of the A/P axis the face is at ---------------------------------------
@@ -288,9 +326,9 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
           "no protruding nose and no air spaces in front: the frame's anterior (−y) is assumed (" +
           evidence + ")";
     }
-    out.frame.anterior = g.column(g.a_ap) * static_cast<double>(g.sign_face);
-    out.frame.left = g.column(g.a_lr) * static_cast<double>(g.sign_lr);
-    out.frame.superior = g.column(g.a_si) * static_cast<double>(g.sign_si);
+    out.frame.anterior = g.ant_axis * static_cast<double>(g.sign_face);
+    out.frame.left = g.plane_n;
+    out.frame.superior = g.sup_axis;
     out.frame.facing_agrees = g.sign_face == recorded;
     if (!out.frame.facing_agrees)
       out.warnings.push_back(

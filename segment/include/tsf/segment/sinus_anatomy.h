@@ -4,8 +4,8 @@
 // reason; what cannot be found is reported with confidence 0 and a warning naming it.
 //
 // Method (docs/patients.md, "Anatomy found per patient"):
-//   midsagittal  the left-right mirror plane of the bone (else the body): the offset along the
-//                index axis closest to patient x that maximises the mirrored overlap
+//   midsagittal  the left-right mirror plane of the bone (else the tissue): the offset and the yaw
+//                about the vertical (±30°) that maximise the mirrored overlap
 //   facing       which end of the index axis closest to patient y the face is at: the nose
 //                protrudes (a small cap of body at that end) and the air spaces lie in front;
 //                compared with the recorded (or assumed) frame, where anterior is −y
@@ -55,8 +55,8 @@ struct AnatomyPlane {
   std::string reason;
 };
 
-/// Patient directions as unit vectors in LPS. `anterior` is the detected facing; left and
-/// superior are the frame's (+x, +z as recorded or assumed).
+/// Patient directions as unit vectors in LPS. `left` is the midsagittal plane's normal (+x turned
+/// by the head's yaw), `anterior` the detected facing within that plane, `superior` the frame's.
 struct AnatomyFrame {
   Vec3d left{1, 0, 0}, anterior{0, -1, 0}, superior{0, 0, 1};
   bool orientation_recorded = true;
