@@ -87,6 +87,54 @@ TEST(PatientAnatomy, SinusAnatomySceneRunsOnTheGeSeries) {
   EXPECT_LT(seg["anatomy"]["directions"]["anterior"][1].get<double>(), -0.9);
 }
 
+/// The anatomy scene with its CT given as an absolute path and one piece of text replaced.
+fs::path anatomy_scene_copy(const fs::path& dir, const std::string& name, const std::string& from,
+                            const std::string& to) {
+  std::string t = read_text(anatomy_scene());
+  const auto at = t.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) t.replace(at, from.size(), to);
+  t.replace(t.find("ct: ../data-samples/"), std::string("ct: ../").size(),
+            "ct: " + test::source_dir().string() + "/");
+  const fs::path scene = dir / (name + ".yaml");
+  std::ofstream(scene) << t;
+  return scene;
+}
+
+TEST(PatientAnatomy, ALandmarkOfLowConfidenceIsUsedAndWarnedAboutWithItsConfidence) {
+  TSF_EXECUTABLE_OR_SKIP(exe);
+  const fs::path dir = test::scratch_dir("anatomy-low-confidence");
+  // The cranium records no left/right: its nostrils are found with confidence < 0.5.
+  const fs::path scene =
+      anatomy_scene_copy(dir, "low", "{landmark: nose-tip, offset_mm: {anterior: 3, inferior: 2}}",
+                         "{landmark: nostril-left, offset_mm: {anterior: 8}}");
+  const test::ProcessRun r =
+      test::run_tsf(exe, "run " + shell_quoted(scene) + " -q --backend cpu --duration 0.004 -o " +
+                             shell_quoted(dir / "out"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json run = json::parse(read_text(dir / "out" / "run-report.json"));
+  std::string warnings;
+  for (const auto& w : run["warnings"]) warnings += w.get<std::string>() + "\n";
+  EXPECT_TRUE(contains(warnings, "uses 'nostril-left', found with confidence 0.")) << warnings;
+  EXPECT_TRUE(contains(warnings, "script.trajectories[1].keyframes[0].position")) << warnings;
+  EXPECT_TRUE(contains(read_text(dir / "out" / "run-report.md"), "nostril-left"));
+}
+
+TEST(PatientAnatomy, ARegionNotFoundStopsTheRunNamingTheKeyAndWhy) {
+  TSF_EXECUTABLE_OR_SKIP(exe);
+  const fs::path dir = test::scratch_dir("anatomy-not-found");
+  // At 2 mm the cranium's maxillary sinuses are not separated from the nasal cavity.
+  const fs::path scene =
+      anatomy_scene_copy(dir, "missing", "{region: nasal-cavity,", "{region: maxillary-left,");
+  const test::ProcessRun r =
+      test::run_tsf(exe, "run " + shell_quoted(scene) + " -q --backend cpu --duration 0.004 -o " +
+                             shell_quoted(dir / "out"));
+  EXPECT_NE(r.status, 0);
+  EXPECT_TRUE(contains(r.output, "lattice.crop.region: 'maxillary-left' was not found in this CT"))
+      << r.output;
+  EXPECT_TRUE(contains(r.output, "not separated")) << r.output;
+}
+
 TEST(PatientAnatomy, AnatomyKeysWithoutAPipelineAreRefusedByName) {
   TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path dir = test::scratch_dir("anatomy-no-pipeline");
