@@ -188,7 +188,7 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
       return use_bone ? is_bone_label(labels[v]) : is_tissue_label(labels[v]);
     };
     const std::size_t total = use_bone ? bone_count : tissue_count;
-    const std::size_t stride = std::max<std::size_t>(1, total / 300000);
+    const std::size_t stride = std::max<std::size_t>(1, total / 100000);
     std::vector<Vec3d> pts;
     Vec3d c{0, 0, 0};
     std::size_t seen = 0;
