@@ -21,6 +21,7 @@
 #include "run/repo_paths.h"
 #include "run/run_report.h"
 #include "run/run_spec.h"
+#include "scene/anatomy_placement.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_session.h"
@@ -243,14 +244,19 @@ void check_ct_before_segmenting(RunContext& ctx, const std::string& ct_key,
           " positions lie more than " + fixed(kFarMm, 0) + " mm outside the CT's volume (first " +
           point_text(first_far) + " mm; the volume spans " + box_text(tissue) + ")");
   };
+  // Paths placed by the anatomy are known only after segmentation (anatomy_placement.h).
   for (const SceneTrajectory& t : scene.script.trajectories) {
+    bool by_anatomy = false;
+    for (const AnatomyPosition& p : t.anatomy) by_anatomy = by_anatomy || p.given();
+    if (by_anatomy) continue;
     std::vector<Vec3d> points;
     for (const interaction::Keyframe& k : t.keyframes) points.push_back(k.pose.position);
     check_path("the trajectory of tool '" + t.tool + "'", t.tool, points);
   }
   for (const SceneEvent& e : scene.script.events)
-    check_path("the stroke of tool '" + e.tool + "' at " + fixed(e.time_s, 3) + " s", e.tool,
-               {e.from.position, e.to.position});
+    if (!e.from_anatomy.given() && !e.to_anatomy.given())
+      check_path("the stroke of tool '" + e.tool + "' at " + fixed(e.time_s, 3) + " s", e.tool,
+                 {e.from.position, e.to.position});
 
   auto v3 = [](const Vec3d& v) { return json::array({v.x, v.y, v.z}); };
   auto box_json = [&](const import::Box3& b) { return json{{"min", v3(b.lo)}, {"max", v3(b.hi)}}; };
@@ -373,6 +379,22 @@ SegmentOutcome segment_stage(RunContext& ctx) {
   ctx.stages.push_back({"write segmented volumes", write_s,
                         seg.volume_paths.density.filename().string() + ", labels, weights"});
   for (SceneInstance& inst : ctx.scene.instances) inst.lattice.volume = seg.volume_paths.density;
+  if (!ctx.scene.anatomy_key.empty()) {
+    // Crops, anchors and tool positions given relative to the anatomy the segmentation found.
+    clock.restart();
+    for (const std::string& w : place_scene_by_anatomy(ctx.scene, seg.report)) {
+      ctx.warnings.push_back(w);
+      std::fprintf(stderr, "tsf run: warning: %s\n", w.c_str());
+    }
+    std::string crops;
+    for (const SceneInstance& inst : ctx.scene.instances)
+      if (!inst.lattice.crop_region.empty())
+        crops += (crops.empty() ? "crop " : ", ") +
+                 box_text({inst.lattice.crop_min_mm, inst.lattice.crop_max_mm}) + " (" +
+                 inst.lattice.crop_region + ")";
+    ctx.stages.push_back({"place the scene by anatomy", clock.seconds(),
+                          crops.empty() ? std::string("anchors and tool positions") : crops});
+  }
 #else
   throw Error(ctx.scene.file.string() +
               ": pipeline: import and segmentation need a build with ITK "
@@ -638,17 +660,18 @@ json run_pipeline(const RunOptions& options) {
       stages.push_back({{"stage", s.name}, {"seconds", s.seconds}, {"detail", s.detail}});
     const std::string why = "interrupted (signal " + std::to_string(interrupt_signal()) +
                             ") after segmentation; nothing was simulated";
-    write_text_atomically(ctx.folder.file("run-report.json"),
-                          json{{"tsf_version", TSF_VERSION_STRING},
-                               {"scene", {{"name", ctx.scene.name},
-                                          {"file", absolute_path(ctx.scene.file).string()}}},
-                               {"verdict", "interrupted"},
-                               {"verdict_reason", why},
-                               {"stages", stages},
-                               {"segmentation", seg.report},
-                               {"failure", why}}
-                                  .dump(2) +
-                              "\n");
+    write_text_atomically(
+        ctx.folder.file("run-report.json"),
+        json{
+            {"tsf_version", TSF_VERSION_STRING},
+            {"scene", {{"name", ctx.scene.name}, {"file", absolute_path(ctx.scene.file).string()}}},
+            {"verdict", "interrupted"},
+            {"verdict_reason", why},
+            {"stages", stages},
+            {"segmentation", seg.report},
+            {"failure", why}}
+                .dump(2) +
+            "\n");
     throw Error(why + " (" + ctx.folder.path().string() + ")");
   }
   const InteractionOutcome io = interaction_stage(ctx);

@@ -24,6 +24,18 @@
 
 namespace tsf::app {
 
+/// A position given relative to the patient's anatomy (`{landmark: nose-tip, offset_mm: {anterior:
+/// 5, left: 2}}`), found by the segmentation of `tsf run` and resolved into tissue space right
+/// after it (anatomy_placement.h, docs/patients.md). `landmark` empty: an absolute position.
+struct AnatomyPosition {
+  std::string landmark;  ///< a landmark or a region's centroid (anatomy_placement.h lists them)
+  /// The offset in patient directions, mm: +x left, +y anterior, +z superior (right, posterior
+  /// and inferior are negative).
+  Vec3d offset_mm{0, 0, 0};
+  std::string key;  ///< the key path, for messages
+  bool given() const { return !landmark.empty(); }
+};
+
 struct SceneLattice {
   enum class Source { kBox, kVolume };
   Source source = Source::kBox;
@@ -39,6 +51,13 @@ struct SceneLattice {
   /// volume: region of interest, tissue-space mm (the voxels whose centres lie in the box).
   bool cropped = false;
   Vec3d crop_min_mm, crop_max_mm;
+  /// `crop: {region: nasal-cavity, include: [nose-tip], margin_mm: 10}`: the region's box, grown to
+  /// hold the included landmarks and then by the margin, set in
+  /// crop_min_mm/crop_max_mm (and `cropped`) after segmentation. Empty: an absolute crop or none.
+  std::string crop_region;
+  std::vector<std::string> crop_include;  ///< landmarks the box is grown to hold (`include:`)
+  double crop_margin_mm = 0.0;
+  std::string crop_key;
   /// volume: the segment labels this lattice takes (tissue_labels.h); voxels of other labels are
   /// emptied (density 0, label outside) before the surface and lattice are built. Empty = all.
   std::vector<std::uint8_t> labels;
@@ -66,6 +85,8 @@ struct SceneTool {
 struct SceneTrajectory {
   std::string tool;
   std::vector<interaction::Keyframe> keyframes;
+  /// Per keyframe: its position relative to the anatomy (not given: absolute).
+  std::vector<AnatomyPosition> anatomy;
 };
 
 /// A one-off stroke at `time_s`: the tool moves from `from` to `to` in `mode`, then lifts.
@@ -74,6 +95,7 @@ struct SceneEvent {
   std::string tool;
   interaction::ToolMode mode = interaction::ToolMode::kCut;
   ToolPose from, to;
+  AnatomyPosition from_anatomy, to_anatomy;  ///< positions relative to the anatomy, if given
 };
 
 struct SceneScript {
@@ -98,8 +120,11 @@ struct SceneOutputs {
 struct SceneAnchor {
   enum class Kind { kBox, kPlane, kLabels };
   Kind kind = Kind::kBox;
-  Vec3d min_mm, max_mm;    ///< box
-  Vec3d point_mm, normal;  ///< plane: nodes with (p − point)·normal ≤ 0 are anchored
+  Vec3d min_mm, max_mm;           ///< box
+  Vec3d point_mm, normal;         ///< plane: nodes with (p − point)·normal ≤ 0 are anchored
+  AnatomyPosition point_anatomy;  ///< plane: the point relative to the anatomy, if given
+  std::string normal_direction;   ///< plane: a patient direction (`anterior`, …) for the normal
+  std::string normal_key;
   std::vector<std::uint8_t> labels;
 };
 
@@ -172,6 +197,9 @@ struct Scene {
   /// The scene is played interactively (voxels, surface, lattice, coupler, tools, script):
   /// it has a `tissue`, `tools`, `script` or `tissues` section. Otherwise only its lattice steps.
   bool interactive = false;
+  /// The first key that places something relative to the anatomy (empty: none); such a scene
+  /// needs a pipeline section (the anatomy is found by its segmentation).
+  std::string anatomy_key;
 
   const SceneTool* find_tool(const std::string& tool_name) const {
     for (const SceneTool& t : tools)

@@ -1,6 +1,7 @@
 // Strict YAML reading of a tsf scene (scene.h). yaml-cpp stays in app/: tissue/ never sees it.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <optional>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "run/material_library.h"
+#include "scene/anatomy_placement.h"
 #include "scene/scene.h"
 #include "scene/scene_session.h"
 #include "tsf/common/error.h"
@@ -20,6 +22,56 @@ namespace tsf::app {
 namespace {
 
 using Field = YamlField;
+
+std::string joined_names(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+/// `offset_mm: {anterior: 5, left: 2}` -> (left, anterior, superior) mm.
+Vec3d read_anatomy_offset(const Field& f) {
+  if (!f.defined()) return {0, 0, 0};
+  f.expect_keys({"left", "right", "anterior", "posterior", "superior", "inferior"});
+  Vec3d out{0, 0, 0};
+  for (const char* k : {"left", "right", "anterior", "posterior", "superior", "inferior"}) {
+    if (!f[k].defined()) continue;
+    Vec3d dir;
+    anatomy_direction(k, dir);
+    out = out + dir * f[k].number(0.0, -500.0, 500.0);
+  }
+  for (const auto& [a, b] : {std::pair<const char*, const char*>{"left", "right"},
+                             {"anterior", "posterior"},
+                             {"superior", "inferior"}})
+    if (f[a].defined() && f[b].defined())
+      f[b].fail(std::string("give ") + a + " or " + b + ", not both");
+  return out;
+}
+
+/// `{landmark: nose-tip, offset_mm: {...}}`: a position relative to the anatomy.
+AnatomyPosition read_anatomy_position(const Field& f) {
+  f.expect_keys({"landmark", "offset_mm"});
+  if (!f["landmark"].defined())
+    f["landmark"].fail("is required (one of " + joined_names(anatomy_landmark_names()) + ")");
+  AnatomyPosition p;
+  p.landmark = f["landmark"].text();
+  const auto& names = anatomy_landmark_names();
+  if (std::find(names.begin(), names.end(), p.landmark) == names.end())
+    f["landmark"].fail("unknown landmark '" + p.landmark + "' (expected one of " +
+                       joined_names(names) + ")");
+  p.offset_mm = read_anatomy_offset(f["offset_mm"]);
+  p.key = f.path();
+  return p;
+}
+
+/// `position:` [x, y, z] mm (tissue space), or a position relative to the anatomy.
+Vec3d read_position(const Field& f, AnatomyPosition& anatomy) {
+  if (f.defined() && f.node().IsMap()) {
+    anatomy = read_anatomy_position(f);
+    return {0, 0, 0};
+  }
+  return f.vec3({});
+}
 
 // `volume_from_pipeline`: the scene has a `pipeline:` section (tsf run, app/run/run_spec.h),
 // which writes the volume and fills lattice.volume in.
@@ -60,9 +112,28 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
     l.occupancy_threshold = f["occupancy_threshold"].number(0.125, 0.0, 1.0, true);
     l.mass_floor = f["mass_floor"].number(0.5, 0.0, 1.0);
     const Field crop = f["crop"];
-    if (crop.defined()) {
-      crop.expect_keys({"min", "max"});
-      if (!crop["min"].defined() || !crop["max"].defined()) crop.fail("needs min and max (mm)");
+    if (crop.defined() && crop["region"].defined()) {
+      crop.expect_keys({"region", "include", "margin_mm"});
+      l.crop_region = crop["region"].text();
+      const auto& regions = anatomy_region_names();
+      if (std::find(regions.begin(), regions.end(), l.crop_region) == regions.end())
+        crop["region"].fail("unknown region '" + l.crop_region + "' (expected one of " +
+                            joined_names(regions) + ")");
+      const Field include = crop["include"];
+      const auto& landmarks = anatomy_landmark_names();
+      for (std::size_t i = 0; include.defined() && i < include.size(); ++i) {
+        const std::string n = include.at(i).text();
+        if (std::find(landmarks.begin(), landmarks.end(), n) == landmarks.end())
+          include.at(i).fail("unknown landmark '" + n + "' (expected one of " +
+                             joined_names(landmarks) + ")");
+        l.crop_include.push_back(n);
+      }
+      l.crop_margin_mm = crop["margin_mm"].number(0.0, 0.0, 200.0);
+      l.crop_key = crop["region"].path();
+    } else if (crop.defined()) {
+      crop.expect_keys({"min", "max", "region", "include", "margin_mm"});
+      if (!crop["min"].defined() || !crop["max"].defined())
+        crop.fail("needs min and max (mm), or a region (an anatomy region and margin_mm)");
       l.cropped = true;
       l.crop_min_mm = crop["min"].vec3({});
       l.crop_max_mm = crop["max"].vec3({});
@@ -195,10 +266,37 @@ void read_anchors(const Field& f, std::vector<SceneAnchor>& anchors) {
         a["box"].fail("needs min and max");
     } else if (a["plane"].defined()) {
       anchor.kind = SceneAnchor::Kind::kPlane;
-      a["plane"].expect_keys({"point", "normal"});
-      anchor.point_mm = a["plane"]["point"].vec3({0, 0, 0});
-      anchor.normal = a["plane"]["normal"].vec3({});
-      if (!(length_squared(anchor.normal) > 0)) a["plane"]["normal"].fail("must not be zero");
+      const Field plane = a["plane"];
+      plane.expect_keys({"point", "normal", "landmark", "offset_mm"});
+      if (plane["landmark"].defined()) {
+        if (plane["point"].defined())
+          plane["point"].fail("give point (mm) or landmark (with offset_mm), not both");
+        anchor.point_anatomy.landmark = plane["landmark"].text();
+        const auto& names = anatomy_landmark_names();
+        if (std::find(names.begin(), names.end(), anchor.point_anatomy.landmark) == names.end())
+          plane["landmark"].fail("unknown landmark '" + anchor.point_anatomy.landmark +
+                                 "' (expected one of " + joined_names(names) + ")");
+        anchor.point_anatomy.offset_mm = read_anatomy_offset(plane["offset_mm"]);
+        anchor.point_anatomy.key = plane["landmark"].path();
+      } else {
+        if (plane["offset_mm"].defined()) plane["offset_mm"].fail("needs landmark");
+        anchor.point_mm = plane["point"].vec3({0, 0, 0});
+      }
+      const Field normal = plane["normal"];
+      Vec3d dir;
+      if (normal.defined() && normal.node().IsScalar()) {
+        anchor.normal_direction = normal.text();
+        if (!anatomy_direction(anchor.normal_direction, dir))
+          normal.fail(
+              "expected [x, y, z] or a patient direction (left, right, anterior, "
+              "posterior, superior, inferior), got '" +
+              anchor.normal_direction + "'");
+        anchor.normal_key = normal.path();
+        anchor.normal = dir;
+      } else {
+        anchor.normal = normal.vec3({});
+        if (!(length_squared(anchor.normal) > 0)) normal.fail("must not be zero");
+      }
     } else {
       anchor.kind = SceneAnchor::Kind::kLabels;
       const Field labels = a["labels"];
@@ -264,11 +362,12 @@ Rotation read_rotation(const Field& f) {
   return Rotation::about_axis(axis, angle * 3.14159265358979323846 / 180.0);
 }
 
-ToolPose read_pose(const Field& f) {
+ToolPose read_pose(const Field& f, AnatomyPosition& anatomy) {
   if (!f.defined()) f.fail("is required (position, optional rotation)");
   f.expect_keys({"position", "rotation"});
   if (!f["position"].defined()) f["position"].fail("is required ([x, y, z] mm)");
-  return {f["position"].vec3({}), read_rotation(f["rotation"])};
+  const Vec3d position = read_position(f["position"], anatomy);
+  return {position, read_rotation(f["rotation"])};
 }
 
 interaction::ToolMode read_mode(const Field& f) {
@@ -348,7 +447,9 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
         if (!out.keyframes.empty() && !(kf.time_s > out.keyframes.back().time_s))
           key["time"].fail("must be later than the previous keyframe's");
         if (!key["position"].defined()) key["position"].fail("is required ([x, y, z] mm)");
-        kf.pose.position = key["position"].vec3({});
+        AnatomyPosition anatomy;
+        kf.pose.position = read_position(key["position"], anatomy);
+        out.anatomy.push_back(anatomy);
         kf.pose.orientation = read_rotation(key["rotation"]);
         if (!key["mode"].defined()) key["mode"].fail("is required (press, ablate, cut or idle)");
         kf.mode = read_mode(key["mode"]);
@@ -387,8 +488,13 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
       if (!tool.tool.supports(e.mode))
         ev["mode"].fail(std::string("tool '") + tool.name + "' cannot " +
                         interaction::to_string(e.mode));
-      e.from = read_pose(ev["from"]);
-      e.to = ev["to"].defined() ? read_pose(ev["to"]) : e.from;
+      e.from = read_pose(ev["from"], e.from_anatomy);
+      if (ev["to"].defined()) {
+        e.to = read_pose(ev["to"], e.to_anatomy);
+      } else {
+        e.to = e.from;
+        e.to_anatomy = e.from_anatomy;
+      }
       s.events.push_back(e);
     }
   }
@@ -613,6 +719,27 @@ Scene read_scene(const std::filesystem::path& file) {
     top["outputs"].fail(
         "needs a scene with tissue, tools or a script (a lattice-only scene writes its report "
         "with --report)");
+  // Anatomy-relative keys are resolved after the segmentation of `tsf run`: without a pipeline
+  // there is no anatomy to place them by.
+  for (const SceneInstance& inst : s.instances) {
+    if (s.anatomy_key.empty() && !inst.lattice.crop_region.empty())
+      s.anatomy_key = inst.lattice.crop_key;
+    for (const SceneAnchor& a : inst.anchors) {
+      if (s.anatomy_key.empty() && a.point_anatomy.given()) s.anatomy_key = a.point_anatomy.key;
+      if (s.anatomy_key.empty() && !a.normal_direction.empty()) s.anatomy_key = a.normal_key;
+    }
+  }
+  for (const SceneTrajectory& t : s.script.trajectories)
+    for (const AnatomyPosition& p : t.anatomy)
+      if (s.anatomy_key.empty() && p.given()) s.anatomy_key = p.key;
+  for (const SceneEvent& e : s.script.events)
+    for (const AnatomyPosition* p : {&e.from_anatomy, &e.to_anatomy})
+      if (s.anatomy_key.empty() && p->given()) s.anatomy_key = p->key;
+  if (!s.anatomy_key.empty() && !s.pipeline.present)
+    throw Error(name + ": " + s.anatomy_key +
+                ": places by the patient's anatomy, which is found when tsf run segments the CT; "
+                "this scene has no pipeline section (no segmentation): add one, or give "
+                "millimetres (docs/patients.md)");
   // Cross-field checks with the library's own messages (they name material.* fields).
   for (std::size_t i = 0; i < s.instances.size(); ++i) {
     try {

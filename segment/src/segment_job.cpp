@@ -6,6 +6,7 @@
 #include "tsf/segment/hu_volume_source.h"
 #include "tsf/segment/segmentation_pipeline.h"
 #include "tsf/segment/segmentation_report.h"
+#include "tsf/segment/sinus_anatomy.h"
 #include "tsf/segment/slice_preview.h"
 #include "tsf/segment/voxel_volume_boundary.h"
 
@@ -36,10 +37,21 @@ SegmentJobResult run_segment_job(const SegmentJob& job) {
   const double write_seconds = clock.seconds();
 
   const SegmentationStatistics stats = segmentation_statistics(result, job.preset);
+  // The anatomy (nasal cavity, nose tip, nostrils, midsagittal plane, paranasal air spaces), in
+  // patient coordinates; a CT that records no orientation has unknown left/right.
+  clock.restart();
+  SinusAnatomyOptions anatomy_options;
+  for (const std::string& w : imported.warnings)
+    if (w.find("orientation is not recorded") != std::string::npos)
+      anatomy_options.orientation_recorded = false;
+  const SinusAnatomy anatomy = find_sinus_anatomy(result.images, anatomy_options);
+  result.stage_times.push_back({"anatomy", clock.seconds()});
   if (job.write_preview) {
     clock.restart();
     out.preview_path = fs::path(prefix + "-preview.png");
-    write_slice_preview(out.preview_path, result.images, stats);
+    SlicePreviewOptions preview_options;
+    preview_options.anatomy = &anatomy;
+    write_slice_preview(out.preview_path, result.images, stats, preview_options);
     result.stage_times.push_back({"preview", clock.seconds()});
   }
 
@@ -57,6 +69,7 @@ SegmentJobResult run_segment_job(const SegmentJob& job) {
   // The import's warnings (resampling, gantry tilt, no patient orientation, ...), each as the
   // import wrote it.
   report["warnings"] = imported.warnings;
+  report["anatomy"] = sinus_anatomy_json(anatomy);
   report["overrides"] = job.overrides;
   report["outputs"] = {{"density", out.volume_paths.density.string()},
                        {"labels", out.volume_paths.labels.string()},

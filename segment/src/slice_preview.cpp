@@ -103,6 +103,93 @@ std::string format_ml(double ml) {
   return buffer;
 }
 
+constexpr Rgb kMarker{255, 230, 0};
+constexpr Rgb kLetter{120, 255, 120};
+
+/// The patient direction letter of index axis `axis` going `sign` (+1/−1), from the anatomy's
+/// directions; blank for left/right when the CT records no orientation.
+char direction_letter(const SinusAnatomy& a, const HuImage* hu, int axis, int sign) {
+  Vec3d col{hu->GetDirection()[0][axis], hu->GetDirection()[1][axis], hu->GetDirection()[2][axis]};
+  col = col * static_cast<double>(sign);
+  const double l = dot(col, a.frame.left), an = dot(col, a.frame.anterior),
+               s = dot(col, a.frame.superior);
+  if (std::abs(l) >= std::abs(an) && std::abs(l) >= std::abs(s))
+    return a.frame.orientation_recorded ? (l > 0 ? 'L' : 'R') : ' ';
+  if (std::abs(an) >= std::abs(s)) return an > 0 ? 'A' : 'P';
+  return s > 0 ? 'S' : 'I';
+}
+
+/// Continuous index of an LPS point on the preview's grid.
+std::array<double, 3> point_index(const HuImage* hu, const Vec3d& p) {
+  std::array<double, 3> out{};
+  const auto& o = hu->GetOrigin();
+  const auto& d = hu->GetDirection();
+  const double sp = hu->GetSpacing()[0];
+  for (int c = 0; c < 3; ++c)
+    out[c] = (d[0][c] * (p.x - o[0]) + d[1][c] * (p.y - o[1]) + d[2][c] * (p.z - o[2])) / sp;
+  return out;
+}
+
+/// Panel coordinates (u, v) of a continuous index, per view (0 axial, 1 coronal, 2 sagittal).
+std::array<double, 2> panel_uv(int view, const std::array<double, 3>& idx,
+                               const std::array<int, 3>& dims) {
+  if (view == 0) return {idx[0], idx[1]};
+  if (view == 1) return {idx[0], dims[2] - 1 - idx[2]};
+  return {idx[1], dims[2] - 1 - idx[2]};
+}
+
+/// Orientation letters at the panel's edges, the nasal cavity's box and the landmarks' crosses.
+template <typename ViewT>
+void draw_anatomy(Canvas& canvas, const SinusAnatomy& a, const HuImage* hu, const ViewT& view,
+                  const std::vector<ViewT>& views, const std::array<int, 3>& dims, int left,
+                  int top, int scale) {
+  const int which = static_cast<int>(&view - views.data());
+  // The index axes along u (right) and v (down) of this panel.
+  const int u_axis = which == 2 ? 1 : 0;
+  const int v_axis = which == 0 ? 1 : 2;
+  const int v_sign = which == 0 ? 1 : -1;
+  const int w = view.width * scale, h = view.height * scale;
+  constexpr int kS = 2;
+  auto letter = [&](int x, int y, char c) { canvas.text(x, y, std::string(1, c), kS, kLetter); };
+  letter(left + w - 6 * kS - 2, top + h / 2 - 7, direction_letter(a, hu, u_axis, 1));
+  letter(left + 2, top + h / 2 - 7, direction_letter(a, hu, u_axis, -1));
+  letter(left + w / 2 - 5, top + 2, direction_letter(a, hu, v_axis, -v_sign));
+  letter(left + w / 2 - 5, top + h - 7 * kS - 2, direction_letter(a, hu, v_axis, v_sign));
+  if (!a.frame.orientation_recorded) canvas.text(left + 2, top + 2, "L/R UNKNOWN", 1, kLetter);
+  auto in_panel = [&](int x, int y) {
+    return x >= left && x < left + w && y >= top && y < top + h;
+  };
+  auto mark = [&](int x, int y) {
+    if (in_panel(x, y)) canvas.set(x, y, kMarker);
+  };
+  if (const AnatomyRegion* nc = a.region("nasal-cavity"); nc && nc->found) {
+    const auto lo = panel_uv(which, point_index(hu, nc->min_mm), dims);
+    const auto hi = panel_uv(which, point_index(hu, nc->max_mm), dims);
+    const int x0 = left + static_cast<int>(std::lround(std::min(lo[0], hi[0]) * scale));
+    const int x1 = left + static_cast<int>(std::lround((std::max(lo[0], hi[0]) + 1) * scale));
+    const int y0 = top + static_cast<int>(std::lround(std::min(lo[1], hi[1]) * scale));
+    const int y1 = top + static_cast<int>(std::lround((std::max(lo[1], hi[1]) + 1) * scale));
+    for (int x = x0; x <= x1; ++x) {
+      mark(x, y0);
+      mark(x, y1);
+    }
+    for (int y = y0; y <= y1; ++y) {
+      mark(x0, y);
+      mark(x1, y);
+    }
+  }
+  for (const AnatomyLandmark& l : a.landmarks) {
+    if (!l.found) continue;
+    const auto uv = panel_uv(which, point_index(hu, l.position_mm), dims);
+    const int x = left + static_cast<int>(std::lround((uv[0] + 0.5) * scale));
+    const int y = top + static_cast<int>(std::lround((uv[1] + 0.5) * scale));
+    for (int d = -5; d <= 5; ++d) {
+      mark(x + d, y);
+      mark(x, y + d);
+    }
+  }
+}
+
 }  // namespace
 
 Rgb label_preview_colour(unsigned char label) {
@@ -229,6 +316,8 @@ SlicePreviewInfo write_slice_preview(const std::filesystem::path& png,
           c = mix(c, kAirSpaceColour, std::min(1.0f, options.tint + 0.2f));
         canvas.fill_rect(left + u * scale, top + v * scale, scale, scale, c);
       }
+    if (options.anatomy)
+      draw_anatomy(canvas, *options.anatomy, images.hu, view, views, dims, left, top, scale);
     left += view.width * scale + kMargin;
   }
   for (std::size_t e = 0; e < legend.size(); ++e) {

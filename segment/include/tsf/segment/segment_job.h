@@ -3,7 +3,9 @@
 // Outputs for PREFIX:
 //   PREFIX-density.nrrd  PREFIX-labels.nrrd  PREFIX-weights.nrrd (tsf::import::write_tissue_volume)
 //   PREFIX-report.json   grid, class volumes (ml) and bounding boxes (mm), stage times, parameters,
-//                        and `warnings`: what the import said (resampling, tilt, no orientation)
+//                        `anatomy` (sinus_anatomy.h: landmarks and regions in LPS with
+//                        confidences), and `warnings`: what the import said (resampling, tilt, no
+//                        orientation)
 //   PREFIX-preview.png   labelled axial/coronal/sagittal slices (unless write_preview is false)
 // Every file is written atomically (temporary then rename); on an error nothing half-written is
 // left behind.

@@ -4,7 +4,8 @@
 // the air spaces inside the body in blue; a legend names each colour with its volume. Slices pass
 // through the centroid of the air spaces (the sinuses and nasal cavity in a head) when there are
 // any, else through the centroid of the tissue. Panels are drawn in index axes: axial = (i right,
-// j down), coronal = (i right, k up), sagittal = (j right, k up).
+// j down), coronal = (i right, k up), sagittal = (j right, k up). With the anatomy, the edges carry
+// orientation letters and the landmarks are marked.
 #pragma once
 
 #include <array>
@@ -12,6 +13,7 @@
 
 #include "tsf/segment/segmentation_pipeline.h"
 #include "tsf/segment/segmentation_report.h"
+#include "tsf/segment/sinus_anatomy.h"
 
 namespace tsf::segment {
 
@@ -20,6 +22,10 @@ struct SlicePreviewOptions {
   double window_max_hu = 1400.0;   ///< white
   int scale = 0;                   ///< pixels per voxel; 0 = smallest making panels >= 320 px
   float tint = 0.45f;              ///< opacity of the class colours
+  /// When given: its landmarks are marked (crosses, projected onto every panel), the nasal
+  /// cavity's box outlined, and the panel edges lettered with the patient directions (L/R, A/P
+  /// from the detected facing, S/I; "L/R UNKNOWN" when the CT records no orientation).
+  const SinusAnatomy* anatomy = nullptr;
 };
 
 struct SlicePreviewInfo {

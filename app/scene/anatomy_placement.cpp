@@ -1,0 +1,219 @@
+#include "scene/anatomy_placement.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "tsf/common/error.h"
+
+namespace tsf::app {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr double kLowConfidence = 0.5;
+
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+Vec3d vec(const json& j) {
+  return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()};
+}
+
+struct Found {
+  bool found = false;
+  Vec3d point, lo, hi;  // LPS
+  bool is_region = false;
+  double confidence = 0.0;
+  std::string reason;
+};
+
+/// The anatomy of a segment report, in LPS, and the segmented grid's frame.
+struct ReportAnatomy {
+  std::map<std::string, Found> named;
+  Vec3d left{1, 0, 0}, anterior{0, -1, 0}, superior{0, 0, 1};
+  Vec3d origin{0, 0, 0};
+  std::array<double, 9> direction{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::vector<std::string> warnings;
+
+  /// LPS -> tissue space (origin + index × spacing: the direction not applied).
+  Vec3d tissue_point(const Vec3d& p) const { return origin + tissue_direction(p - origin); }
+  Vec3d tissue_direction(const Vec3d& v) const {
+    Vec3d out;
+    for (int c = 0; c < 3; ++c)
+      out[c] = direction[0 * 3 + c] * v.x + direction[1 * 3 + c] * v.y + direction[2 * 3 + c] * v.z;
+    return out;
+  }
+  /// (left, anterior, superior) amounts -> an LPS vector.
+  Vec3d patient_offset(const Vec3d& las) const {
+    return left * las.x + anterior * las.y + superior * las.z;
+  }
+};
+
+ReportAnatomy read_report_anatomy(const json& report) {
+  if (!report.contains("anatomy") || !report.contains("grid"))
+    throw Error("the segment report has no anatomy section");
+  const json& a = report.at("anatomy");
+  ReportAnatomy out;
+  const json& d = a.at("directions");
+  out.left = vec(d.at("left"));
+  out.anterior = vec(d.at("anterior"));
+  out.superior = vec(d.at("superior"));
+  out.origin = vec(report.at("grid").at("origin_mm"));
+  const json& dir = report.at("grid").at("direction");
+  for (std::size_t i = 0; i < 9; ++i) out.direction[i] = dir.at(i).get<double>();
+  for (const json& l : a.at("landmarks")) {
+    Found f;
+    f.found = l.value("found", false);
+    f.confidence = l.value("confidence", 0.0);
+    f.reason = l.value("reason", std::string());
+    if (f.found) f.point = vec(l.at("position_mm"));
+    out.named[l.at("name").get<std::string>()] = f;
+  }
+  for (const json& r : a.at("regions")) {
+    Found f;
+    f.is_region = true;
+    f.found = r.value("found", false);
+    f.confidence = r.value("confidence", 0.0);
+    f.reason = r.value("reason", std::string());
+    if (f.found) {
+      f.point = vec(r.at("centroid_mm"));
+      f.lo = vec(r.at("bbox_mm").at("min"));
+      f.hi = vec(r.at("bbox_mm").at("max"));
+    }
+    out.named[r.at("name").get<std::string>()] = f;
+  }
+  for (const json& p : a.at("planes")) {
+    Found f;
+    f.found = p.value("found", false);
+    f.confidence = p.value("confidence", 0.0);
+    f.reason = p.value("reason", std::string());
+    if (f.found) f.point = vec(p.at("point_mm"));
+    out.named[p.at("name").get<std::string>()] = f;
+  }
+  for (const json& w : a.value("warnings", json::array()))
+    out.warnings.push_back(w.get<std::string>());
+  return out;
+}
+
+}  // namespace
+
+const std::vector<std::string>& anatomy_region_names() {
+  static const std::vector<std::string> names = {
+      "nasal-cavity", "maxillary-left", "maxillary-right", "frontal", "sphenoid", "ethmoid"};
+  return names;
+}
+
+const std::vector<std::string>& anatomy_landmark_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n = {"nose-tip", "nostril-left", "nostril-right", "midsagittal"};
+    for (const std::string& r : anatomy_region_names()) n.push_back(r);
+    return n;
+  }();
+  return names;
+}
+
+bool anatomy_direction(const std::string& word, Vec3d& v) {
+  if (word == "left")
+    v = {1, 0, 0};
+  else if (word == "right")
+    v = {-1, 0, 0};
+  else if (word == "anterior")
+    v = {0, 1, 0};
+  else if (word == "posterior")
+    v = {0, -1, 0};
+  else if (word == "superior")
+    v = {0, 0, 1};
+  else if (word == "inferior")
+    v = {0, 0, -1};
+  else
+    return false;
+  return true;
+}
+
+std::vector<std::string> place_scene_by_anatomy(Scene& scene, const json& segment_report) {
+  const std::string file = scene.file.string();
+  ReportAnatomy a;
+  try {
+    a = read_report_anatomy(segment_report);
+  } catch (const std::exception& e) {
+    throw Error(file + ": " + scene.anatomy_key + ": cannot place by anatomy: " + e.what());
+  }
+  std::vector<std::string> warnings;
+  std::map<std::string, bool> warned;
+  for (const std::string& w : a.warnings) warnings.push_back(w);
+  auto use = [&](const std::string& name, const std::string& key) -> const Found& {
+    const auto it = a.named.find(name);
+    if (it == a.named.end() || !it->second.found)
+      throw Error(file + ": " + key + ": '" + name + "' was not found in this CT" +
+                  (it == a.named.end() ? std::string() : " (" + it->second.reason + ")") +
+                  "; give this position in millimetres instead (the segment report's anatomy "
+                  "section and preview show what was found; docs/patients.md)");
+    if (it->second.confidence < kLowConfidence && !warned[name]) {
+      warned[name] = true;
+      warnings.push_back("anatomy: " + key + " uses '" + name + "', found with confidence " +
+                         fixed(it->second.confidence, 2) + " (below " + fixed(kLowConfidence, 1) +
+                         "): " + it->second.reason + "; check the placement in the preview");
+    }
+    return it->second;
+  };
+  auto position = [&](const AnatomyPosition& p) {
+    const Found& f = use(p.landmark, p.key);
+    return a.tissue_point(f.point + a.patient_offset(p.offset_mm));
+  };
+  for (SceneInstance& inst : scene.instances) {
+    SceneLattice& l = inst.lattice;
+    if (!l.crop_region.empty()) {
+      const Found& f = use(l.crop_region, l.crop_key);
+      Vec3d box_lo = f.lo, box_hi = f.hi;  // LPS
+      for (const std::string& n : l.crop_include) {
+        const std::string include_key =
+            l.crop_key.substr(0, l.crop_key.size() - std::string("region").size()) + "include";
+        const Found& g = use(n, include_key);
+        for (int ax = 0; ax < 3; ++ax) {
+          box_lo[ax] = std::min(box_lo[ax], g.point[ax]);
+          box_hi[ax] = std::max(box_hi[ax], g.point[ax]);
+        }
+      }
+      Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+      for (int corner = 0; corner < 8; ++corner) {
+        Vec3d c;
+        for (int ax = 0; ax < 3; ++ax)
+          c[ax] =
+              (corner >> ax) & 1 ? box_hi[ax] + l.crop_margin_mm : box_lo[ax] - l.crop_margin_mm;
+        const Vec3d t = a.tissue_point(c);
+        for (int ax = 0; ax < 3; ++ax) {
+          lo[ax] = std::min(lo[ax], t[ax]);
+          hi[ax] = std::max(hi[ax], t[ax]);
+        }
+      }
+      l.cropped = true;
+      l.crop_min_mm = lo;
+      l.crop_max_mm = hi;
+    }
+    for (SceneAnchor& anchor : inst.anchors) {
+      if (anchor.point_anatomy.given()) anchor.point_mm = position(anchor.point_anatomy);
+      if (!anchor.normal_direction.empty()) {
+        Vec3d las;
+        anatomy_direction(anchor.normal_direction, las);
+        anchor.normal = a.tissue_direction(a.patient_offset(las));
+      }
+    }
+  }
+  for (SceneTrajectory& t : scene.script.trajectories)
+    for (std::size_t k = 0; k < t.keyframes.size() && k < t.anatomy.size(); ++k)
+      if (t.anatomy[k].given()) t.keyframes[k].pose.position = position(t.anatomy[k]);
+  for (SceneEvent& e : scene.script.events) {
+    if (e.from_anatomy.given()) e.from.position = position(e.from_anatomy);
+    if (e.to_anatomy.given()) e.to.position = position(e.to_anatomy);
+  }
+  return warnings;
+}
+
+}  // namespace tsf::app
