@@ -1,6 +1,6 @@
-// The optional CRMS effects (docs/effects.md): each effect's defining behaviour, every effect through the
-// stability suite's hard cases, and CPU vs CUDA parity with all effects on. Every test runs on
-// the CPU and, where a device exists, on CUDA.
+// The optional CRMS effects (docs/effects.md): each effect's defining behaviour, every effect
+// through the stability suite's hard cases, and CPU vs CUDA parity with all effects on. Every test
+// runs on the CPU and, where a device exists, on CUDA.
 #include <gtest/gtest.h>
 
 #include <cmath>

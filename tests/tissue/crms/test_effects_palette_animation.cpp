@@ -1,6 +1,6 @@
 // Heterogeneity palettes with per-node blend weights, animation (rest keyframes, material tracks,
-// cut triggers) and node masking (docs/effects.md). Every test runs on the CPU and, where a device exists,
-// on CUDA; CrmsEffectsRobustness also runs under ASan + UBSan in CI.
+// cut triggers) and node masking (docs/effects.md). Every test runs on the CPU and, where a device
+// exists, on CUDA; CrmsEffectsRobustness also runs under ASan + UBSan in CI.
 #include <gtest/gtest.h>
 
 #include <cmath>

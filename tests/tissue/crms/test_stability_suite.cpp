@@ -1,6 +1,7 @@
-// The CRMS stability suite (docs/crms.md, "Stability"): hard cases on every available backend, each asserting no
-// NaN/Inf, energy bounded by what the scene put in (no energy from nowhere) and, where the scene
-// is released, recovery of the rest shape. Lattices are small so that the CPU part stays fast.
+// The CRMS stability suite (docs/crms.md, "Stability"): hard cases on every available backend, each
+// asserting no NaN/Inf, energy bounded by what the scene put in (no energy from nowhere) and, where
+// the scene is released, recovery of the rest shape. Lattices are small so that the CPU part stays
+// fast.
 #include <gtest/gtest.h>
 
 #include <cmath>
