@@ -53,6 +53,35 @@ struct Grid {
       p[r] = origin[r] + dir[r][0] * c[0] + dir[r][1] * c[1] + dir[r][2] * c[2];
     return p;
   }
+  void unindex(std::size_t v, int idx[3]) const {
+    idx[0] = static_cast<int>(v % n[0]);
+    idx[1] = static_cast<int>((v / n[0]) % n[1]);
+    idx[2] = static_cast<int>(v / (static_cast<std::size_t>(n[0]) * n[1]));
+  }
+  /// Breadth-first growth over face neighbours: every voxel of `queue` (from `first` on) offers
+  /// its in-grid neighbours w (index widx); one with mark[w] == 0 and accept(w, widx) is marked
+  /// and queued, and grows in turn. The one flood fill of this file.
+  template <class Accept>
+  void flood(std::vector<std::uint32_t>& queue, std::vector<unsigned char>& mark, Accept accept,
+             std::size_t first = 0) const {
+    const std::ptrdiff_t step[3] = {1, n[0], static_cast<std::ptrdiff_t>(n[0]) * n[1]};
+    for (std::size_t q = first; q < queue.size(); ++q) {
+      const std::size_t v = queue[q];
+      int idx[3];
+      unindex(v, idx);
+      for (int a = 0; a < 3; ++a)
+        for (int d = -1; d <= 1; d += 2) {
+          if (idx[a] + d < 0 || idx[a] + d >= n[a]) continue;
+          const std::size_t w = v + d * step[a];
+          if (mark[w]) continue;
+          int widx[3] = {idx[0], idx[1], idx[2]};
+          widx[a] += d;
+          if (!accept(w, widx)) continue;
+          mark[w] = 1;
+          queue.push_back(static_cast<std::uint32_t>(w));
+        }
+    }
+  }
   Vec3d column(int c) const { return {dir[0][c], dir[1][c], dir[2][c]}; }
   // The midsagittal plane (point, unit normal toward left) and the anterior and superior axes.
   Vec3d plane_p, plane_n{1, 0, 0}, ant_axis{0, -1, 0}, sup_axis{0, 0, 1};
@@ -359,21 +388,7 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
             }
           }
         }
-    for (std::size_t q = 0; q < queue.size(); ++q) {
-      const std::size_t v = queue[q];
-      int idx[3];
-      idx[0] = static_cast<int>(v % g.n[0]);
-      idx[1] = static_cast<int>((v / g.n[0]) % g.n[1]);
-      idx[2] = static_cast<int>(v / (static_cast<std::size_t>(g.n[0]) * g.n[1]));
-      for (int a = 0; a < 3; ++a)
-        for (int d = -1; d <= 1; d += 2) {
-          if (idx[a] + d < 0 || idx[a] + d >= g.n[a]) continue;
-          const std::size_t w = v + static_cast<std::ptrdiff_t>(d) * step[a];
-          if (reached[w] || labels[w] != kLabelOutside) continue;
-          reached[w] = 1;
-          queue.push_back(static_cast<std::uint32_t>(w));
-        }
-    }
+    g.flood(queue, reached, [&](std::size_t w, const int*) { return labels[w] == kLabelOutside; });
   }
 
   // ---- openings: air-space voxels next to reached air that is not air space, at the front ----
@@ -474,28 +489,11 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
         "not found");
   } else {
     std::vector<std::uint32_t> queue;
-    const int step[3] = {1, g.n[0], g.n[0] * g.n[1]};
     auto grow = [&]() {
-      for (std::size_t q = 0; q < queue.size(); ++q) {
-        const std::size_t v = queue[q];
-        int idx[3];
-        idx[0] = static_cast<int>(v % g.n[0]);
-        idx[1] = static_cast<int>((v / g.n[0]) % g.n[1]);
-        idx[2] = static_cast<int>(v / (static_cast<std::size_t>(g.n[0]) * g.n[1]));
-        for (int a = 0; a < 3; ++a)
-          for (int d = -1; d <= 1; d += 2) {
-            if (idx[a] + d < 0 || idx[a] + d >= g.n[a]) continue;
-            const std::size_t w = v + static_cast<std::ptrdiff_t>(d) * step[a];
-            if (in_nasal[w] || !air[w]) continue;
-            int widx[3] = {idx[0], idx[1], idx[2]};
-            widx[a] += d;
-            if (std::abs(g.lat(widx)) > kBandMm || g.sup(widx) > nostril_sup + 55.0 ||
-                g.ant(widx) < nostril_ant - 80.0)
-              continue;
-            in_nasal[w] = 1;
-            queue.push_back(static_cast<std::uint32_t>(w));
-          }
-      }
+      g.flood(queue, in_nasal, [&](std::size_t w, const int* widx) {
+        return air[w] && std::abs(g.lat(widx)) <= kBandMm && g.sup(widx) <= nostril_sup + 55.0 &&
+               g.ant(widx) >= nostril_ant - 80.0;
+      });
     };
     // Fallback: the largest air-space component within the midline band, in front of the
     // tissue's centre (the nasal cavity is the largest midline air space of a head).
@@ -511,32 +509,17 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
               continue;
             comp.assign(1, static_cast<std::uint32_t>(v0));
             seen[v0] = 1;
-            for (std::size_t q = 0; q < comp.size(); ++q) {
-              const std::size_t v = comp[q];
-              int idx[3];
-              idx[0] = static_cast<int>(v % g.n[0]);
-              idx[1] = static_cast<int>((v / g.n[0]) % g.n[1]);
-              idx[2] = static_cast<int>(v / (static_cast<std::size_t>(g.n[0]) * g.n[1]));
-              for (int a = 0; a < 3; ++a)
-                for (int d = -1; d <= 1; d += 2) {
-                  if (idx[a] + d < 0 || idx[a] + d >= g.n[a]) continue;
-                  const std::size_t w = v + static_cast<std::ptrdiff_t>(d) * step[a];
-                  if (seen[w] || !air[w]) continue;
-                  int widx[3] = {idx[0], idx[1], idx[2]};
-                  widx[a] += d;
-                  if (std::abs(g.lat(widx)) > kBandMm || g.ant(widx) < ant_centre) continue;
-                  seen[w] = 1;
-                  comp.push_back(static_cast<std::uint32_t>(w));
-                }
-            }
+            g.flood(comp, seen, [&](std::size_t w, const int* widx) {
+              return air[w] && std::abs(g.lat(widx)) <= kBandMm && g.ant(widx) >= ant_centre;
+            });
             if (comp.size() > best.size()) best.swap(comp);
           }
       double most = -std::numeric_limits<double>::max();
       for (std::uint32_t v : best) {
         in_nasal[v] = 1;
         queue.push_back(v);
-        const int idx[3] = {static_cast<int>(v % g.n[0]), static_cast<int>((v / g.n[0]) % g.n[1]),
-                            static_cast<int>(v / (static_cast<std::size_t>(g.n[0]) * g.n[1]))};
+        int idx[3];
+        g.unindex(v, idx);
         if (g.ant(idx) > most && !nasal_open) {
           most = g.ant(idx);
           nostril_sup = g.sup(idx);
