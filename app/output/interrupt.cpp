@@ -4,6 +4,7 @@
 #include <csignal>
 #include <cstdlib>
 
+#include <time.h>
 #include <unistd.h>
 
 namespace tsf::app {
@@ -14,8 +15,24 @@ using Handler = void (*)(int);
 Handler g_previous_int = SIG_DFL;
 Handler g_previous_term = SIG_DFL;
 
+std::atomic<long long> g_first_ns{0};
+
+long long monotonic_ns() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);  // async-signal-safe
+  return static_cast<long long>(t.tv_sec) * 1000000000LL + t.tv_nsec;
+}
+
 extern "C" void on_signal(int sig) {
-  if (g_signal.exchange(sig) != 0) std::_Exit(128 + sig);  // the second signal: stop now
+  // A second signal a person sends (a second Ctrl-C) stops at once. One arriving within a second
+  // of the first is the same request delivered twice (`timeout` and `kill` on the process
+  // group send it to the process and to its group) and is ignored.
+  if (g_signal.load() != 0) {
+    if (monotonic_ns() - g_first_ns.load() > 1000000000LL) std::_Exit(128 + sig);
+    return;
+  }
+  g_first_ns = monotonic_ns();
+  g_signal = sig;
   static const char kMessage[] =
       "\ntsf: stopping after the current stage or frame and writing the report (press Ctrl-C "
       "again to stop at once)\n";
@@ -27,6 +44,7 @@ extern "C" void on_signal(int sig) {
 
 InterruptScope::InterruptScope() {
   g_signal = 0;
+  g_first_ns = 0;
   g_previous_int = std::signal(SIGINT, on_signal);
   g_previous_term = std::signal(SIGTERM, on_signal);
 }

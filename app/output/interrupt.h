@@ -1,6 +1,7 @@
 // Ctrl-C (SIGINT) and SIGTERM during a long run: the run stops at the next frame, writes its
-// report marked "interrupted" with what it has, removes temporary files and exits non-zero (130),
-// instead of dying with no report. A second signal ends the process at once.
+// report marked "interrupted" with what it has, removes temporary files and exits non-zero,
+// instead of dying with no report. A second signal more than a second later (a second
+// Ctrl-C) ends the process at once; one within a second is the same request delivered twice.
 #pragma once
 
 namespace tsf::app {
