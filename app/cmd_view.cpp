@@ -311,15 +311,8 @@ std::optional<viewer::SliceVolume> view_slices(const ViewArguments& args, const 
 int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
   if (args.frames >= 0) return args.frames;
   const viewer::ViewOptions& o = in.script.options;
-  if (in.scene_script) {
-    double end = 0;
-    for (const SceneTrajectory& t : in.scene->script.trajectories)
-      end = std::max(end, t.keyframes.back().time_s);
-    for (const SceneEvent& e : in.scene->script.events) end = std::max(end, e.time_s);
-    const double duration =
-        in.scene->script.duration_s >= 0 ? in.scene->script.duration_s : end + 0.1;
-    return std::max(1, static_cast<int>(std::ceil(duration / o.frame_s - 1e-9)));
-  }
+  if (in.scene_script)
+    return std::max(1, static_cast<int>(std::ceil(in.scene->script.played_s() / o.frame_s - 1e-9)));
   return in.script.hand.empty() ? 60
                                 : static_cast<int>(in.script.hand.end_time()) + 1 +
                                       static_cast<int>(std::ceil(0.05 / o.frame_s));
@@ -328,6 +321,7 @@ int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
 void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
                            viewer::SimulationSession& session, const viewer::SliceVolume* slices,
                            const OutputFolder& folder, SceneOutputWriter& outputs,
+                           const std::filesystem::path& scene_report,
                            const nlohmann::json& session_summary) {
   const viewer::ViewOptions& o = in.script.options;
   const int frames = offscreen_frame_count(args, in);
@@ -337,7 +331,7 @@ void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
   const viewer::OffscreenResult r =
       viewer::render_offscreen(session, slices, in.script, frames, folder.path(), [&](int f) {
         progress.set(static_cast<std::uint64_t>(f + 1));
-        outputs.frame(session.model(), f + 1, (f + 1) * o.frame_s);
+        outputs.frame(session.model(), f + 1, (f + 1) * o.frame_s, f + 1 == frames);
       });
   progress.finish();
   const nlohmann::json report = {
@@ -359,7 +353,8 @@ void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
       {"mean_simulate_s", r.mean_simulate_s},
   };
   write_text_atomically(folder.file("view-report.json"), report.dump(2) + "\n");
-  outputs.finish(session.model(), r.frames * o.frame_s, report);
+  outputs.finish(session.model().deformed_mesh(), r.frames * o.frame_s);
+  if (!scene_report.empty()) write_text_atomically(scene_report, report.dump(2) + "\n");
   if (!args.quiet)
     std::printf(
         "tsf view: wrote %d frames to %s (render %.1f ms/frame, simulate %.1f ms/frame, "
@@ -379,9 +374,15 @@ void run_view(const ViewArguments& args) {
 
   Stopwatch setup;
   ViewModel vm = build_view_model(args, in);
-  // The scene's outputs: the rest mesh now, states every states_every frames, the final mesh and
-  // the report at the end (names inside --out).
-  SceneOutputWriter outputs(in.scene ? &*in.scene : nullptr, folder, vm.patient_frame, *vm.model);
+  // The scene's outputs (names inside --out): the rest mesh now, states every states_every
+  // frames, the final mesh and the report at the end.
+  InteractionOutputs files;
+  if (in.scene && in.scene->outputs_given) {
+    const SceneOutputs& names = in.scene->outputs;
+    files = {folder.file(names.mesh), folder.file(names.rest_mesh), folder.file(names.report),
+             folder.file(names.states), names.states_every};
+  }
+  SceneOutputWriter outputs(files, vm.patient_frame, *vm.model);
   viewer::SimulationSession session(std::move(vm.model), in.tools);
   const std::optional<viewer::SliceVolume> slice_volume = view_slices(args, in, session.model());
   const viewer::SliceVolume* slices = slice_volume ? &*slice_volume : nullptr;
@@ -391,15 +392,20 @@ void run_view(const ViewArguments& args) {
                 session.stats().lattice_dims.y, session.stats().lattice_dims.z,
                 session.stats().live_triangles, setup.seconds());
   if (args.offscreen)
-    return render_view_offscreen(args, in, session, slices, folder, outputs, vm.session);
+    return render_view_offscreen(args, in, session, slices, folder, outputs, files.report,
+                                 vm.session);
   viewer::ViewOptions o = in.script.options;
   o.close_after_frames = args.frames;
   if (!args.quiet) std::printf("%s\n", viewer::kViewerKeyHelp);
   viewer::Viewer v(session, slices, o);
   const int frames = v.run_window();
   if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
-  outputs.finish(session.model(), frames * o.frame_s,
-                 {{"frames", frames}, {"session", vm.session}});
+  // The window played `frames` frames: its last state is the final one.
+  outputs.frame(session.model(), frames, frames * o.frame_s, true);
+  outputs.finish(session.model().deformed_mesh(), frames * o.frame_s);
+  if (!files.report.empty())
+    write_text_atomically(
+        files.report, nlohmann::json{{"frames", frames}, {"session", vm.session}}.dump(2) + "\n");
 }
 
 }  // namespace

@@ -17,7 +17,6 @@
 #include "tsf/crms/effects.h"
 #include "tsf/imt/surface_ply.h"
 #include "tsf/interaction/lattice_components.h"
-#include "tsf/io/mesh_sequence.h"
 #include "tsf/version.h"
 
 namespace tsf::app {
@@ -51,7 +50,7 @@ std::vector<std::string> kernel_feature_list(unsigned features) {
 struct InstanceRun {
   TissueInstance built;
   InstanceResult result;
-  std::unique_ptr<io::MeshSequenceWriter> states;
+  std::unique_ptr<SceneOutputWriter> files;  ///< rest mesh, states, final mesh
 };
 
 /// The script's frames: 1/frame_rate s each, until the duration (the last keyframe or event plus
@@ -62,12 +61,7 @@ struct ScriptClock {
 };
 
 ScriptClock script_clock(const SceneScript& script, std::optional<double> duration_override) {
-  double end = 0.0;
-  for (const SceneTrajectory& t : script.trajectories)
-    end = std::max(end, t.keyframes.back().time_s);
-  for (const SceneEvent& e : script.events) end = std::max(end, e.time_s);
-  double duration = script.duration_s >= 0 ? script.duration_s : end + 0.1;
-  if (duration_override) duration = *duration_override;
+  const double duration = duration_override ? *duration_override : script.played_s();
   ScriptClock c;
   c.frame_s = 1.0 / script.frame_rate_hz;
   c.frames = static_cast<std::int64_t>(std::ceil(duration / c.frame_s - 1e-9));
@@ -92,12 +86,7 @@ InstanceRun build_instance_run(const Scene& scene, std::size_t i, const Interact
   res.outputs.states = instance_output_path(out.states, scene, i);
   res.outputs.states_every = out.states_every;
   const interaction::TissueModel& model = *r.built.model;
-  if (!res.outputs.rest_mesh.empty())
-    imt::write_surface_ply(res.outputs.rest_mesh, model.deformed_mesh());
-  // Streams to a temporary beside the file; it appears only when the run finishes.
-  if (!res.outputs.states.empty())
-    r.states = std::make_unique<io::MeshSequenceWriter>(res.outputs.states, res.patient_frame,
-                                                        model.deformed_mesh(), 0.0);
+  r.files = std::make_unique<SceneOutputWriter>(res.outputs, res.patient_frame, model);
   res.topology_start = imt::analyse_topology(model.surface().compact());
   res.components_start = model.lattice_components();
   res.alive_start = model.alive_nodes();
@@ -185,13 +174,9 @@ void finish_instance(const InteractionRunOptions& options, const InteractionResu
   const crms::Solver& solver = model.solver();
   const crms::Lattice& lattice = solver.lattice();
   r.final_mesh = model.deformed_mesh();
-  if (run.states) {
-    if (result.frames > 0) run.states->add_frame(end_time_s, r.final_mesh);
-    run.states->finish();
-    r.states_saved = run.states->frame_count();
-  }
+  run.files->finish(r.final_mesh, end_time_s);
+  r.states_saved = run.files->states_saved();
   r.topology_end = imt::analyse_topology(r.final_mesh);
-  if (!r.outputs.mesh.empty()) imt::write_surface_ply(r.outputs.mesh, r.final_mesh);
   const interaction::LatticeComponents pieces = interaction::find_lattice_components(lattice);
   r.components_end = pieces.count();
   r.component_sizes_end = pieces.sizes;
@@ -310,8 +295,7 @@ InteractionResult run_interaction_scene(const Scene& scene, const InteractionRun
     result.max_tool_force_un = std::max(result.max_tool_force_un, length(sum.force_un));
     if (sum.nodes_held > 0 || !result.contact.empty()) result.contact.push_back(sum);
     for (InstanceRun& r : runs)
-      if (r.states && (f + 1) % options.outputs.states_every == 0 && f + 1 < clock.frames)
-        r.states->add_frame(t + clock.frame_s, r.built.model->deformed_mesh());
+      r.files->frame(*r.built.model, f + 1, t + clock.frame_s, f + 1 == clock.frames);
     progress.set(static_cast<std::uint64_t>(f + 1));
   }
   progress.finish();

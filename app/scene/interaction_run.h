@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/scene.h"
+#include "scene/scene_outputs.h"
 #include "tsf/imt/mesh_topology.h"
 #include "tsf/imt/surface_mesh.h"
 #include "tsf/interaction/tissue_model.h"
@@ -27,16 +28,9 @@
 
 namespace tsf::app {
 
-/// The files an interaction run writes (absolute paths; empty = not written). With several
-/// instances each path gets the instance's name (instance_output_path).
-struct InteractionOutputs {
-  std::filesystem::path mesh, rest_mesh, report, states;
-  std::int64_t states_every = 10;
-};
-
 struct InteractionRunOptions {
   std::optional<double> duration_s;  ///< overrides script.duration
-  InteractionOutputs outputs;
+  InteractionOutputs outputs;        ///< with several instances each path gets the instance's name
   bool quiet = false;
   /// Called after every frame's advance, per instance (index into scene.instances), with the time
   /// at its end (tsf run records energy here).

@@ -8,6 +8,7 @@
 // docs/deform-cut.md (tissue, tools, script, outputs), scenes/*.yaml.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -103,6 +104,16 @@ struct SceneScript {
   double duration_s = -1.0;     ///< < 0: 0.1 s after the last keyframe or event
   std::vector<SceneTrajectory> trajectories;
   std::vector<SceneEvent> events;
+
+  /// Seconds the script plays: `duration`, else 0.1 s after its last keyframe or event.
+  double played_s() const {
+    if (duration_s >= 0) return duration_s;
+    double end = 0.0;
+    for (const SceneTrajectory& t : trajectories)
+      if (!t.keyframes.empty()) end = std::max(end, t.keyframes.back().time_s);
+    for (const SceneEvent& e : events) end = std::max(end, e.time_s);
+    return end + 0.1;
+  }
 };
 
 /// Files an interaction run writes: names inside the command's output folder (`--out`; relative

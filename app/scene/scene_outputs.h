@@ -1,16 +1,16 @@
-// A scene's `outputs:` (rest mesh, final mesh, saved states, report) written by a command that
-// runs one tissue instance frame by frame on its own loop (`tsf view`): names inside the
-// command's output folder. `tsf simulate` and `tsf run` write theirs in interaction_run.h.
+// The mesh files an interactive run writes while it plays (`outputs:` of a scene): the rest
+// surface at the start, saved states every `states_every` frames and at the end (.tsfmesh for
+// `tsf export`), the final deformed, cut surface. One writer for every command that plays a
+// tissue frame by frame: the scripted runner (interaction_run.h) and `tsf view`.
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 
-#include <nlohmann/json.hpp>
-
-#include "output/output_folder.h"
-#include "scene/scene.h"
+#include "tsf/imt/surface_mesh.h"
 #include "tsf/interaction/tissue_model.h"
+#include "tsf/volume/voxel_volume.h"
 
 namespace tsf::io {
 class MeshSequenceWriter;
@@ -18,26 +18,37 @@ class MeshSequenceWriter;
 
 namespace tsf::app {
 
+/// The files an interactive run writes (absolute paths; empty = not written).
+struct InteractionOutputs {
+  std::filesystem::path mesh, rest_mesh, report, states;
+  std::int64_t states_every = 10;
+};
+
 class SceneOutputWriter {
  public:
-  /// Writes the rest mesh and opens the states file; writes nothing when `scene` is null or has
-  /// no outputs.
-  SceneOutputWriter(const Scene* scene, const OutputFolder& folder, const VolumeGeometry& geometry,
+  /// Writes the rest mesh and opens the states file (streamed to a temporary that appears only
+  /// at finish()). `patient_frame` maps the tissue's coordinates to the patient. `report` is not
+  /// written here: each command writes its own.
+  SceneOutputWriter(const InteractionOutputs& files, const VolumeGeometry& patient_frame,
                     const interaction::TissueModel& model);
   ~SceneOutputWriter();
-  SceneOutputWriter(const SceneOutputWriter&) = delete;
-  SceneOutputWriter& operator=(const SceneOutputWriter&) = delete;
+  SceneOutputWriter(SceneOutputWriter&&) noexcept;
+  SceneOutputWriter& operator=(SceneOutputWriter&&) noexcept;
 
-  /// After frame `frame` (1-based) at `time_s`: a saved state every outputs.states_every frames.
-  void frame(const interaction::TissueModel& model, std::int64_t frame, double time_s);
-  /// The last state, the final mesh and `report` (outputs.report).
-  void finish(const interaction::TissueModel& model, double time_s, const nlohmann::json& report);
+  /// After frame `frame` (1-based) at `time_s`: a saved state every states_every frames, except
+  /// on the last planned frame (`last`), whose state finish() saves.
+  void frame(const interaction::TissueModel& model, std::int64_t frame, double time_s,
+             bool last = false);
+  /// The last state (unless frame() just saved it, or nothing was played) and the final mesh.
+  void finish(const imt::SurfaceMesh& final_mesh, double time_s);
+  /// States saved so far, the rest state included (0 without a states file).
+  std::size_t states_saved() const;
 
  private:
-  SceneOutputs names_;
-  OutputFolder folder_;
+  InteractionOutputs files_;
   std::unique_ptr<io::MeshSequenceWriter> states_;
   std::int64_t last_frame_ = 0;
+  bool last_saved_ = false;  ///< frame() saved the state of last_frame_
 };
 
 }  // namespace tsf::app
