@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
+#include <thread>
 
 #include <X11/Xlib.h>
 #include <vtkActor.h>
@@ -67,7 +68,13 @@ DisplayStatus x_display_status() {
   // Xlib must be told before its first call that more than one thread may use it.
   static const Status threads = XInitThreads();
   (void)threads;
-  Display* d = XOpenDisplay(name);
+  // A server that is resetting (its last client just left) refuses connections for a moment:
+  // try a few times over about half a second before calling the display unavailable.
+  Display* d = nullptr;
+  for (int attempt = 0; attempt < 5 && d == nullptr; ++attempt) {
+    if (attempt > 0) std::this_thread::sleep_for(std::chrono::milliseconds(100 * attempt));
+    d = XOpenDisplay(name);
+  }
   if (d == nullptr) {
     s.reason = std::string("cannot open the X display '") + name +
                "' (is the X server running? try `xvfb-run -a`)";
