@@ -388,10 +388,12 @@ SegmentOutcome segment_stage(RunContext& ctx) {
     }
     std::string crops;
     for (const SceneInstance& inst : ctx.scene.instances)
-      if (!inst.lattice.crop_region.empty())
+      if (inst.lattice.crop_by_anatomy())
         crops += (crops.empty() ? "crop " : ", ") +
                  box_text({inst.lattice.crop_min_mm, inst.lattice.crop_max_mm}) + " (" +
-                 inst.lattice.crop_region + ")";
+                 (inst.lattice.crop_region.empty() ? "around " + inst.lattice.crop_center.landmark
+                                                   : inst.lattice.crop_region) +
+                 ")";
     ctx.stages.push_back({"place the scene by anatomy", clock.seconds(),
                           crops.empty() ? std::string("anchors and tool positions") : crops});
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <vector>
 
 #include "tsf/common/error.h"
 
@@ -167,8 +168,47 @@ std::vector<std::string> place_scene_by_anatomy(Scene& scene, const json& segmen
     const Found& f = use(p.landmark, p.key);
     return a.tissue_point(f.point + a.patient_offset(p.offset_mm));
   };
+  // The tissue-space bounding box of the LPS points `corners`: a crop is axis-aligned in the
+  // voxel grid, so a box tilted against it (an oblique CT, a turned head) grows to hold it.
+  auto tissue_bounds = [&](const std::vector<Vec3d>& corners, SceneLattice& l) {
+    Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+    for (const Vec3d& c : corners) {
+      const Vec3d t = a.tissue_point(c);
+      for (int ax = 0; ax < 3; ++ax) {
+        lo[ax] = std::min(lo[ax], t[ax]);
+        hi[ax] = std::max(hi[ax], t[ax]);
+      }
+    }
+    l.cropped = true;
+    l.crop_min_mm = lo;
+    l.crop_max_mm = hi;
+  };
   for (SceneInstance& inst : scene.instances) {
     SceneLattice& l = inst.lattice;
+    if (l.crop_center.given()) {
+      // A box of crop_size_mm along the patient's (left, anterior, superior) directions.
+      const Found& f = use(l.crop_center.landmark, l.crop_center.key);
+      const Vec3d centre = f.point + a.patient_offset(l.crop_center.offset_mm);
+      std::vector<Vec3d> corners;
+      for (int corner = 0; corner < 8; ++corner) {
+        Vec3d las;
+        for (int ax = 0; ax < 3; ++ax)
+          las[ax] = ((corner >> ax) & 1 ? 0.5 : -0.5) * l.crop_size_mm[ax];
+        corners.push_back(centre + a.patient_offset(las));
+      }
+      tissue_bounds(corners, l);
+      l.crop_box_centre = a.tissue_point(centre);
+      bool tilted = false;
+      for (int ax = 0; ax < 3; ++ax) {
+        Vec3d las{0, 0, 0};
+        las[ax] = 1.0;
+        const Vec3d axis = a.tissue_direction(a.patient_offset(las));
+        l.crop_box_axes[static_cast<std::size_t>(ax)] = axis;
+        l.crop_box_half[ax] = 0.5 * l.crop_size_mm[ax];
+        tilted |= std::max({std::fabs(axis.x), std::fabs(axis.y), std::fabs(axis.z)}) < 1.0 - 1e-6;
+      }
+      l.crop_oriented = tilted;
+    }
     if (!l.crop_region.empty()) {
       const Found& f = use(l.crop_region, l.crop_key);
       Vec3d box_lo = f.lo, box_hi = f.hi;  // LPS
@@ -181,21 +221,15 @@ std::vector<std::string> place_scene_by_anatomy(Scene& scene, const json& segmen
           box_hi[ax] = std::max(box_hi[ax], g.point[ax]);
         }
       }
-      Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+      std::vector<Vec3d> corners;
       for (int corner = 0; corner < 8; ++corner) {
         Vec3d c;
         for (int ax = 0; ax < 3; ++ax)
           c[ax] =
               (corner >> ax) & 1 ? box_hi[ax] + l.crop_margin_mm : box_lo[ax] - l.crop_margin_mm;
-        const Vec3d t = a.tissue_point(c);
-        for (int ax = 0; ax < 3; ++ax) {
-          lo[ax] = std::min(lo[ax], t[ax]);
-          hi[ax] = std::max(hi[ax], t[ax]);
-        }
+        corners.push_back(c);
       }
-      l.cropped = true;
-      l.crop_min_mm = lo;
-      l.crop_max_mm = hi;
+      tissue_bounds(corners, l);
     }
     for (SceneAnchor& anchor : inst.anchors) {
       if (anchor.point_anatomy.given()) anchor.point_mm = position(anchor.point_anatomy);

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -47,6 +48,10 @@ struct SceneLattice {
   // volume (PREFIX-density.nrrd written by tsf segment / import)
   std::filesystem::path volume;
   int node_spacing_voxels = 2;
+  /// `node_spacing_mm`: the node spacing in millimetres, whatever the CT's voxel size; > 0
+  /// replaces node_spacing_voxels by the nearest whole number of voxels (at least 1) once the
+  /// segmented volume's spacing is known (lattice_node_spacing_voxels, scene_session.h).
+  double node_spacing_mm = 0.0;
   double occupancy_threshold = 0.125;
   double mass_floor = 0.5;
   /// volume: region of interest, tissue-space mm (the voxels whose centres lie in the box).
@@ -58,7 +63,21 @@ struct SceneLattice {
   std::string crop_region;
   std::vector<std::string> crop_include;  ///< landmarks the box is grown to hold (`include:`)
   double crop_margin_mm = 0.0;
+  /// `crop: {center: {landmark: nose-tip, offset_mm: {...}}, size_mm: [lr, ap, si]}`: a box of
+  /// the given extent along the patient's left-right, anterior-posterior and superior-inferior
+  /// directions around a point placed by anatomy (its tissue-space bounding box is the crop).
+  AnatomyPosition crop_center;
+  Vec3d crop_size_mm{0, 0, 0};
   std::string crop_key;
+  bool crop_by_anatomy() const { return !crop_region.empty() || crop_center.given(); }
+  /// Set by the placement of a center + size_mm crop: the patient-aligned box in tissue space
+  /// (centre, unit axes, half extents). When it is tilted against the voxel grid (an oblique CT,
+  /// a turned head) the voxels of crop_min/max_mm outside it are emptied, so the same anatomy is
+  /// simulated whatever the storage grid.
+  bool crop_oriented = false;
+  Vec3d crop_box_centre;
+  std::array<Vec3d, 3> crop_box_axes;
+  Vec3d crop_box_half;
   /// volume: the segment labels this lattice takes (tissue_labels.h); voxels of other labels are
   /// emptied (density 0, label outside) before the surface and lattice are built. Empty = all.
   std::vector<std::uint8_t> labels;
@@ -209,8 +228,13 @@ struct Scene {
   /// it has a `tissue`, `tools`, `script` or `tissues` section. Otherwise only its lattice steps.
   bool interactive = false;
   /// The first key that places something relative to the anatomy (empty: none); such a scene
-  /// needs a pipeline section (the anatomy is found by its segmentation).
+  /// needs a pipeline section (the anatomy is found by its segmentation) or a volume written by
+  /// tsf segment (its PREFIX-report.json holds the anatomy).
   std::string anatomy_key;
+  /// What placing by anatomy warned about (landmarks of low confidence, the finder's own
+  /// warnings) when the scene was placed as it was read (a scene on a tsf segment output; tsf run
+  /// places after its segmentation and keeps its warnings in the run report).
+  std::vector<std::string> placement_warnings;
 
   const SceneTool* find_tool(const std::string& tool_name) const {
     for (const SceneTool& t : tools)

@@ -46,6 +46,7 @@ class SceneOutputWriter {
 
  private:
   InteractionOutputs files_;
+  VolumeGeometry frame_;  ///< tissue → patient (LPS): the PLY files are written in LPS
   std::unique_ptr<io::MeshSequenceWriter> states_;
   std::int64_t last_frame_ = 0;
   bool last_saved_ = false;  ///< frame() saved the state of last_frame_

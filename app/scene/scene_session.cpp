@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -81,6 +82,28 @@ VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
 
 /// Empties every voxel whose label is not in `labels` (density 0, label outside): the instance's
 /// surface and lattice are then built from its own segment classes only.
+/// Empties the voxels whose centres lie outside the crop's patient-aligned box (a box tilted
+/// against the voxel grid; crop_volume kept its axis-aligned bounds).
+void keep_oriented_box(VoxelVolume& v, const SceneLattice& l) {
+  float* d = v.density_for_tracked_write();
+  std::uint8_t* lab = v.labels_for_tracked_write();
+  const VolumeGeometry& g = v.geometry();
+  for (int k = 0; k < g.dims.z; ++k)
+    for (int j = 0; j < g.dims.y; ++j)
+      for (int i = 0; i < g.dims.x; ++i) {
+        const Vec3d r = g.index_to_tissue({double(i), double(j), double(k)}) - l.crop_box_centre;
+        bool inside = true;
+        for (int ax = 0; ax < 3 && inside; ++ax)
+          inside = std::fabs(dot(r, l.crop_box_axes[static_cast<std::size_t>(ax)])) <=
+                   l.crop_box_half[ax];
+        if (inside) continue;
+        const std::size_t at = v.index(i, j, k);
+        d[at] = 0.0f;
+        lab[at] = kLabelOutside;
+      }
+  v.mark_all_modified();
+}
+
 void keep_labels(VoxelVolume& v, const std::vector<std::uint8_t>& labels, bool cropped,
                  const std::string& error_prefix) {
   bool keep[256] = {};
@@ -236,6 +259,7 @@ VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
   VoxelVolume v = import::read_tissue_volume(sl.volume);
   if (patient_frame) *patient_frame = v.geometry();
   if (sl.cropped) v = crop_volume(v, sl.crop_min_mm, sl.crop_max_mm, scene.instance_prefix(index));
+  if (sl.crop_oriented) keep_oriented_box(v, sl);
   if (!sl.labels.empty()) keep_labels(v, sl.labels, sl.cropped, scene.instance_prefix(index));
   return v;
 #else
@@ -243,14 +267,21 @@ VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
 #endif
 }
 
-interaction::TissueModelOptions instance_model_options(const Scene& scene, std::size_t index) {
+int lattice_node_spacing_voxels(const SceneInstance& inst, const VolumeGeometry& volume) {
+  if (inst.lattice.source == SceneLattice::Source::kBox) return inst.tissue.voxels_per_node;
+  if (!(inst.lattice.node_spacing_mm > 0)) return inst.lattice.node_spacing_voxels;
+  const double voxel = std::min({volume.spacing.x, volume.spacing.y, volume.spacing.z});
+  return std::max(1, static_cast<int>(std::lround(inst.lattice.node_spacing_mm / voxel)));
+}
+
+interaction::TissueModelOptions instance_model_options(const Scene& scene, std::size_t index,
+                                                       const VolumeGeometry& volume) {
   const SceneInstance& inst = scene.instances.at(index);
   const bool box = inst.lattice.source == SceneLattice::Source::kBox;
   interaction::TissueModelOptions o;
   o.surface.iso = static_cast<float>(inst.tissue.iso);
   o.surface.snap_epsilon = static_cast<float>(inst.tissue.merge_epsilon);
-  o.lattice.node_spacing_voxels =
-      box ? inst.tissue.voxels_per_node : inst.lattice.node_spacing_voxels;
+  o.lattice.node_spacing_voxels = lattice_node_spacing_voxels(inst, volume);
   o.lattice.occupancy_threshold =
       box ? 0.125f : static_cast<float>(inst.lattice.occupancy_threshold);
   o.lattice.mass_floor = static_cast<float>(inst.lattice.mass_floor);
@@ -308,8 +339,9 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
   VoxelVolume volume = instance_tissue_volume(scene, index, &r.patient_frame);
   r.volume_geometry = volume.geometry();
   try {
-    r.model = std::make_unique<interaction::TissueModel>(std::move(volume),
-                                                         instance_model_options(scene, index));
+    interaction::TissueModelOptions options =
+        instance_model_options(scene, index, r.volume_geometry);
+    r.model = std::make_unique<interaction::TissueModel>(std::move(volume), std::move(options));
   } catch (const Error& e) {
     throw Error(scene.instance_prefix(index) + e.what());
   }
@@ -322,6 +354,9 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
   const Vec3d g = solver.config().gravity;
   r.summary = {{"instance", r.name},
                {"alive_nodes", solver.lattice().alive_count()},
+               {"node_spacing_mm", nlohmann::json::array({solver.lattice().geometry().spacing.x,
+                                                          solver.lattice().geometry().spacing.y,
+                                                          solver.lattice().geometry().spacing.z})},
                {"fixed_nodes", fixed},
                {"loaded_nodes", loaded},
                {"elastic_nj_at_start", solver.energy().elastic_nj},
@@ -330,6 +365,12 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
                {"backend", solver.backend_name()},
                {"gravity_mm_s2", nlohmann::json::array({g.x, g.y, g.z})},
                {"effects_active", solver.active_effects()}};
+  if (!scene.placement_warnings.empty()) {
+    r.summary["placement_warnings"] = scene.placement_warnings;
+    if (index == 0)
+      for (const std::string& w : scene.placement_warnings)
+        std::fprintf(stderr, "tsf: warning: %s\n", w.c_str());
+  }
   r.setup_s = clock.seconds();
   return r;
 }
@@ -343,8 +384,10 @@ LatticeRun build_lattice_run(const Scene& scene) {
     lattice = box_lattice(scene, inst);
   } else {
 #ifdef TSF_HAVE_IMPORT
-    const interaction::TissueModelOptions o = instance_model_options(scene, index);
-    lattice = crms::build_lattice_from_volume(instance_tissue_volume(scene, index), o.lattice);
+    const VoxelVolume volume = instance_tissue_volume(scene, index);
+    const interaction::TissueModelOptions o =
+        instance_model_options(scene, index, volume.geometry());
+    lattice = crms::build_lattice_from_volume(volume, o.lattice);
 #else
     needs_itk(scene);
 #endif

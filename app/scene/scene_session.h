@@ -50,7 +50,12 @@ VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
 
 /// The tissue model options of instance `index`: surface, lattice, solver, time step, coupler,
 /// removal, contacts, anchors and effect regions (the options own what their callbacks need).
-interaction::TissueModelOptions instance_model_options(const Scene& scene, std::size_t index);
+/// The lattice's node spacing in voxels of `volume`: lattice.node_spacing_mm / the finest voxel
+/// spacing, rounded (at least 1), when the scene gives millimetres; else node_spacing_voxels (or
+/// tissue.voxels_per_node for a box).
+int lattice_node_spacing_voxels(const SceneInstance& inst, const VolumeGeometry& volume);
+interaction::TissueModelOptions instance_model_options(const Scene& scene, std::size_t index,
+                                                       const VolumeGeometry& volume);
 
 /// Applies the scene's loads (a constant force per node in a box) and initial state (a scaled
 /// copy of the rest shape) to a solver. Returns the number of loaded nodes.

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <fstream>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -79,13 +80,13 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
                   bool volume_from_pipeline) {
   if (!f.defined()) f.fail("is required");
   f.expect_keys({"source", "size", "spacing", "origin", "volume", "node_spacing_voxels",
-                 "occupancy_threshold", "mass_floor", "crop", "labels"});
+                 "node_spacing_mm", "occupancy_threshold", "mass_floor", "crop", "labels"});
   l.source = f["source"].choice(
       SceneLattice::Source::kBox,
       {{"box", SceneLattice::Source::kBox}, {"volume", SceneLattice::Source::kVolume}});
   if (l.source == SceneLattice::Source::kBox) {
-    for (const char* k :
-         {"volume", "node_spacing_voxels", "occupancy_threshold", "mass_floor", "crop", "labels"})
+    for (const char* k : {"volume", "node_spacing_voxels", "node_spacing_mm", "occupancy_threshold",
+                          "mass_floor", "crop", "labels"})
       if (f[k].defined()) f[k].fail("only for source: volume");
     if (!f["size"].defined()) f["size"].fail("is required for source: box");
     l.size_mm = f["size"].vec3({});
@@ -108,7 +109,10 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
       l.volume = f["volume"].text();
       if (l.volume.is_relative()) l.volume = folder / l.volume;
     }
+    if (f["node_spacing_voxels"].defined() && f["node_spacing_mm"].defined())
+      f["node_spacing_mm"].fail("give node_spacing_mm or node_spacing_voxels, not both");
     l.node_spacing_voxels = static_cast<int>(f["node_spacing_voxels"].integer(2, 1, 64));
+    l.node_spacing_mm = f["node_spacing_mm"].number(0.0, 0.0, 100.0, true);
     l.occupancy_threshold = f["occupancy_threshold"].number(0.125, 0.0, 1.0, true);
     l.mass_floor = f["mass_floor"].number(0.5, 0.0, 1.0);
     const Field crop = f["crop"];
@@ -130,10 +134,25 @@ void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLatt
       }
       l.crop_margin_mm = crop["margin_mm"].number(0.0, 0.0, 200.0);
       l.crop_key = crop["region"].path();
+    } else if (crop.defined() && crop["center"].defined()) {
+      crop.expect_keys({"center", "size_mm"});
+      if (!crop["center"].node().IsMap())
+        crop["center"].fail(
+            "expected {landmark: NAME, offset_mm: {...}} (a box placed by anatomy)");
+      l.crop_center = read_anatomy_position(crop["center"]);
+      if (!crop["size_mm"].defined())
+        crop["size_mm"].fail("is required: [left-right, anterior-posterior, superior-inferior] mm");
+      l.crop_size_mm = crop["size_mm"].vec3({});
+      for (int a = 0; a < 3; ++a)
+        if (!(l.crop_size_mm[a] > 0 && l.crop_size_mm[a] <= 1000))
+          crop["size_mm"].fail("each extent must be in (0, 1000] mm");
+      l.crop_key = crop["center"].path();
     } else if (crop.defined()) {
-      crop.expect_keys({"min", "max", "region", "include", "margin_mm"});
+      crop.expect_keys({"min", "max", "region", "include", "margin_mm", "center", "size_mm"});
       if (!crop["min"].defined() || !crop["max"].defined())
-        crop.fail("needs min and max (mm), or a region (an anatomy region and margin_mm)");
+        crop.fail(
+            "needs min and max (mm), a region (an anatomy region and margin_mm), or a center "
+            "placed by anatomy and size_mm");
       l.cropped = true;
       l.crop_min_mm = crop["min"].vec3({});
       l.crop_max_mm = crop["max"].vec3({});
@@ -599,6 +618,46 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
   return inst;
 }
 
+/// A scene without a pipeline that places by anatomy runs on a `tsf segment` output: the anatomy
+/// is the `anatomy` section of PREFIX-report.json beside PREFIX-density.nrrd (segment_job.h).
+void place_by_segment_report(Scene& s, const std::string& name) {
+  std::filesystem::path volume;
+  for (const SceneInstance& inst : s.instances) {
+    if (inst.lattice.source != SceneLattice::Source::kVolume) continue;
+    if (!volume.empty() && inst.lattice.volume != volume)
+      throw Error(name + ": " + s.anatomy_key +
+                  ": places by anatomy, but the instances' lattices read different volumes ('" +
+                  volume.string() + "', '" + inst.lattice.volume.string() +
+                  "'): one segment report's anatomy cannot place both");
+    volume = inst.lattice.volume;
+  }
+  const std::string suffix = "-density.nrrd";
+  const std::string v = volume.string();
+  const bool segment_output =
+      v.size() > suffix.size() && v.compare(v.size() - suffix.size(), suffix.size(), suffix) == 0;
+  const std::filesystem::path report =
+      segment_output ? std::filesystem::path(v.substr(0, v.size() - suffix.size()) + "-report.json")
+                     : std::filesystem::path();
+  std::error_code ec;
+  if (report.empty() || !std::filesystem::is_regular_file(report, ec))
+    throw Error(name + ": " + s.anatomy_key +
+                ": places by the patient's anatomy, which tsf segment finds and writes into "
+                "PREFIX-report.json beside PREFIX-density.nrrd; " +
+                (volume.empty()   ? std::string("this scene has no volume lattice")
+                 : report.empty() ? "lattice.volume '" + v + "' is not a PREFIX-density.nrrd"
+                                  : "'" + report.string() + "' does not exist") +
+                ". Segment the CT with tsf segment, add a pipeline section (tsf run), or give "
+                "millimetres (docs/patients.md)");
+  nlohmann::json j;
+  try {
+    std::ifstream in(report);
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw Error(report.string() + ": not a readable segment report (" + e.what() + ")");
+  }
+  s.placement_warnings = place_scene_by_anatomy(s, j);
+}
+
 }  // namespace
 
 std::string Scene::instance_prefix(std::size_t index) const {
@@ -722,7 +781,7 @@ Scene read_scene(const std::filesystem::path& file) {
   // Anatomy-relative keys are resolved after the segmentation of `tsf run`: without a pipeline
   // there is no anatomy to place them by.
   for (const SceneInstance& inst : s.instances) {
-    if (s.anatomy_key.empty() && !inst.lattice.crop_region.empty())
+    if (s.anatomy_key.empty() && inst.lattice.crop_by_anatomy())
       s.anatomy_key = inst.lattice.crop_key;
     for (const SceneAnchor& a : inst.anchors) {
       if (s.anatomy_key.empty() && a.point_anatomy.given()) s.anatomy_key = a.point_anatomy.key;
@@ -735,11 +794,7 @@ Scene read_scene(const std::filesystem::path& file) {
   for (const SceneEvent& e : s.script.events)
     for (const AnatomyPosition* p : {&e.from_anatomy, &e.to_anatomy})
       if (s.anatomy_key.empty() && p->given()) s.anatomy_key = p->key;
-  if (!s.anatomy_key.empty() && !s.pipeline.present)
-    throw Error(name + ": " + s.anatomy_key +
-                ": places by the patient's anatomy, which is found when tsf run segments the CT; "
-                "this scene has no pipeline section (no segmentation): add one, or give "
-                "millimetres (docs/patients.md)");
+  if (!s.anatomy_key.empty() && !s.pipeline.present) place_by_segment_report(s, name);
   // Cross-field checks with the library's own messages (they name material.* fields).
   for (std::size_t i = 0; i < s.instances.size(); ++i) {
     try {

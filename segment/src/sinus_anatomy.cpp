@@ -15,11 +15,14 @@ namespace tsf::segment {
 
 namespace {
 
-constexpr double kBandMm = 15.0;           // nasal cavity: |x − mid| within this
-constexpr double kOpeningBandMm = 20.0;    // nostril openings: |x − mid| within this
-constexpr double kMaxHeadAirMl = 250.0;    // more air inside the body than a head holds
-constexpr double kMinNasalCavityMl = 1.0;  // less is not a nasal cavity
-constexpr double kMinParanasalMl = 0.3;    // less is reported as not found
+constexpr double kBandMm = 15.0;              // nasal cavity: |x − mid| within this
+constexpr double kMinNoseProtrusionMm = 8.0;  // a nose protrudes beyond the cheeks (15–35 mm)
+constexpr double kNostrilDepthMm = 10.0;      // a nostril: the front of its opening
+constexpr double kNoseTipDepthMm = 2.0;       // the nose tip: the front of the nose
+constexpr double kOpeningBandMm = 20.0;       // nostril openings: |x − mid| within this
+constexpr double kMaxHeadAirMl = 250.0;       // more air inside the body than a head holds
+constexpr double kMinNasalCavityMl = 1.0;     // less is not a nasal cavity
+constexpr double kMinParanasalMl = 0.3;       // less is reported as not found
 
 std::string fmt(double v, int decimals = 1) {
   char buf[64];
@@ -231,7 +234,7 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
         }
     c = c * (1.0 / static_cast<double>(pts.size()));
     // Mirror planes through c + d·n, n turned by θ about the superior axis from the L/R axis
-    // (a head may lie yawed in the scanner): coarse, then fine around the best.
+    // (a head may lie yawed in the scanner): 3° steps, then 1°, then 0.25° around the best.
     const Vec3d lr = g.column(g.a_lr) * static_cast<double>(g.sign_lr);
     const Vec3d ap = g.column(g.a_ap);
     constexpr double kDeg = 3.14159265358979323846 / 180.0;
@@ -269,6 +272,17 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
           best_d = d;
         }
       }
+    const double fine_theta = best_theta, fine_d = best_d;
+    for (double theta = fine_theta - 0.75; theta <= fine_theta + 0.75 + 1e-9; theta += 0.25)
+      for (double d = fine_d - 0.5 * d_step; d <= fine_d + 0.5 * d_step + 1e-9;
+           d += 0.25 * d_step) {
+        const double o = overlap(theta, d);
+        if (o > best_overlap + 1e-6) {
+          best_overlap = o;
+          best_theta = theta;
+          best_d = d;
+        }
+      }
     g.plane_n = normal_at(best_theta);
     g.plane_p = c + g.plane_n * best_d;
     const Vec3d ant0 = ap - g.plane_n * dot(ap, g.plane_n);
@@ -280,7 +294,7 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
     m.normal = g.plane_n;
     m.confidence = clamp01((best_overlap - 0.2) / 0.5) * (use_bone ? 1.0 : 0.7);
     m.reason = std::string("left-right mirror plane of the ") + (use_bone ? "bone" : "tissue") +
-               ", turned " + fmt(best_theta, 0) +
+               ", turned " + fmt(best_theta, 1) +
                " deg about the vertical: " + fmt(100.0 * best_overlap, 0) +
                " % of its voxels have a mirror image";
   }
@@ -353,6 +367,23 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
       out.frame.facing_confidence = 0.2;
       out.frame.facing_reason =
           "no protruding nose and no air spaces in front: the frame's anterior (−y) is assumed (" +
+          evidence + ")";
+    }
+    if (options.orientation_recorded && g.sign_face != recorded &&
+        out.frame.facing_confidence < 0.9) {
+      // A recorded frame is the scanner's word for where the face is; weak image evidence
+      // against it more likely means the CT shows no face (a phantom, a partial or non-head scan)
+      // than a wrong header, so the recorded frame is kept and the doubt is said.
+      out.warnings.push_back(
+          "anatomy: the image's evidence for the face's side (" + out.frame.facing_reason +
+          ", confidence " + fmt(out.frame.facing_confidence, 2) +
+          ") contradicts the recorded patient frame, which is used: this CT may not show a face "
+          "(a phantom, a partial or non-head scan)");
+      g.sign_face = recorded;
+      out.frame.facing_confidence = 0.3;
+      out.frame.facing_reason =
+          "the recorded frame's anterior (−y); the image's evidence points "
+          "the other way (" +
           evidence + ")";
     }
     out.frame.anterior = g.ant_axis * static_cast<double>(g.sign_face);
@@ -601,24 +632,34 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
           const double lat = std::abs(g.lat(idx)), a = g.ant(idx);
           if (lat >= 25.0 && lat <= 45.0) cheek = std::max(cheek, a);
           if (lat > kBandMm) continue;
-          if (a > best + 1e-9) {
-            best = a;
-            tips.clear();
-          }
-          if (a >= best - 1e-9) tips.push_back({i, j, k});
+          if (a > best) best = a;
+          if (a >= best - kNoseTipDepthMm) tips.push_back({i, j, k});
         }
-    if (!tips.empty() && nasal.found) {
+    // The tip of a blunt nose is a plateau: the centroid of its front kNoseTipDepthMm does not
+    // jump sideways with a fraction of a degree of yaw or a shifted voxel grid.
+    tips.erase(std::remove_if(tips.begin(), tips.end(),
+                              [&](const std::array<int, 3>& t) {
+                                const int idx[3] = {t[0], t[1], t[2]};
+                                return g.ant(idx) < best - kNoseTipDepthMm;
+                              }),
+               tips.end());
+    const double protrusion = cheek > -1e300 ? best - cheek : 0.0;
+    if (!tips.empty() && nasal.found && protrusion < kMinNoseProtrusionMm) {
+      tip.reason = "no nose: the most anterior tissue near the midline protrudes " +
+                   fmt(protrusion, 0) + " mm beyond the cheeks (a nose, at least " +
+                   fmt(kMinNoseProtrusionMm, 0) +
+                   " mm); this CT may not show a face (a phantom, a partial or non-head scan)";
+    } else if (!tips.empty() && nasal.found) {
       double c[3] = {0, 0, 0};
       for (const auto& t : tips)
         for (int a = 0; a < 3; ++a) c[a] += t[a];
       for (double& x : c) x /= static_cast<double>(tips.size());
       tip.found = true;
       tip.position_mm = g.physical(c[0], c[1], c[2]);
-      const double protrusion = cheek > -1e300 ? best - cheek : 0.0;
       tip.confidence = clamp01(0.3 + 0.6 * clamp01(protrusion / 15.0)) * (nasal_open ? 1.0 : 0.7) *
                        (out.frame.facing_confidence >= 0.5 ? 1.0 : 0.6);
       tip.reason =
-          "most anterior tissue within 15 mm of the midline at the nostrils' height; "
+          "the front 2 mm of the tissue within 15 mm of the midline at the nostrils' height; "
           "protrudes " +
           fmt(protrusion, 0) + " mm beyond the cheeks";
     } else {
@@ -633,9 +674,15 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
     AnatomyLandmark& l = out.landmarks[1 + side];
     double c[3] = {0, 0, 0};
     std::size_t count = 0;
+    // The opening runs back along the passage as far as the air is deep enough to count as an
+    // air space, which shifts with the voxel grid; its front (kNostrilDepthMm behind its most
+    // anterior voxel) is where the nostril is, and is steadier.
+    double front_ant = -std::numeric_limits<double>::max();
+    for (const Opening& o : front)
+      if ((side == 0) == (o.lat > 0)) front_ant = std::max(front_ant, o.ant);
     if (nasal_open)
       for (const Opening& o : front)
-        if ((side == 0) == (o.lat > 0)) {
+        if ((side == 0) == (o.lat > 0) && o.ant >= front_ant - kNostrilDepthMm) {
           for (int a = 0; a < 3; ++a) c[a] += o.idx[a];
           ++count;
         }

@@ -1,7 +1,8 @@
-// Scenes placed by anatomy (app/scene/anatomy_placement.h): the shipped scenes/sinus-anatomy.yaml
+// Scenes placed by anatomy (app/scene/anatomy_placement.h): the shipped scenes/sinus-ci.yaml
 // runs end to end on the sample cranium and on the bundled GE DICOM series, whose heads lie in
 // different places of their scanners' frames and face opposite ways along y; the keys are read
-// strictly, and a scene that places by anatomy without a pipeline section is refused by name.
+// strictly, and a scene that places by anatomy without a pipeline section or a segment report
+// beside its volume is refused by name.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -24,8 +25,13 @@ using test::read_text;
 using test::shell_quoted;
 
 fs::path anatomy_scene() {
-  return test::source_dir() / "scenes" / "sinus-anatomy.yaml";
+  return test::source_dir() / "scenes" / "sinus-ci.yaml";
 }
+
+/// The crop of sinus-ci.yaml: a box placed around the nose tip.
+const std::string kCenterCrop =
+    "{center: {landmark: nose-tip, offset_mm: {posterior: 25, superior: 5}}, size_mm: [50, 56, "
+    "60]}";
 
 bool contains(const std::string& text, const std::string& what) {
   return text.find(what) != std::string::npos;
@@ -53,14 +59,14 @@ json run_anatomy_scene(const fs::path& exe, const std::string& name, const fs::p
   std::string stages;
   for (const auto& s : run["stages"]) stages += s["stage"].get<std::string>() + ";";
   EXPECT_TRUE(contains(stages, "place the scene by anatomy")) << stages;
-  const fs::path ply = out / "sinus-anatomy-final.ply";
+  const fs::path ply = out / "sinus-ci-final.ply";
   EXPECT_TRUE(fs::exists(ply)) << ply;
   if (fs::exists(ply)) {
     const imt::SurfaceMesh m = imt::read_surface_ply(ply);
     EXPECT_GT(m.triangle_count(), 100u);
     EXPECT_TRUE(imt::analyse_topology(m).closed_oriented_manifold()) << ply;
   }
-  const json seg = json::parse(read_text(out / "sinus-anatomy-report.json"));
+  const json seg = json::parse(read_text(out / "sinus-ci-report.json"));
   EXPECT_TRUE(seg.contains("anatomy"));
   const json* tip = named(seg["anatomy"]["landmarks"], "nose-tip");
   EXPECT_TRUE(tip && (*tip)["found"].get<bool>());
@@ -125,7 +131,7 @@ TEST(PatientAnatomy, ARegionNotFoundStopsTheRunNamingTheKeyAndWhy) {
   const fs::path dir = test::scratch_dir("anatomy-not-found");
   // At 2 mm the cranium's maxillary sinuses are not separated from the nasal cavity.
   const fs::path scene =
-      anatomy_scene_copy(dir, "missing", "{region: nasal-cavity,", "{region: maxillary-left,");
+      anatomy_scene_copy(dir, "missing", kCenterCrop, "{region: maxillary-left, margin_mm: 12}");
   const test::ProcessRun r =
       test::run_tsf(exe, "run " + shell_quoted(scene) + " -q --backend cpu --duration 0.004 -o " +
                              shell_quoted(dir / "out"));
@@ -145,7 +151,7 @@ TEST(PatientAnatomy, AnatomyKeysWithoutAPipelineAreRefusedByName) {
   const test::ProcessRun r = test::run_tsf(exe, "simulate " + shell_quoted(scene));
   EXPECT_NE(r.status, 0);
   EXPECT_TRUE(contains(r.output, "lattice.crop.region")) << r.output;
-  EXPECT_TRUE(contains(r.output, "no pipeline section")) << r.output;
+  EXPECT_TRUE(contains(r.output, "missing-report.json' does not exist")) << r.output;
 }
 
 TEST(PatientAnatomy, AnatomyKeysAreReadStrictly) {
@@ -156,8 +162,10 @@ TEST(PatientAnatomy, AnatomyKeysAreReadStrictly) {
     std::string from, to, expect;
   };
   const Case cases[] = {
-      {"{region: nasal-cavity,", "{region: nasal-cavty,", "lattice.crop.region"},
-      {"offset_mm: {posterior: 46}", "offset_mm: {backward: 46}", "offset_mm.backward"},
+      {kCenterCrop, "{region: nasal-cavty, margin_mm: 12}", "lattice.crop.region"},
+      {"size_mm: [50, 56, 60]", "size_mm: [50, 56, -60]", "lattice.crop.size_mm"},
+      {"size_mm: [50, 56, 60]", "sizes: [50, 56, 60]", "lattice.crop.sizes"},
+      {"offset_mm: {posterior: 47}", "offset_mm: {backward: 47}", "offset_mm.backward"},
       {"normal: anterior}", "normal: forward}", "plane.normal"},
       {"{landmark: nose-tip, offset_mm: {anterior: 3,",
        "{landmark: nose-top, offset_mm: {anterior: 3,", "unknown landmark 'nose-top'"},

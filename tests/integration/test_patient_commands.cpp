@@ -40,6 +40,13 @@ fs::path sinus_ci() {
   return test::source_dir() / "scenes" / "sinus-ci.yaml";
 }
 
+/// sinus-ci.yaml's crop, placed around the nose tip; the checks before segmenting test absolute
+/// millimetres, so the copies below put the sample cranium's box in its place.
+const std::string kAnatomyCrop =
+    "crop: {center: {landmark: nose-tip, offset_mm: {posterior: 25, superior: 5}}, size_mm: [50, "
+    "56, 60]}";
+const std::string kCraniumCrop = "crop: {min: [98, 180, 10], max: [148, 236, 70]}";
+
 #define SAMPLE_OR_SKIP(path)                                               \
   if (!fs::exists(path))                                                   \
   GTEST_SKIP() << "not run: " << (path)                                    \
@@ -217,16 +224,17 @@ TEST(PatientCommands, TwoSeriesFolderIsListedAndRunAsksForOneSeries) {
   EXPECT_TRUE(contains(run.output, uid_a) && contains(run.output, uid_b)) << run.output;
   EXPECT_FALSE(fs::exists(dir / "out" / "sinus-ci-density.nrrd"));
 
-  // With --series it gets past the choice: the sinus scene's crop (placed on the sample cranium)
-  // then misses this head, which the check says with the CT's extent, still before segmenting.
+  // With --series it gets past the choice: a crop in the sample cranium's millimetres then
+  // misses this head, which the check says with the CT's extent, still before segmenting.
+  const fs::path absolute = scene_copy(dir, "absolute-crop", {{kAnatomyCrop, kCraniumCrop}});
   const test::ProcessRun chosen = test::run_tsf(
-      exe, "run " + shell_quoted(sinus_ci()) + " -q --backend cpu --ct " + shell_quoted(folder) +
+      exe, "run " + shell_quoted(absolute) + " -q --backend cpu --ct " + shell_quoted(folder) +
                " --series " + uid_a + " -o " + shell_quoted(dir / "out2"));
   EXPECT_FALSE(contains(chosen.output, "usable DICOM series")) << chosen.output;
   EXPECT_NE(chosen.status, 0) << chosen.output;
   EXPECT_TRUE(contains(chosen.output, "lattice.crop")) << chosen.output;
   EXPECT_TRUE(contains(chosen.output, uid_a)) << chosen.output;
-  EXPECT_FALSE(fs::exists(dir / "out2" / "sinus-ci-density.nrrd"));
+  EXPECT_FALSE(fs::exists(dir / "out2" / "absolute-crop-density.nrrd"));
 
   // An unknown UID is refused naming --series and listing what is there.
   const test::ProcessRun unknown =
@@ -241,9 +249,8 @@ TEST(PatientCommands, ACropThatMissesTheCtFailsInUnderASecondWithTheExtent) {
   TSF_EXECUTABLE_OR_SKIP(exe);
   SAMPLE_OR_SKIP(cranium());
   const fs::path dir = test::scratch_dir("patient-crop-misses");
-  const fs::path scene = scene_copy(dir, "crop-misses",
-                                    {{"crop: {min: [98, 180, 10], max: [148, 236, 70]}",
-                                      "crop: {min: [400, 180, 10], max: [450, 236, 70]}"}});
+  const fs::path scene = scene_copy(
+      dir, "crop-misses", {{kAnatomyCrop, "crop: {min: [400, 180, 10], max: [450, 236, 70]}"}});
   const auto start = std::chrono::steady_clock::now();
   const test::ProcessRun r =
       test::run_tsf(exe, "run " + shell_quoted(scene) + " -q -o " + shell_quoted(dir / "out"));
@@ -302,9 +309,16 @@ TEST(PatientCommands, ImportWarningsReachTheSegmentAndRunReports) {
   // The cranium NRRD records no patient frame: the import says so. The ball's press, moved far
   // from the tissue, is warned about before segmenting.
   const fs::path scene = scene_copy(dir, "warned",
-                                    {{"position: [131, 222, 34]", "position: [600, 600, 600]"},
-                                     {"position: [128.5, 222, 34]", "position: [601, 600, 600]"},
-                                     {"position: [135, 222, 34]", "position: [602, 600, 600]"}});
+                                    {{kAnatomyCrop, kCraniumCrop},
+                                     {"position: {landmark: nose-tip, offset_mm: {left: 8.5, "
+                                      "posterior: 11, inferior: 1}}",
+                                      "position: [600, 600, 600]"},
+                                     {"position: {landmark: nose-tip, offset_mm: {left: 6, "
+                                      "posterior: 11, inferior: 1}}",
+                                      "position: [601, 600, 600]"},
+                                     {"position: {landmark: nose-tip, offset_mm: {left: 12.5, "
+                                      "posterior: 11, inferior: 1}}",
+                                      "position: [602, 600, 600]"}});
   const test::ProcessRun r =
       test::run_tsf(exe, "run " + shell_quoted(scene) + " -q --backend cpu --duration 0.004 -o " +
                              shell_quoted(dir / "out"));

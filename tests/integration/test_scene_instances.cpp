@@ -75,8 +75,11 @@ TEST(SceneInstancesRobustness, ErrorsInsideAnInstanceNameTheKeyPath) {
        "tissues[1].name: 'soft' is used twice"},
       {"unknown-key", "    material: cancellous_bone", "    materal: cancellous_bone",
        "tissues[1].materal: unknown key"},
-      {"bad-spacing", "      node_spacing_voxels: 4", "      node_spacing_voxels: 0",
-       "tissues[1].lattice.node_spacing_voxels: expected a whole number in [1, 64], got 0"},
+      {"bad-spacing", "      node_spacing_mm: 4 ", "      node_spacing_mm: -1 ",
+       "tissues[1].lattice.node_spacing_mm: "},
+      {"both-spacings", "      node_spacing_mm: 4 ",
+       "      node_spacing_voxels: 2\n      node_spacing_mm: 4 ",
+       "tissues[1].lattice.node_spacing_mm: give node_spacing_mm or node_spacing_voxels, not both"},
       {"bad-label", "labels: [cancellous-bone, cortical-bone]", "labels: [cancellous-bone, bone]",
        "tissues[1].lattice.labels[1]: "},
       {"unknown-material", "    material: cancellous_bone", "    material: unobtainium",
@@ -130,9 +133,9 @@ TEST(SceneInstances, TwoInstancesRunWithValidOutputsEachAtItsOwnResolution) {
   const json& bone = j["instances"][1];
   EXPECT_EQ(soft["name"], "soft");
   EXPECT_EQ(bone["name"], "bone");
-  // 2 mm voxels: soft tissue at 2 voxels per node, bone at 4.
-  EXPECT_NEAR(soft["lattice_spacing_mm"][0].get<double>(), 4.0, 1e-6);
-  EXPECT_NEAR(bone["lattice_spacing_mm"][0].get<double>(), 8.0, 1e-6);
+  // Node spacings in mm, whatever the voxel size: soft tissue every 2 mm, bone every 4 mm.
+  EXPECT_NEAR(soft["lattice_spacing_mm"][0].get<double>(), 2.0, 1e-6);
+  EXPECT_NEAR(bone["lattice_spacing_mm"][0].get<double>(), 4.0, 1e-6);
   EXPECT_EQ(soft["material"]["id"], "turbinate_soft_tissue");
   EXPECT_EQ(bone["material"]["id"], "cancellous_bone");
   // Each instance integrates as it says: soft tissue explicitly at its stable step, bone (whose
@@ -160,13 +163,15 @@ TEST(SceneInstances, TwoInstancesRunWithValidOutputsEachAtItsOwnResolution) {
 
 TEST(SceneInstances, TheSameTissueAtACoarserSpacingHasFewerNodes) {
   TSF_NEED_EXECUTABLE();
-  // Both instances take the soft tissue, one at 2 and one at 4 voxels per node: 8× fewer cells,
+  // Both instances take the soft tissue, one at 4 and one at 8 mm per node: 8× fewer cells,
   // so between 3× and 16× fewer nodes (the surface layer keeps partly filled cells).
   const fs::path scene =
       edited_scene("sinus-layers.yaml", "same-tissue-two-spacings",
                    {{"labels: [cancellous-bone, cortical-bone]",
                      "labels: [soft-tissue, mucosa, fat, cartilage]"},
-                    {"    material: cancellous_bone", "    material: turbinate_soft_tissue"}});
+                    {"    material: cancellous_bone", "    material: turbinate_soft_tissue"},
+                    {"      node_spacing_mm: 2\n", "      node_spacing_mm: 4\n"},
+                    {"      node_spacing_mm: 4 ", "      node_spacing_mm: 8 "}});
   const fs::path dir = test::scratch_dir("run-two-spacings");
   const CommandResult r = tsf_run(scene, dir, "--voxel-mm 2 --duration 0.002");
   ASSERT_EQ(r.status, 0) << r.output;

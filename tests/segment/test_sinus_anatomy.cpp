@@ -95,7 +95,7 @@ TEST_F(SegmentAnatomyCranium, NasalCavityHoldsTheWandPathAndLiesInTheScenesCrop)
   // Midsagittal plane through the nose, normal along x.
   EXPECT_TRUE(anatomy_->midsagittal.found);
   EXPECT_NEAR(anatomy_->midsagittal.point_mm.x, 123.0, 4.0);
-  EXPECT_NEAR(std::abs(anatomy_->midsagittal.normal.x), 1.0, 1e-6);
+  EXPECT_NEAR(std::abs(anatomy_->midsagittal.normal.x), 1.0, 1e-3);  // within 2.5° of yaw
 }
 
 TEST_F(SegmentAnatomyCranium, FacingTowardPlusYIsDetectedAndWarnedAbout) {

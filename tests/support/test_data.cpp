@@ -38,7 +38,9 @@ void remove_scratch_dirs() {
 
 fs::path scratch_dir(const std::string& name) {
   std::lock_guard<std::mutex> lock(scratch_mutex);
-  if (scratch_dirs.empty()) std::atexit(remove_scratch_dirs);
+  // TSF_KEEP_SCRATCH=1 keeps a test's files to look at after it ran.
+  const char* keep = std::getenv("TSF_KEEP_SCRATCH");
+  if (scratch_dirs.empty() && !(keep && *keep)) std::atexit(remove_scratch_dirs);
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string tag = name;
   if (info) tag = std::string(info->test_suite_name()) + "." + info->name() + "." + name;

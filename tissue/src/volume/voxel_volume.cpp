@@ -25,6 +25,13 @@ Vec3d VolumeGeometry::physical_to_index(const Vec3d& p) const {
   return {s.x / spacing.x, s.y / spacing.y, s.z / spacing.z};
 }
 
+bool VolumeGeometry::mirrors() const {
+  const auto& m = direction;
+  return m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+             m[2] * (m[3] * m[7] - m[4] * m[6]) <
+         0.0;
+}
+
 bool VolumeGeometry::identity_direction() const {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c)

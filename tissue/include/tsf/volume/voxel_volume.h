@@ -53,6 +53,17 @@ struct VolumeGeometry {
   }
   /// Physical LPS position in mm -> continuous index (inverse of index_to_physical).
   Vec3d physical_to_index(const Vec3d& p) const;
+  /// Tissue-space position -> patient (LPS) mm: origin + D·(p − origin) (docs/design.md,
+  /// "Frames").
+  Vec3d tissue_to_patient(const Vec3d& p) const { return index_to_physical(tissue_to_index(p)); }
+  /// A tissue-space direction (or normal: D is orthonormal) -> patient (LPS).
+  Vec3d direction_to_patient(const Vec3d& v) const {
+    const auto& d = direction;
+    return {d[0] * v.x + d[1] * v.y + d[2] * v.z, d[3] * v.x + d[4] * v.y + d[5] * v.z,
+            d[6] * v.x + d[7] * v.y + d[8] * v.z};
+  }
+  /// det(D) < 0: the voxel axes are a mirror image of L, P, S (tissue → patient mirrors).
+  bool mirrors() const;
   bool identity_direction() const;
 };
 
