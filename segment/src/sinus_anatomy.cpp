@@ -644,7 +644,11 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
                               }),
                tips.end());
     const double protrusion = cheek > -1e300 ? best - cheek : 0.0;
-    if (!tips.empty() && nasal.found && protrusion < kMinNoseProtrusionMm) {
+    if (!tips.empty() && nasal.found && out.frame.facing_confidence <= 0.3) {
+      tip.reason = "no face: nothing in the image says which side the face is on (" +
+                   out.frame.facing_reason +
+                   "); this CT may not show a face (a phantom, a partial or non-head scan)";
+    } else if (!tips.empty() && nasal.found && protrusion < kMinNoseProtrusionMm) {
       tip.reason = "no nose: the most anterior tissue near the midline protrudes " +
                    fmt(protrusion, 0) + " mm beyond the cheeks (a nose, at least " +
                    fmt(kMinNoseProtrusionMm, 0) +

@@ -93,6 +93,21 @@ TEST(PatientAnatomy, SinusAnatomySceneRunsOnTheGeSeries) {
   EXPECT_LT(seg["anatomy"]["directions"]["anterior"][1].get<double>(), -0.9);
 }
 
+TEST(PatientAnatomy, APhantomWithoutAFaceIsRefusedWithTheReason) {
+  TSF_EXECUTABLE_OR_SKIP(exe);
+  TSF_SHARED_DATA_OR_SKIP(shared);
+  // A Philips head phantom: a skull with test inserts, no face. Its recorded frame and its image
+  // disagree about where a face would be, and no nose protrudes: the scene is not placed on it.
+  const fs::path phantom = shared / "dicom" / "ct-head-phantom-philips-ingenuity";
+  const test::ProcessRun r =
+      test::run_tsf(exe, "run " + shell_quoted(anatomy_scene()) + " -q --backend cpu --ct " +
+                             shell_quoted(phantom) + " -o " +
+                             shell_quoted(test::scratch_dir("anatomy-phantom") / "out"));
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "'nose-tip' was not found in this CT")) << r.output;
+  EXPECT_TRUE(contains(r.output, "this CT may not show a face (a phantom")) << r.output;
+}
+
 /// The anatomy scene with its CT given as an absolute path and one piece of text replaced.
 fs::path anatomy_scene_copy(const fs::path& dir, const std::string& name, const std::string& from,
                             const std::string& to) {
