@@ -16,6 +16,7 @@
 #include <string>
 
 #include "commands.h"
+#include "scene/anatomy_placement.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
@@ -104,6 +105,7 @@ void run_export(const ExportArgs& a) {
   options.centre = a.centre;
   options.time_scale = a.time_scale;
   options.source = fs::path(a.input).filename().string();
+  options.frame_warning = frame_warning_beside(a.input);
   options.validate();
   require_extension_matches(a.output, options.format);
   const FrameSelection selection = FrameSelection::parse(a.frames);

@@ -18,6 +18,7 @@
 
 #include "commands.h"
 #include "output/output_folder.h"
+#include "scene/anatomy_placement.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_outputs.h"
@@ -126,13 +127,8 @@ viewer::ViewScript hand_from_scene_script(const Scene& scene, const viewer::View
 /// when there is no report or the CT is not where it says (relative paths: from the working
 /// folder, then from the report's folder's parent).
 std::filesystem::path find_source_ct(const std::filesystem::path& density) {
-  const std::string name = density.filename().string();
-  const std::string suffix = "-density.nrrd";
-  if (name.size() <= suffix.size() ||
-      name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
-    return {};
-  const std::filesystem::path report =
-      density.parent_path() / (name.substr(0, name.size() - suffix.size()) + "-report.json");
+  const std::filesystem::path report = segment_report_beside(density);
+  if (report.empty()) return {};
   std::ifstream in(report);
   if (!in) return {};
   try {
@@ -145,6 +141,48 @@ std::filesystem::path find_source_ct(const std::filesystem::path& density) {
   } catch (const std::exception&) {
   }
   return {};
+}
+
+/// Where the patient's directions point in tissue space, for the default camera (facing the
+/// patient) and the orientation cube: the anatomy of the segment report beside `density` when
+/// there is one (its detected facing, and whether left/right was recorded), else the volume's
+/// recorded frame. A box (no density) has no patient.
+viewer::PatientAxes view_patient_axes(const std::filesystem::path& density,
+                                      const VolumeGeometry& frame) {
+  viewer::PatientAxes p;
+  if (density.empty()) return p;
+  auto to_tissue = [&](const Vec3d& v) {  // Dᵀ·v: D is orthonormal
+    const auto& d = frame.direction;
+    return Vec3d{d[0] * v.x + d[3] * v.y + d[6] * v.z, d[1] * v.x + d[4] * v.y + d[7] * v.z,
+                 d[2] * v.x + d[5] * v.y + d[8] * v.z};
+  };
+  AnatomyAxes axes;
+  bool from_anatomy = false;
+  const std::filesystem::path report = segment_report_beside(density);
+  std::ifstream in(report);
+  if (!report.empty() && in) {
+    try {
+      if (const auto a = anatomy_axes(nlohmann::json::parse(in))) {
+        axes = *a;
+        from_anatomy = true;
+      }
+    } catch (const std::exception&) {
+    }
+  }
+  if (!from_anatomy) axes.orientation_recorded = true;  // the volume's header frame
+  p.known = true;
+  p.left = to_tissue(axes.left);
+  p.anterior = to_tissue(axes.anterior);
+  p.superior = to_tissue(axes.superior);
+  p.left_right_known = axes.orientation_recorded;
+  char conf[32];
+  std::snprintf(conf, sizeof conf, "%.2f", axes.facing_confidence);
+  p.description =
+      std::string(axes.orientation_recorded ? "frame LPS recorded"
+                                            : "frame not recorded: LEFT/RIGHT UNKNOWN") +
+      (from_anatomy ? std::string("; face found by the anatomy (confidence ") + conf + ")"
+                    : "; face toward the frame's anterior");
+  return p;
 }
 
 /// The CT (HU) as slice planes with `labels`' labels over it. Throws tsf::Error naming the file
@@ -374,6 +412,14 @@ void run_view(const ViewArguments& args) {
 
   Stopwatch setup;
   ViewModel vm = build_view_model(args, in);
+  {
+    std::filesystem::path density;
+    if (!in.scene)
+      density = args.input;
+    else if (in.scene->instances[0].lattice.source == SceneLattice::Source::kVolume)
+      density = in.scene->instances[0].lattice.volume;
+    in.script.options.patient = view_patient_axes(density, vm.patient_frame);
+  }
   // The scene's outputs (names inside --out): the rest mesh now, states every states_every
   // frames, the final mesh and the report at the end.
   InteractionOutputs files;

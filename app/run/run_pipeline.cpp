@@ -490,6 +490,8 @@ std::vector<fs::path> export_stage(RunContext& ctx, const InteractionResult& res
     eo.format = exporter::ExportFormat::glb;
     eo.name = ctx.scene.multi_instance ? ctx.scene.name + "-" + r.name : ctx.scene.name;
     eo.source = "tsf run " + absolute_path(ctx.scene.file).string();
+    if (!ctx.ct.is_null() && !ctx.ct.value("orientation_recorded", true))
+      eo.frame_warning = kLeftRightUnknown;
     const fs::path glb = r.outputs.mesh.parent_path() / (r.outputs.mesh.stem().string() + ".glb");
     const exporter::ExportReport er =
         exporter::export_surface(r.final_mesh, r.patient_frame, glb, eo);

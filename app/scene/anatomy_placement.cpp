@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <map>
 #include <vector>
 
@@ -104,6 +105,48 @@ ReportAnatomy read_report_anatomy(const json& report) {
 }
 
 }  // namespace
+
+std::filesystem::path segment_report_beside(const std::filesystem::path& density) {
+  const std::string suffix = "-density.nrrd";
+  const std::string v = density.string();
+  if (v.size() <= suffix.size() || v.compare(v.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return {};
+  return v.substr(0, v.size() - suffix.size()) + "-report.json";
+}
+
+const char* const kLeftRightUnknown =
+    "left/right unknown: the source CT records no patient orientation, its axes were taken as "
+    "L, P, S (the model may be mirrored)";
+
+std::string frame_warning_beside(const std::filesystem::path& density) {
+  const std::filesystem::path report = segment_report_beside(density);
+  if (report.empty()) return {};
+  std::ifstream in(report);
+  if (!in) return {};
+  try {
+    const auto axes = anatomy_axes(json::parse(in));
+    if (axes && !axes->orientation_recorded) return kLeftRightUnknown;
+  } catch (const std::exception&) {
+  }
+  return {};
+}
+
+std::optional<AnatomyAxes> anatomy_axes(const json& report) {
+  if (!report.contains("anatomy")) return std::nullopt;
+  try {
+    const json& a = report.at("anatomy");
+    const json& d = a.at("directions");
+    AnatomyAxes out;
+    out.left = vec(d.at("left"));
+    out.anterior = vec(d.at("anterior"));
+    out.superior = vec(d.at("superior"));
+    out.orientation_recorded = a.value("orientation_recorded", false);
+    out.facing_confidence = a.at("facing").value("confidence", 0.0);
+    return out;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
 
 const std::vector<std::string>& anatomy_region_names() {
   static const std::vector<std::string> names = {

@@ -6,6 +6,8 @@
 // keys and no pipeline section is refused when it is read (scene_yaml.cpp).
 #pragma once
 
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,27 @@ const std::vector<std::string>& anatomy_region_names();
 /// Patient directions an offset or a plane normal may name: left, right, anterior, posterior,
 /// superior, inferior. Returns false for another word; `v` is (left, anterior, superior).
 bool anatomy_direction(const std::string& word, Vec3d& v);
+
+/// PREFIX-report.json beside a tsf segment volume PREFIX-density.nrrd; empty when `density` is
+/// not named so (the file may not exist).
+std::filesystem::path segment_report_beside(const std::filesystem::path& density);
+
+/// The patient's directions a segment report's anatomy found (LPS unit vectors: left, anterior as
+/// the face was detected, superior) and whether the CT recorded its orientation (else left/right
+/// is unknown). Empty when the report has no anatomy section.
+struct AnatomyAxes {
+  Vec3d left{1, 0, 0}, anterior{0, -1, 0}, superior{0, 0, 1};
+  bool orientation_recorded = false;
+  double facing_confidence = 0.0;
+};
+std::optional<AnatomyAxes> anatomy_axes(const nlohmann::json& segment_report);
+
+/// What every mesh exported from a CT without a recorded patient orientation says beside its
+/// frame (the model may be mirrored).
+extern const char* const kLeftRightUnknown;
+/// kLeftRightUnknown when the segment report beside `density` says the CT recorded no patient
+/// orientation; else empty (also when there is no report).
+std::string frame_warning_beside(const std::filesystem::path& density);
 
 /// Resolves every anatomy-relative key of `scene` from a segment report's `anatomy` and `grid`
 /// sections. Throws tsf::Error naming the key when the anatomy it uses was not found; returns

@@ -631,13 +631,8 @@ void place_by_segment_report(Scene& s, const std::string& name) {
                   "'): one segment report's anatomy cannot place both");
     volume = inst.lattice.volume;
   }
-  const std::string suffix = "-density.nrrd";
   const std::string v = volume.string();
-  const bool segment_output =
-      v.size() > suffix.size() && v.compare(v.size() - suffix.size(), suffix.size(), suffix) == 0;
-  const std::filesystem::path report =
-      segment_output ? std::filesystem::path(v.substr(0, v.size() - suffix.size()) + "-report.json")
-                     : std::filesystem::path();
+  const std::filesystem::path report = segment_report_beside(volume);
   std::error_code ec;
   if (report.empty() || !std::filesystem::is_regular_file(report, ec))
     throw Error(name + ": " + s.anatomy_key +

@@ -32,6 +32,7 @@ struct FileContext {
   const ExportFormatInfo* info = nullptr;
   const OutputFrame* frame = nullptr;
   std::string source;
+  std::string frame_warning;
   std::string content;  ///< "state 3 (t = 0.03 s)" ...
   std::vector<std::size_t> states;
   std::vector<std::int32_t> material_labels;  ///< per material: tissue label, or -1 (whole mesh)
@@ -47,6 +48,7 @@ std::string assimp_version() {
 
 std::string one_line_description(const FileContext& c) {
   std::string s = "tsf export: " + c.content + "; " + c.frame->describe();
+  if (!c.frame_warning.empty()) s += "; " + c.frame_warning;
   if (!c.source.empty()) s += "; source " + c.source;
   return s;
 }
@@ -69,6 +71,7 @@ void finish_gltf(GltfDocument& doc, const FileContext& c) {
                          "COLOR_0 = tissue label colour (linear RGB); materials are white so that "
                          "COLOR_0 x baseColorFactor shows the tissue colour"}};
   if (!c.source.empty()) tsf["source"] = c.source;
+  if (!c.frame_warning.empty()) tsf["frame_warning"] = c.frame_warning;
   asset["extras"] = {{"tsf", tsf}};
 
   auto& materials = doc.json["materials"];
@@ -310,6 +313,7 @@ ExportReport export_surface(const imt::SurfaceMesh& mesh, const VolumeGeometry& 
   context.info = &format_info(options.format);
   context.frame = &frame;
   context.source = options.source;
+  context.frame_warning = options.frame_warning;
   context.content = "surface";
   context.states = report.states;
   OutputFileSet set;
@@ -346,6 +350,7 @@ ExportReport export_sequence(const io::MeshSequence& sequence, const FrameSelect
   context.info = &info;
   context.frame = &frame;
   context.source = options.source;
+  context.frame_warning = options.frame_warning;
 
   OutputFileSet set;
   if (states.size() == 1) {

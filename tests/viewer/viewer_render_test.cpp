@@ -53,6 +53,55 @@ TEST(ViewerRender, TissueFillsTheFrame) {
   EXPECT_GT(px[0], px[2] + 30);
 }
 
+TEST(ViewerRender, TheDefaultCameraFacesThePatientAndTheCubeNamesTheSides) {
+  TSF_X_DISPLAY_OR_SKIP();
+  // The block (40 × 16 × 24 mm from the origin) seen from the front, no azimuth or elevation: the
+  // patient's left (+x in LPS) is on the image's right when the face is toward −y (LPS), and on
+  // its left when the same CT's face is toward +y (a volume stored the other way round).
+  auto session = test::make_block_session();
+  auto right_of = [&](const Vec3d& anterior) {
+    ViewOptions o = test::bare_offscreen_options();
+    o.camera.azimuth_deg = 0;
+    o.camera.elevation_deg = 0;
+    o.patient.known = true;
+    o.patient.left_right_known = true;
+    o.patient.anterior = anterior;
+    o.patient.left = {1, 0, 0};
+    o.patient.superior = {0, 0, 1};
+    Viewer viewer(*session, nullptr, o);
+    viewer.render({});
+    const double left_px = viewer.world_to_pixel({40, 8, 12})[0];
+    const double right_px = viewer.world_to_pixel({0, 8, 12})[0];
+    // Above: +z is up on the image either way.
+    EXPECT_GT(viewer.world_to_pixel({20, 8, 24})[1], viewer.world_to_pixel({20, 8, 0})[1]);
+    return std::make_pair(left_px > right_px, viewer.capture());
+  };
+  const auto [lps_left_on_right, lps_frame] = right_of({0, -1, 0});
+  const auto [flipped_left_on_right, flipped_frame] = right_of({0, 1, 0});
+  EXPECT_TRUE(lps_left_on_right) << "facing the patient, their left is on the viewer's right";
+  EXPECT_FALSE(flipped_left_on_right);
+  // The orientation cube sits in the top-right corner: coloured faces, not the cool background.
+  std::size_t coloured = 0;
+  for (int y = 0; y < lps_frame.height / 5; ++y)
+    for (int x = lps_frame.width * 9 / 10; x < lps_frame.width; ++x) {
+      const auto c = lps_frame.at(x, lps_frame.height - 1 - y);
+      coloured += (c[1] > c[2] + 40 || c[0] > c[2] + 40);
+    }
+  EXPECT_GT(coloured, 50u) << "no orientation cube in the corner";
+  // Without a patient frame (a box) there is no cube.
+  ViewOptions bare = test::bare_offscreen_options();
+  Viewer plain(*session, nullptr, bare);
+  plain.render({});
+  const Frame f = plain.capture();
+  std::size_t plain_coloured = 0;
+  for (int y = 0; y < f.height / 5; ++y)
+    for (int x = f.width * 9 / 10; x < f.width; ++x) {
+      const auto c = f.at(x, f.height - 1 - y);
+      plain_coloured += (c[1] > c[2] + 40 || c[0] > c[2] + 40);
+    }
+  EXPECT_EQ(plain_coloured, 0u);
+}
+
 TEST(ViewerRender, SlicePlanesAndOverlaysRender) {
   TSF_X_DISPLAY_OR_SKIP();
   auto session = test::make_block_session();

@@ -11,6 +11,7 @@
 #include <X11/Xlib.h>
 #include <vtkActor.h>
 #include <vtkActor2D.h>
+#include <vtkAnnotatedCubeActor.h>
 #include <vtkCallbackCommand.h>
 #include <vtkCamera.h>
 #include <vtkCapsuleSource.h>
@@ -310,6 +311,7 @@ struct Viewer::Impl {
   ViewOptions options;
   vtkSmartPointer<vtkRenderWindow> window;
   vtkSmartPointer<vtkRenderer> renderer;
+  vtkSmartPointer<vtkRenderer> marker_renderer;  // the orientation cube (null: no patient frame)
   vtkSmartPointer<vtkRenderWindowInteractor> interactor;
   SurfaceUploader uploader;
   vtkSmartPointer<vtkActor> surface_actor;
@@ -338,6 +340,8 @@ struct Viewer::Impl {
   void reset_camera();
   void update_frame(const ToolCommand& shown);
   void update_hud(const ToolCommand& shown);
+  void build_orientation_cube();
+  void sync_orientation_cube();
   void push_command() {
     ToolCommand c = command;
     c.mode = engaged ? armed_mode : interaction::ToolMode::kIdle;
@@ -537,9 +541,11 @@ void Viewer::Impl::reset_camera() {
                                 (bounds[3] - bounds[2]) * (bounds[3] - bounds[2]) +
                                 (bounds[5] - bounds[4]) * (bounds[5] - bounds[4]));
   vtkCamera* cam = renderer->GetActiveCamera();
+  const Vec3d ant = options.patient.anterior, up = options.patient.superior;
   cam->SetFocalPoint(centre.x, centre.y, centre.z);
-  cam->SetPosition(centre.x, centre.y + 2.0 * diag, centre.z);
-  cam->SetViewUp(0, 0, 1);
+  cam->SetPosition(centre.x + 2.0 * diag * ant.x, centre.y + 2.0 * diag * ant.y,
+                   centre.z + 2.0 * diag * ant.z);
+  cam->SetViewUp(up.x, up.y, up.z);
   cam->SetViewAngle(30);
   cam->Azimuth(c.azimuth_deg);
   cam->Elevation(c.elevation_deg);
@@ -570,6 +576,7 @@ void Viewer::Impl::update_frame(const ToolCommand& shown) {
   }
   update_hud(shown);
   renderer->ResetCameraClippingRange();
+  sync_orientation_cube();
   window->Render();
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   render_times.push_back(seconds);
@@ -579,6 +586,57 @@ void Viewer::Impl::update_frame(const ToolCommand& shown) {
          render_stamps.back() - render_stamps.front() > std::chrono::seconds(1))
     render_stamps.pop_front();
   ++frames_rendered;
+}
+
+/// The patient direction a tissue axis points toward: "L", "R", "A", "P", "S" or "I" for the
+/// patient axis it is closest to (with "?" when left/right is not recorded).
+std::string patient_letter(const PatientAxes& p, const Vec3d& axis) {
+  const double l = dot(axis, p.left), a = dot(axis, p.anterior), s = dot(axis, p.superior);
+  if (std::abs(l) >= std::abs(a) && std::abs(l) >= std::abs(s))
+    return std::string(l > 0 ? "L" : "R") + (p.left_right_known ? "" : "?");
+  if (std::abs(a) >= std::abs(s)) return a > 0 ? "A" : "P";
+  return s > 0 ? "S" : "I";
+}
+
+void Viewer::Impl::build_orientation_cube() {
+  const PatientAxes& p = options.patient;
+  if (!p.known) return;
+  vtkNew<vtkAnnotatedCubeActor> cube;
+  cube->SetXPlusFaceText(patient_letter(p, {1, 0, 0}).c_str());
+  cube->SetXMinusFaceText(patient_letter(p, {-1, 0, 0}).c_str());
+  cube->SetYPlusFaceText(patient_letter(p, {0, 1, 0}).c_str());
+  cube->SetYMinusFaceText(patient_letter(p, {0, -1, 0}).c_str());
+  cube->SetZPlusFaceText(patient_letter(p, {0, 0, 1}).c_str());
+  cube->SetZMinusFaceText(patient_letter(p, {0, 0, -1}).c_str());
+  cube->SetFaceTextScale(0.55);
+  cube->GetCubeProperty()->SetColor(0.32, 0.36, 0.44);
+  cube->GetTextEdgesProperty()->SetColor(0.9, 0.9, 0.9);
+  for (vtkProperty* f : {cube->GetXPlusFaceProperty(), cube->GetXMinusFaceProperty()})
+    f->SetColor(1.0, 0.45, 0.45);
+  for (vtkProperty* f : {cube->GetYPlusFaceProperty(), cube->GetYMinusFaceProperty()})
+    f->SetColor(0.5, 0.9, 0.5);
+  for (vtkProperty* f : {cube->GetZPlusFaceProperty(), cube->GetZMinusFaceProperty()})
+    f->SetColor(0.5, 0.7, 1.0);
+  marker_renderer = vtkSmartPointer<vtkRenderer>::New();
+  marker_renderer->SetViewport(0.86, 0.76, 0.995, 0.985);
+  marker_renderer->SetLayer(1);
+  marker_renderer->InteractiveOff();
+  marker_renderer->AddActor(cube);
+  window->SetNumberOfLayers(2);
+  window->AddRenderer(marker_renderer);
+}
+
+void Viewer::Impl::sync_orientation_cube() {
+  if (!marker_renderer) return;
+  vtkCamera* main = renderer->GetActiveCamera();
+  vtkCamera* cam = marker_renderer->GetActiveCamera();
+  double dop[3], up[3];
+  main->GetDirectionOfProjection(dop);
+  main->GetViewUp(up);
+  cam->SetFocalPoint(0, 0, 0);
+  cam->SetPosition(-3.2 * dop[0], -3.2 * dop[1], -3.2 * dop[2]);
+  cam->SetViewUp(up);
+  marker_renderer->ResetCameraClippingRange();
 }
 
 void Viewer::Impl::update_hud(const ToolCommand& shown) {
@@ -612,6 +670,7 @@ void Viewer::Impl::update_hud(const ToolCommand& shown) {
   std::string text = buf;
   if (options.slices.show && !slice_description.empty())
     text += "\nslices   " + slice_description + (options.slices.labels ? " + tissue labels" : "");
+  if (!options.patient.description.empty()) text += "\npatient  " + options.patient.description;
   hud->SetInput(text.c_str());
 }
 
@@ -637,6 +696,7 @@ Viewer::Viewer(SimulationSession& session, const SliceVolume* slices, const View
   // other (it needs multisampling off; FXAA smooths the edges instead).
   v.window->SetMultiSamples(0);
   v.window->AddRenderer(v.renderer);
+  v.build_orientation_cube();
   v.renderer->SetUseDepthPeeling(1);
   v.renderer->SetMaximumNumberOfPeels(8);
   v.renderer->SetOcclusionRatio(0.0);

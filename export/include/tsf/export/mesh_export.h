@@ -37,6 +37,9 @@ struct ExportOptions {
   double time_scale = 1.0;             ///< animation seconds per simulated second (> 0)
   std::string name = "tissue";         ///< root node name
   std::string source;                  ///< input description recorded in the file's metadata
+  /// Said in the file's metadata beside the frame when not empty, e.g. that the source CT records
+  /// no patient orientation ("left/right unknown: ...").
+  std::string frame_warning;
 
   /// Throws tsf::Error for a unit or axis convention the format fixes otherwise, --split-labels
   /// on a format that holds one mesh, or a time scale that is not finite and positive.

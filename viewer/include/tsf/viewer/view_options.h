@@ -4,13 +4,26 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "tsf/common/vec3.h"
 
 namespace tsf::viewer {
 
+/// Where the patient's directions point in the tissue space the viewer draws (unit vectors).
+/// The default camera looks at the face (from anterior, superior up), and the orientation cube
+/// in the corner names each side. The defaults suit a tissue without a patient (a box): the
+/// "face" is +y, up is +z.
+struct PatientAxes {
+  Vec3d left{1, 0, 0}, anterior{0, 1, 0}, superior{0, 0, 1};
+  bool known = false;             ///< from a CT's frame or its anatomy (else no letters are shown)
+  bool left_right_known = false;  ///< false: the CT records no left/right ("L?", "R?")
+  /// One line for the HUD, e.g. "patient frame LPS (recorded); anterior from the anatomy".
+  std::string description;
+};
+
 struct CameraOptions {
-  /// Degrees about the up axis (z) from a view along −y (from the front, y is back → front).
+  /// Degrees about the patient's superior axis from a view facing the patient (from anterior).
   double azimuth_deg = 35.0;
   /// Degrees above the horizontal.
   double elevation_deg = 20.0;
@@ -33,6 +46,7 @@ struct ViewOptions {
   int width = 1280, height = 800;  ///< pixels
   bool offscreen = false;
   CameraOptions camera;
+  PatientAxes patient;
   SliceOptions slices;
   bool show_hud = true;
   bool show_plot = true;
