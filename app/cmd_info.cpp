@@ -15,10 +15,16 @@
 
 #include "commands.h"
 #include "tsf/common/error.h"
+#include "tsf/common/stopwatch.h"
 #include "tsf/import/ct_geometry.h"
 #include "tsf/import/dicom_catalog.h"
 #include "tsf/import/import_volume.h"
 #include "tsf/import/volume_file_reader.h"
+#ifdef TSF_HAVE_SEGMENT
+#include "tsf/segment/segment_preset.h"
+#include "tsf/segment/segmentation_pipeline.h"
+#include "tsf/segment/sinus_anatomy.h"
+#endif
 
 namespace tsf::app {
 namespace {
@@ -32,6 +38,8 @@ struct InfoArguments {
   std::string series;
   bool json = false;
   bool no_progress = false;
+  bool anatomy = false;
+  double anatomy_voxel_mm = 2.0;
 };
 
 [[gnu::format(printf, 1, 2)]] std::string text(const char* format, ...) {
@@ -216,6 +224,104 @@ void print_volume(const ordered_json& v, const std::string& orientation_line) {
   }
 }
 
+// The crop the shipped sinus scenes place by anatomy (scenes/sinus.yaml): a box of this size
+// (left-right, anterior-posterior, superior-inferior, mm) around the nose tip moved by kCropOffset
+// (left, anterior, superior, mm).
+constexpr double kCropSize[3] = {50, 56, 60};
+constexpr double kCropOffset[3] = {0, -25, 5};
+
+/// `--anatomy`: the sinus preset at a coarse voxel size, the anatomy it finds (as tsf segment's
+/// report writes it) and the sinus scenes' crop placed by it, in LPS.
+ordered_json anatomy_json(const ImportResult& imported, bool orientation_recorded,
+                          const InfoArguments& a) {
+#ifdef TSF_HAVE_SEGMENT
+  Stopwatch clock;
+  segment::SegmentPreset preset = segment::load_segment_preset("sinus");
+  preset.resample.voxel_mm = a.anatomy_voxel_mm;
+  segment::SegmentationOptions so;
+  so.show_progress = !a.no_progress && !a.json;
+  so.compute_weights = false;  // the anatomy needs the labels and air spaces only
+  const segment::SegmentationResult seg = segment::segment_hu_image(imported.image, preset, so);
+  segment::SinusAnatomyOptions ao;
+  ao.orientation_recorded = orientation_recorded;
+  const segment::SinusAnatomy anatomy = segment::find_sinus_anatomy(seg.images, ao);
+  ordered_json j = segment::sinus_anatomy_json(anatomy);
+  j["voxel_mm"] = a.anatomy_voxel_mm;
+  j["seconds"] = clock.seconds();
+  const segment::AnatomyLandmark* tip = anatomy.landmark("nose-tip");
+  if (tip && tip->found) {
+    const segment::AnatomyFrame& f = anatomy.frame;
+    const Vec3d centre = tip->position_mm + f.left * kCropOffset[0] + f.anterior * kCropOffset[1] +
+                         f.superior * kCropOffset[2];
+    Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+    for (int corner = 0; corner < 8; ++corner) {
+      const Vec3d c = centre + f.left * (((corner & 1) ? 0.5 : -0.5) * kCropSize[0]) +
+                      f.anterior * (((corner & 2) ? 0.5 : -0.5) * kCropSize[1]) +
+                      f.superior * (((corner & 4) ? 0.5 : -0.5) * kCropSize[2]);
+      for (int ax = 0; ax < 3; ++ax) {
+        lo[ax] = std::min(lo[ax], c[ax]);
+        hi[ax] = std::max(hi[ax], c[ax]);
+      }
+    }
+    j["suggested_crop"] = {
+        {"scene",
+         "crop: {center: {landmark: nose-tip, offset_mm: {posterior: 25, superior: 5}}, "
+         "size_mm: [50, 56, 60]}"},
+        {"min_mm", {lo.x, lo.y, lo.z}},
+        {"max_mm", {hi.x, hi.y, hi.z}},
+        {"confidence", tip->confidence}};
+  } else {
+    j["suggested_crop"] = nullptr;
+  }
+  return j;
+#else
+  (void)imported, (void)orientation_recorded, (void)a;
+  throw Error("--anatomy needs a build with the segment module (reconfigure with ITK)");
+#endif
+}
+
+void print_anatomy(const ordered_json& j) {
+  std::printf("anatomy      sinus preset at %.1f mm voxels (%.1f s), patient LPS mm%s\n",
+              j["voxel_mm"].get<double>(), j["seconds"].get<double>(),
+              j["orientation_recorded"].get<bool>() ? "" : ", LEFT/RIGHT UNKNOWN");
+  const ordered_json& facing = j["facing"];
+  std::printf("  facing     anterior (%.2f, %.2f, %.2f), confidence %.2f: %s\n",
+              facing["anterior"][0].get<double>(), facing["anterior"][1].get<double>(),
+              facing["anterior"][2].get<double>(), facing["confidence"].get<double>(),
+              facing["reason"].get<std::string>().c_str());
+  auto line = [](const ordered_json& e, const std::string& where) {
+    if (!e.value("found", false)) {
+      std::printf("  %-16s not found: %s\n", e["name"].get<std::string>().c_str(),
+                  e.value("reason", std::string()).c_str());
+      return;
+    }
+    std::printf("  %-16s %s, confidence %.2f\n", e["name"].get<std::string>().c_str(),
+                where.c_str(), e["confidence"].get<double>());
+  };
+  auto p3 = [](const ordered_json& v) {
+    return text("(%.1f, %.1f, %.1f)", v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+  };
+  for (const ordered_json& l : j["landmarks"])
+    line(l, l.value("found", false) ? p3(l["position_mm"]) : "");
+  for (const ordered_json& p : j["planes"])
+    line(p, p.value("found", false) ? "through " + p3(p["point_mm"]) + ", normal " + p3(p["normal"])
+                                    : "");
+  for (const ordered_json& r : j["regions"])
+    line(r, r.value("found", false) ? text("%.1f ml, box ", r.value("ml", 0.0)) +
+                                          p3(r["bbox_mm"]["min"]) + " to " + p3(r["bbox_mm"]["max"])
+                                    : "");
+  for (const auto& w : j["warnings"]) std::printf("  warning: %s\n", w.get<std::string>().c_str());
+  if (j["suggested_crop"].is_null()) {
+    std::printf(
+        "suggested    none: no nose tip, so the sinus scenes cannot be placed on this CT\n");
+    return;
+  }
+  const ordered_json& c = j["suggested_crop"];
+  std::printf("suggested    the sinus scenes' crop %s to %s (LPS)\n               %s\n",
+              p3(c["min_mm"]).c_str(), p3(c["max_mm"]).c_str(),
+              c["scene"].get<std::string>().c_str());
+}
+
 void run_info(const InfoArguments& a) {
   const fs::path path(a.path);
   ordered_json out = {{"path", a.path}, {"frame", "patient (LPS), mm"}};
@@ -276,6 +382,7 @@ void run_info(const InfoArguments& a) {
   out["chosen_series"] = volume_file ? ordered_json(nullptr) : ordered_json(g.series_instance_uid);
   out["volume"] = volume_json(g, r, orientation_line);
   out["warnings"] = r.warnings;
+  if (a.anatomy) out["anatomy"] = anatomy_json(imported, orientation_recorded, a);
   if (a.json) {
     std::printf("%s\n", out.dump(2).c_str());
     return;
@@ -296,6 +403,7 @@ void run_info(const InfoArguments& a) {
     std::printf("warnings     %zu\n", r.warnings.size());
     for (const auto& w : r.warnings) std::printf("  - %s\n", w.c_str());
   }
+  if (a.anatomy) print_anatomy(out["anatomy"]);
 }
 
 constexpr const char* kInfoFooter = R"(
@@ -311,12 +419,18 @@ What it prints
   (LPS, mm), the value range (HU) and the import's warnings.
   Scenes place their crop, anchors and tools in these millimetres (tissue space: origin +
   index × spacing; the same as LPS when the direction is the identity, else printed as
-  "scene frame").
+  "scene frame"), or by the anatomy.
+  --anatomy: segments with the sinus preset at --anatomy-voxel-mm (2 mm: a few seconds) and
+  prints what it finds, as tsf segment's report would: which way the face points, the nose tip,
+  the nostrils, the midsagittal plane, the nasal cavity and the paranasal air spaces, each in
+  LPS mm with a confidence and a reason (or why it was not found), and the box the shipped sinus
+  scenes crop around the nose tip on this CT. Nothing is written.
 
 Examples
   tsf info data-samples/ct-head-cranium/cranium.nrrd
   tsf info scans/patient-17/                   # lists the series
   tsf info scans/patient-17/ --series 1.2.840.113619.2.55.3 --json
+  tsf info scans/patient-17/ --anatomy          # what the sinus scenes will be placed by
 See docs/patients.md.)";
 
 }  // namespace
@@ -336,6 +450,12 @@ void add_info_command(CLI::App& app) {
                   "SeriesInstanceUID to describe (needed when the folder holds several usable "
                   "series)");
   sub->add_flag("--json", args->json, "Print the same as JSON");
+  sub->add_flag("--anatomy", args->anatomy,
+                "Also segment with the sinus preset (coarse voxels, seconds) and print the "
+                "anatomy it finds, with confidences, and the sinus scenes' crop placed by it");
+  sub->add_option("--anatomy-voxel-mm", args->anatomy_voxel_mm,
+                  "Voxel size for --anatomy (mm; default 2)")
+      ->check(CLI::Range(0.5, 4.0));
   sub->add_flag("--no-progress", args->no_progress, "No progress bars");
   sub->callback([args] { run_info(*args); });
 }

@@ -270,6 +270,32 @@ TEST(PatientCommands, ACropThatMissesTheCtFailsInUnderASecondWithTheExtent) {
   EXPECT_FALSE(fs::exists(dir / "out" / "crop-misses-density.nrrd"));
 }
 
+TEST(PatientInfo, AnatomyOptionFindsTheNoseAndSuggestsTheSinusCrop) {
+  TSF_EXECUTABLE_OR_SKIP(exe);
+  SAMPLE_OR_SKIP(cranium());
+  const test::ProcessRun r =
+      test::run_tsf(exe, "info " + shell_quoted(cranium()) + " --anatomy --json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const json j = json::parse(r.output);
+  const json& a = j["anatomy"];
+  EXPECT_FALSE(a["orientation_recorded"].get<bool>());
+  EXPECT_DOUBLE_EQ(a["voxel_mm"].get<double>(), 2.0);
+  const json& tip = a["landmarks"][0];
+  EXPECT_EQ(tip["name"], "nose-tip");
+  ASSERT_TRUE(tip["found"].get<bool>()) << tip;
+  EXPECT_NEAR(tip["position_mm"][1].get<double>(), 232.0, 3.0);  // the face is toward +y
+  // The sinus scenes' crop around it: 50 mm wide, reaching from just in front of the tip back.
+  const json& crop = a["suggested_crop"];
+  ASSERT_FALSE(crop.is_null());
+  EXPECT_NEAR(crop["max_mm"][0].get<double>() - crop["min_mm"][0].get<double>(), 50.0, 0.5);
+  EXPECT_NEAR(crop["max_mm"][1].get<double>(), tip["position_mm"][1].get<double>() + 3.0, 0.5);
+  // The text form says left/right is unknown.
+  const test::ProcessRun t = test::run_tsf(exe, "info " + shell_quoted(cranium()) + " --anatomy");
+  ASSERT_EQ(t.status, 0) << t.output;
+  EXPECT_TRUE(contains(t.output, "LEFT/RIGHT UNKNOWN")) << t.output;
+  EXPECT_TRUE(contains(t.output, "suggested    the sinus scenes' crop")) << t.output;
+}
+
 TEST(PatientCommandsRobustness, PipelineSourceSeriesIsReadStrictly) {
   TSF_EXECUTABLE_OR_SKIP(exe);
   SAMPLE_OR_SKIP(cranium());
