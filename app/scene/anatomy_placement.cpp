@@ -283,12 +283,31 @@ std::vector<std::string> place_scene_by_anatomy(Scene& scene, const json& segmen
       }
     }
   }
+  // A rotation about a patient direction, right-handed in the patient frame (L, P, S): in tissue
+  // space it turns about that direction's image under M = [left, posterior, superior] (tissue
+  // columns), by the same angle when M keeps handedness and by its negative when M mirrors (a CT
+  // stored mirrored, or a facing detected against an assumed frame).
+  Vec3d cols[3];
+  const Vec3d lps_words[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, 1}};  // left, posterior, superior
+  for (int c = 0; c < 3; ++c) cols[c] = a.tissue_direction(a.patient_offset(lps_words[c]));
+  const double handedness = dot(cols[0], cross(cols[1], cols[2])) < 0 ? -1.0 : 1.0;
+  auto rotation = [&](const AnatomyPosition& p, const Rotation& given) {
+    if (!p.rotation_given()) return given;
+    Vec3d las;
+    anatomy_direction(p.rotation_axis, las);
+    return Rotation::about_axis(a.tissue_direction(a.patient_offset(las)),
+                                handedness * p.rotation_angle_rad);
+  };
   for (SceneTrajectory& t : scene.script.trajectories)
-    for (std::size_t k = 0; k < t.keyframes.size() && k < t.anatomy.size(); ++k)
+    for (std::size_t k = 0; k < t.keyframes.size() && k < t.anatomy.size(); ++k) {
       if (t.anatomy[k].given()) t.keyframes[k].pose.position = position(t.anatomy[k]);
+      t.keyframes[k].pose.orientation = rotation(t.anatomy[k], t.keyframes[k].pose.orientation);
+    }
   for (SceneEvent& e : scene.script.events) {
     if (e.from_anatomy.given()) e.from.position = position(e.from_anatomy);
     if (e.to_anatomy.given()) e.to.position = position(e.to_anatomy);
+    e.from.orientation = rotation(e.from_anatomy, e.from.orientation);
+    e.to.orientation = rotation(e.to_anatomy, e.to.orientation);
   }
   return warnings;
 }

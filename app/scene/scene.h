@@ -36,6 +36,13 @@ struct AnatomyPosition {
   Vec3d offset_mm{0, 0, 0};
   std::string key;  ///< the key path, for messages
   bool given() const { return !landmark.empty(); }
+  /// `rotation: {axis: anterior, angle_deg: 90}` with the pose: the axis is a patient direction
+  /// (right-hand rule in the patient frame), turned into tissue space with the detected frame.
+  /// Empty: the pose's rotation is given in tissue space ([x, y, z] or a quaternion).
+  std::string rotation_axis;
+  double rotation_angle_rad = 0.0;
+  std::string rotation_key;
+  bool rotation_given() const { return !rotation_axis.empty(); }
 };
 
 struct SceneLattice {

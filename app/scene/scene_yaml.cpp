@@ -361,7 +361,7 @@ void read_tissue(const Field& f, SceneTissue& t) {
   t.contact_passes = static_cast<int>(f["contact_passes"].integer(2, 1, 1000));
 }
 
-Rotation read_rotation(const Field& f) {
+Rotation read_rotation(const Field& f, AnatomyPosition* anatomy = nullptr) {
   if (!f.defined()) return {};
   f.expect_keys({"axis", "angle_deg", "quaternion"});
   if (f["quaternion"].defined()) {
@@ -375,6 +375,22 @@ Rotation read_rotation(const Field& f) {
   }
   if (!f["axis"].defined() || !f["angle_deg"].defined())
     f.fail("needs axis and angle_deg (or quaternion)");
+  if (f["axis"].node().IsScalar()) {
+    // A patient direction: resolved with the anatomy (anatomy_placement.h).
+    const std::string word = f["axis"].text();
+    Vec3d dir;
+    if (!anatomy_direction(word, dir))
+      f["axis"].fail(
+          "expected [x, y, z] or a patient direction (left, right, anterior, "
+          "posterior, superior, inferior), got '" +
+          word + "'");
+    if (anatomy == nullptr) f["axis"].fail("a patient direction is not accepted here");
+    anatomy->rotation_axis = word;
+    anatomy->rotation_angle_rad =
+        f["angle_deg"].number(0.0, -36000.0, 36000.0) * 3.14159265358979323846 / 180.0;
+    anatomy->rotation_key = f["axis"].path();
+    return {};
+  }
   const Vec3d axis = f["axis"].vec3({});
   if (!(length_squared(axis) > 0)) f["axis"].fail("must not be zero");
   const double angle = f["angle_deg"].number(0.0, -36000.0, 36000.0);
@@ -386,7 +402,7 @@ ToolPose read_pose(const Field& f, AnatomyPosition& anatomy) {
   f.expect_keys({"position", "rotation"});
   if (!f["position"].defined()) f["position"].fail("is required ([x, y, z] mm)");
   const Vec3d position = read_position(f["position"], anatomy);
-  return {position, read_rotation(f["rotation"])};
+  return {position, read_rotation(f["rotation"], &anatomy)};
 }
 
 interaction::ToolMode read_mode(const Field& f) {
@@ -469,7 +485,7 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
         AnatomyPosition anatomy;
         kf.pose.position = read_position(key["position"], anatomy);
         out.anatomy.push_back(anatomy);
-        kf.pose.orientation = read_rotation(key["rotation"]);
+        kf.pose.orientation = read_rotation(key["rotation"], &out.anatomy.back());
         if (!key["mode"].defined()) key["mode"].fail("is required (press, ablate, cut or idle)");
         kf.mode = read_mode(key["mode"]);
         if (!tool.tool.supports(kf.mode))
@@ -784,11 +800,15 @@ Scene read_scene(const std::filesystem::path& file) {
     }
   }
   for (const SceneTrajectory& t : s.script.trajectories)
-    for (const AnatomyPosition& p : t.anatomy)
+    for (const AnatomyPosition& p : t.anatomy) {
       if (s.anatomy_key.empty() && p.given()) s.anatomy_key = p.key;
+      if (s.anatomy_key.empty() && p.rotation_given()) s.anatomy_key = p.rotation_key;
+    }
   for (const SceneEvent& e : s.script.events)
-    for (const AnatomyPosition* p : {&e.from_anatomy, &e.to_anatomy})
+    for (const AnatomyPosition* p : {&e.from_anatomy, &e.to_anatomy}) {
       if (s.anatomy_key.empty() && p->given()) s.anatomy_key = p->key;
+      if (s.anatomy_key.empty() && p->rotation_given()) s.anatomy_key = p->rotation_key;
+    }
   if (!s.anatomy_key.empty() && !s.pipeline.present) place_by_segment_report(s, name);
   // Cross-field checks with the library's own messages (they name material.* fields).
   for (std::size_t i = 0; i < s.instances.size(); ++i) {

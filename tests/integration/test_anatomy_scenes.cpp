@@ -181,6 +181,8 @@ TEST(PatientAnatomy, AnatomyKeysAreReadStrictly) {
       {"size_mm: [50, 56, 60]", "size_mm: [50, 56, -60]", "lattice.crop.size_mm"},
       {"size_mm: [50, 56, 60]", "sizes: [50, 56, 60]", "lattice.crop.sizes"},
       {"offset_mm: {posterior: 47}", "offset_mm: {backward: 47}", "offset_mm.backward"},
+      {"rotation: {axis: left, angle_deg: 90}", "rotation: {axis: leftward, angle_deg: 90}",
+       "rotation.axis: expected [x, y, z] or a patient direction"},
       {"normal: anterior}", "normal: forward}", "plane.normal"},
       {"{landmark: nose-tip, offset_mm: {anterior: 3,",
        "{landmark: nose-top, offset_mm: {anterior: 3,", "unknown landmark 'nose-top'"},
