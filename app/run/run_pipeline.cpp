@@ -26,6 +26,7 @@
 #include "scene/scene.h"
 #include "scene/scene_session.h"
 #include "tsf/common/atomic_file.h"
+#include "tsf/common/cuda_support.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/interaction/tissue_model.h"
@@ -289,6 +290,15 @@ RunContext prepare_run(const RunOptions& options) {
   Scene& scene = ctx.scene;
   check_scene_for_command(scene, SceneCommand::kRun);
   override_backend(scene, options.backend);
+  // CUDA asked for where it cannot run is known now, before minutes of segmentation.
+  bool explicit_instance = false;
+  for (const SceneInstance& inst : scene.instances)
+    explicit_instance |= inst.integration.integrator != crms::Integrator::kImplicitEuler;
+  if (scene.solver.backend == crms::Backend::kCuda && explicit_instance && !cuda_status().available)
+    throw Error(scene.file.string() + ": " +
+                (options.backend.empty() ? "solver.backend" : "--backend") +
+                ": cuda was asked for, but CUDA is not usable here (" + cuda_status().reason +
+                "); use cpu or auto. Nothing was segmented");
   // --ct / --series: another patient's CT for this run, through the same scene.
   std::string ct_key = scene.file.string() + ": pipeline.source.ct";
   std::string series_key = scene.file.string() + ": pipeline.source.series";

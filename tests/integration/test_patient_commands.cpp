@@ -19,6 +19,7 @@
 
 #include "support/test_data.h"
 #include "support/tsf_process.h"
+#include "tsf/common/cuda_support.h"
 
 namespace tsf {
 namespace {
@@ -294,6 +295,26 @@ TEST(PatientInfo, AnatomyOptionFindsTheNoseAndSuggestsTheSinusCrop) {
   ASSERT_EQ(t.status, 0) << t.output;
   EXPECT_TRUE(contains(t.output, "LEFT/RIGHT UNKNOWN")) << t.output;
   EXPECT_TRUE(contains(t.output, "suggested    the sinus scenes' crop")) << t.output;
+}
+
+TEST(PatientCommands, CudaWhereItCannotRunIsRefusedBeforeSegmenting) {
+  TSF_EXECUTABLE_OR_SKIP(exe);
+  SAMPLE_OR_SKIP(cranium());
+  if (cuda_status().available)
+    GTEST_SKIP() << "not run: CUDA is usable here, so --backend cuda is not refused";
+  const fs::path dir = test::scratch_dir("patient-cuda-refused");
+  const auto start = std::chrono::steady_clock::now();
+  const test::ProcessRun r =
+      test::run_tsf(exe, "run " + shell_quoted(sinus_ci()) + " -q --backend cuda -o " +
+                             shell_quoted(dir / "out"));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "--backend: cuda was asked for, but CUDA is not usable here"))
+      << r.output;
+  EXPECT_TRUE(contains(r.output, "Nothing was segmented")) << r.output;
+  EXPECT_LT(seconds, 1.0);
+  EXPECT_FALSE(fs::exists(dir / "out" / "sinus-ci-density.nrrd"));
 }
 
 TEST(PatientCommandsRobustness, PipelineSourceSeriesIsReadStrictly) {
