@@ -287,6 +287,8 @@ interaction::TissueModelOptions instance_model_options(const Scene& scene, std::
   o.lattice.mass_floor = static_cast<float>(inst.lattice.mass_floor);
   o.lattice.density_g_per_mm3 = inst.material.density_g_per_mm3;
   o.solver = instance_solver_config(scene, index);
+  // Gravity is given in patient coordinates (LPS): into the volume's tissue space.
+  o.solver.gravity = volume.direction_to_tissue(o.solver.gravity);
   if (!box) configure_volume_lattice(scene.effect_regions, o.solver, o.lattice);
   o.deletion_threshold = static_cast<float>(inst.tissue.deletion_threshold);
   o.dt_s = inst.integration.dt_s;
@@ -380,11 +382,13 @@ LatticeRun build_lattice_run(const Scene& scene) {
   const std::size_t index = 0;
   const SceneInstance& inst = scene.instances.at(index);
   crms::Lattice lattice;
+  VolumeGeometry frame;  // identity for a box
   if (inst.lattice.source == SceneLattice::Source::kBox) {
     lattice = box_lattice(scene, inst);
   } else {
 #ifdef TSF_HAVE_IMPORT
     const VoxelVolume volume = instance_tissue_volume(scene, index);
+    frame = volume.geometry();
     const interaction::TissueModelOptions o =
         instance_model_options(scene, index, volume.geometry());
     lattice = crms::build_lattice_from_volume(volume, o.lattice);
@@ -397,6 +401,7 @@ LatticeRun build_lattice_run(const Scene& scene) {
   for (std::int64_t n = 0; n < lattice.node_count(); ++n)
     run.fixed_nodes += lattice.alive(n) && lattice.fixed(n);
   crms::SolverConfig config = instance_solver_config(scene, index);
+  config.gravity = frame.direction_to_tissue(config.gravity);  // patient (LPS) → tissue
   apply_scene_effects(scene.effect_regions, lattice, config);
   try {
     run.solver = std::make_unique<crms::Solver>(std::move(lattice), config);

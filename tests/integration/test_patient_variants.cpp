@@ -1,6 +1,7 @@
-// Same head, other scanner, same model: the bundled cranium stored four other ways — another
+// Same head, other scanner, same model: the bundled cranium stored five other ways — another
 // origin, voxel order reversed along i and j (direction cosines to match, as an RAS-ordered file
-// would), half the in-plane resolution, and a voxel grid turned 12° about the vertical — each run
+// would), slices stored top-down (a mirrored frame), half the in-plane resolution, and a voxel
+// grid turned 12° about the vertical — each run
 // through the unchanged scenes/sinus.yaml with `tsf run --ct`. In patient coordinates (mapped back
 // by the known shift), the landmarks must agree within 2 mm, the simulated region (rest surface)
 // and the exported final surface within 2 mm, and the removed tissue within 10 % of the canonical
@@ -112,6 +113,20 @@ std::vector<Variant> make_variants(const HuImage::Pointer& canon) {
         for (long i = 0; i < long(size[0]); ++i)
           v.image->SetPixel({{i, j, k}},
                             canon->GetPixel({{long(size[0]) - 1 - i, long(size[1]) - 1 - j, k}}));
+    out.push_back(v);
+  }
+  {  // slices stored from the top down (k reversed): the voxel axes mirror the patient's
+    HuImage::DirectionType d = direction;
+    for (unsigned r = 0; r < 3; ++r) d[r][2] = -direction[r][2];
+    HuImage::IndexType top{};
+    top[2] = static_cast<long>(size[2]) - 1;
+    HuImage::PointType o;
+    canon->TransformIndexToPhysicalPoint(top, o);
+    Variant v{"slices-top-down", make_image(size, spacing, o, d)};
+    for (long k = 0; k < long(size[2]); ++k)
+      for (long j = 0; j < long(size[1]); ++j)
+        for (long i = 0; i < long(size[0]); ++i)
+          v.image->SetPixel({{i, j, k}}, canon->GetPixel({{i, j, long(size[2]) - 1 - k}}));
     out.push_back(v);
   }
   {  // half the in-plane resolution: 2 × 2 voxels averaged

@@ -62,6 +62,12 @@ struct VolumeGeometry {
     return {d[0] * v.x + d[1] * v.y + d[2] * v.z, d[3] * v.x + d[4] * v.y + d[5] * v.z,
             d[6] * v.x + d[7] * v.y + d[8] * v.z};
   }
+  /// A patient (LPS) direction -> tissue space: Dᵀ·v.
+  Vec3d direction_to_tissue(const Vec3d& v) const {
+    const auto& d = direction;
+    return {d[0] * v.x + d[3] * v.y + d[6] * v.z, d[1] * v.x + d[4] * v.y + d[7] * v.z,
+            d[2] * v.x + d[5] * v.y + d[8] * v.z};
+  }
   /// det(D) < 0: the voxel axes are a mirror image of L, P, S (tissue → patient mirrors).
   bool mirrors() const;
   bool identity_direction() const;
