@@ -23,20 +23,28 @@ fs::path executable_folder() {
 }  // namespace
 
 fs::path find_bundled_path(const fs::path& relative) {
-  std::vector<fs::path> starts = {fs::current_path()};
-  if (const fs::path exe = executable_folder(); !exe.empty()) starts.push_back(exe);
-  std::string tried;
-  for (const fs::path& start : starts) {
-    for (fs::path dir = start;; dir = dir.parent_path()) {
-      const fs::path candidate = dir / relative;
-      std::error_code ec;
-      if (fs::exists(candidate, ec)) return candidate;
-      if (dir == dir.root_path() || dir.parent_path() == dir) break;
-    }
-    tried += (tried.empty() ? "" : " and ") + start.string();
+  // A source checkout holding the working folder first (a developer's edits), then the files
+  // installed with the executable (PREFIX/bin/tsf -> PREFIX/share/tsf; a build tree links
+  // BUILD/share/tsf to the checkout: cmake/TsfInstall.cmake).
+  std::vector<fs::path> tried;
+  for (fs::path dir = fs::current_path();; dir = dir.parent_path()) {
+    std::error_code ec;
+    if (fs::exists(dir / relative, ec) && fs::exists(dir / "scenes" / "sinus.yaml", ec))
+      return dir / relative;
+    if (dir == dir.root_path() || dir.parent_path() == dir) break;
   }
-  throw Error("cannot find the bundled '" + relative.string() + "' (looked in " + tried +
-              " and their parent folders; run from the tsf source checkout or give the path)");
+  tried.push_back(fs::current_path() / "(and its parent folders)");
+  if (const fs::path exe = executable_folder(); !exe.empty()) {
+    const fs::path installed = exe.parent_path() / "share" / "tsf" / relative;
+    std::error_code ec;
+    if (fs::exists(installed, ec)) return installed;
+    tried.push_back(installed);
+  }
+  std::string where;
+  for (const fs::path& t : tried) where += (where.empty() ? "" : ", ") + t.string();
+  throw Error("cannot find the bundled '" + relative.string() + "' (looked in " + where +
+              "): run the tsf of an installation (PREFIX/bin/tsf with PREFIX/share/tsf) or of a "
+              "build tree, or from a tsf source checkout, or give the path");
 }
 
 }  // namespace tsf::app

@@ -8,8 +8,10 @@
 
 namespace tsf::app {
 
-/// The first existing `relative` under the working directory or the executable's folder, or any
-/// of their parents. Throws tsf::Error naming what was searched for and where.
+/// `relative` in a tsf source checkout holding the working directory (a folder with
+/// scenes/sinus.yaml), else installed with the executable (EXE/../share/tsf/relative; a build
+/// tree links it, cmake/TsfInstall.cmake). Throws tsf::Error naming what was searched for and
+/// where.
 std::filesystem::path find_bundled_path(const std::filesystem::path& relative);
 
 }  // namespace tsf::app

@@ -495,9 +495,6 @@ std::vector<fs::path> segment_preset_dirs() {
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (!ec)
     dirs.push_back(exe.parent_path().parent_path() / "share" / "tsf" / "presets" / "segment");
-#ifdef TSF_SEGMENT_PRESET_SOURCE_DIR
-  dirs.emplace_back(TSF_SEGMENT_PRESET_SOURCE_DIR);
-#endif
   return dirs;
 }
 

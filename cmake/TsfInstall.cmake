@@ -1,0 +1,25 @@
+# Where tsf's bundled files live, installed and in a build tree.
+#
+# Installed (cmake --install BUILD --prefix PREFIX):
+#   PREFIX/bin/tsf
+#   PREFIX/share/tsf/{scenes,materials,data-samples,presets/segment}   found relative to the
+#   PREFIX/share/doc/tsf/                                              executable (bin/../share/tsf)
+# A build tree gets the same shape: BUILD/share/tsf/* are links to the source folders, so the tsf
+# in BUILD/bin and the test and bench programs in BUILD/* find them the same way, and no source
+# path is compiled into any binary (app/run/repo_paths.cpp, segment_preset_dirs()).
+set(TSF_DATA_SUBDIR ${CMAKE_INSTALL_DATADIR}/tsf)
+file(MAKE_DIRECTORY ${CMAKE_BINARY_DIR}/share/tsf/presets)
+foreach(_pair "scenes;scenes" "materials;materials" "data-samples;data-samples"
+              "segment/presets;presets/segment")
+  list(GET _pair 0 _from)
+  list(GET _pair 1 _to)
+  if(NOT EXISTS ${CMAKE_BINARY_DIR}/share/tsf/${_to})
+    file(CREATE_LINK ${CMAKE_SOURCE_DIR}/${_from} ${CMAKE_BINARY_DIR}/share/tsf/${_to} SYMBOLIC)
+  endif()
+endforeach()
+
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/scenes/ DESTINATION ${TSF_DATA_SUBDIR}/scenes)
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/materials/ DESTINATION ${TSF_DATA_SUBDIR}/materials)
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/data-samples/ DESTINATION ${TSF_DATA_SUBDIR}/data-samples)
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR})
+install(FILES ${CMAKE_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
