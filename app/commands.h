@@ -4,6 +4,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+
 namespace tsf::app {
 
 void add_import_command(CLI::App& app);    // cmd_import.cpp    (TSF_WITH_ITK)
@@ -15,6 +17,11 @@ void add_haptics_command(CLI::App& app);   // cmd_haptics.cpp
 void add_export_command(CLI::App& app);    // cmd_export.cpp    (TSF_WITH_ASSIMP)
 void add_view_command(CLI::App& app);      // cmd_view.cpp      (TSF_WITH_VTK)
 void add_run_command(CLI::App& app);       // cmd_run.cpp
+
+/// The manual page (roff) and the bash completion script, from the commands' definitions
+/// (cmd_docs.cpp): `tsf --man`, `tsf --bash-completion`.
+std::string man_page(const CLI::App& app);
+std::string bash_completion(const CLI::App& app);
 
 /// Registers `name` with a one-line description; running it fails with a message naming the
 /// CMake option that builds it.

@@ -1,6 +1,7 @@
 // tsf: CT scan -> interactive, cuttable soft-tissue asset.
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include "commands.h"
 #include "tsf/common/error.h"
@@ -73,6 +74,14 @@ int main(int argc, char** argv) {
   tsf::app::add_run_command(app);
 #endif
 
+  // Generated documentation: the manual page and the bash completion (cmd_docs.cpp).
+  if (argc == 2 &&
+      (std::string(argv[1]) == "--man" || std::string(argv[1]) == "--bash-completion")) {
+    const std::string text =
+        std::string(argv[1]) == "--man" ? tsf::app::man_page(app) : tsf::app::bash_completion(app);
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    return 0;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

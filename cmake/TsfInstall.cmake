@@ -23,3 +23,17 @@ install(DIRECTORY ${CMAKE_SOURCE_DIR}/materials/ DESTINATION ${TSF_DATA_SUBDIR}/
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/data-samples/ DESTINATION ${TSF_DATA_SUBDIR}/data-samples)
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(FILES ${CMAKE_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
+
+# A Debian package of the installed tree (cpack -G DEB in the build folder): its dependencies are
+# Debian's shared-library packages by name, found by dpkg-shlibdeps from what tsf links.
+set(CPACK_GENERATOR "DEB")
+set(CPACK_PACKAGE_NAME "tsf")
+set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "CT scan to an interactive, cuttable soft-tissue asset")
+set(CPACK_PACKAGE_CONTACT "tsf developers <tsf@localhost>")
+set(CPACK_PACKAGING_INSTALL_PREFIX "/usr")
+set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_PACKAGE_SECTION "science")
+set(CPACK_STRIP_FILES ON)
+include(CPack)

@@ -22,6 +22,7 @@ PACKAGES=(
   libvtk9-dev libtbb-dev xvfb xauth                                            # viewer
   libassimp-dev zlib1g-dev nodejs                                              # export (nodejs runs the glTF validator in tests)
   gnuplot-nox                                                                  # report plots
+  dpkg-dev file                                                                # the .deb (cpack: dpkg-shlibdeps)
 )
 
 install_missing_packages() {

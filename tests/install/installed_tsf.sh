@@ -16,6 +16,17 @@ for f in scenes/sinus.yaml materials/tissues.yaml presets/segment/sinus.yaml \
   test -e "$tmp/prefix/share/tsf/$f" || { echo "not installed: share/tsf/$f"; exit 1; }
 done
 test -e "$tmp/prefix/share/doc/tsf/README.md" || { echo "not installed: share/doc/tsf/README.md"; exit 1; }
+# The manual page and the completion, generated from the commands' definitions.
+man="$tmp/prefix/share/man/man1/tsf.1"
+grep -q '^\.TH TSF 1' "$man" || { echo "no manual page at $man"; exit 1; }
+for c in import info segment simulate haptics export view run; do
+  grep -q "^\.SS \"tsf $c\"" "$man" || { echo "the manual page lacks tsf $c"; exit 1; }
+done
+completion="$tmp/prefix/share/bash-completion/completions/tsf"
+words=$(bash -c ". '$completion'; COMP_WORDS=(tsf i); COMP_CWORD=1; _tsf; echo \${COMPREPLY[*]}")
+[ "$words" = "import info" ] || { echo "completion of 'tsf i': '$words'"; exit 1; }
+words=$(bash -c ". '$completion'; COMP_WORDS=(tsf run --c); COMP_CWORD=2; _tsf; echo \${COMPREPLY[*]}")
+case " $words " in *" --ct "*) ;; *) echo "completion of 'tsf run --c': '$words'"; exit 1 ;; esac
 mkdir "$tmp/elsewhere"
 cd "$tmp/elsewhere"
 "$tsf" run --materials >materials.txt
