@@ -23,6 +23,7 @@ PACKAGES=(
   libassimp-dev zlib1g-dev nodejs                                              # export (nodejs runs the glTF validator in tests)
   gnuplot-nox                                                                  # report plots
   dpkg-dev file                                                                # the .deb (cpack: dpkg-shlibdeps)
+  snakemake                                                                    # the cohort workflow (scripts/cohort)
 )
 
 install_missing_packages() {
