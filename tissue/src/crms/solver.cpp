@@ -128,6 +128,10 @@ double Solver::stable_dt() const {
                                                           : stable_.symplectic_euler_s;
 }
 
+double Solver::velocity_limit_mm_s(double dt) const {
+  return step_parameters(dt).velocity_limit;
+}
+
 StepParameters Solver::step_parameters(double dt) const {
   StepParameters p;
   p.dt = static_cast<float>(dt);
@@ -346,12 +350,16 @@ void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
     require_compiled_feature_set(features() | features::kExternalForces);
     backend_->enable_external_forces();
     external_forces_ = true;
+    external_host_.assign(static_cast<std::size_t>(lattice_.node_count()), Vec3f{0, 0, 0});
   }
   backend_->set_external_forces(nodes, forces);
+  for (std::size_t i = 0; i < nodes.size(); ++i) external_host_[nodes[i]] = forces[i];
 }
 
 void Solver::clear_external_forces() {
-  if (external_forces_) backend_->clear_external_forces();
+  if (!external_forces_) return;
+  backend_->clear_external_forces();
+  std::fill(external_host_.begin(), external_host_.end(), Vec3f{0, 0, 0});
 }
 
 void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
@@ -480,6 +488,12 @@ EnergyReport Solver::energy() const {
   r.kinetic_nj = s.kinetic;
   r.elastic_nj = s.elastic + effects_energy_nj();
   r.gravitational_nj = s.gravitational;
+  if (external_forces_) {  // constant loads: potential −Σ F·u (µN·mm = nJ)
+    std::vector<Vec3f> u;
+    backend_->read_state(&u, nullptr);
+    for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+      if (lattice_.alive(n)) r.load_nj -= static_cast<double>(dot(external_host_[n], u[n]));
+  }
   return r;
 }
 
