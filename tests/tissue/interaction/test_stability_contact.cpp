@@ -36,7 +36,7 @@ void long_press(crms::Backend backend) {
   EXPECT_GT(model.contact().nodes_held, 0u);
   const crms::StabilitySummary r = model.stability();
   std::printf(
-      "| contact press held 0.5 s | %s | %lld | %.2f | %s | %.2g%% | %.2g%% | %.2f | %.3g | %.3g "
+      "| contact press held 0.5 s | %s | %lld | %.2f | %s | %.3g%% | %.3g%% | %.2f | %.3g | %.3g "
       "|\n",
       model.solver().on_cuda() ? "cuda" : "cpu", static_cast<long long>(r.steps),
       model.time_step_choice().ratio(), crms::to_string(r.verdict), 100 * r.gain_fraction,

@@ -295,6 +295,7 @@ StepReport Solver::synchronize() {
 }
 
 void Solver::clear_instability() {
+  ++edits_;
   instability_.reset();
   backend_->reset_guard();
 }
@@ -331,6 +332,7 @@ Instability Solver::make_instability(std::int64_t node, std::int64_t step) const
 }
 
 void Solver::set_gravity(const Vec3d& gravity) {
+  ++edits_;
   SolverConfig c = config_;
   c.gravity = gravity;
   validate_solver_config(c);
@@ -339,6 +341,7 @@ void Solver::set_gravity(const Vec3d& gravity) {
 
 void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
                                  const std::vector<Vec3f>& forces) {
+  ++edits_;
   require(nodes.size() == forces.size(), "set_external_forces: nodes and forces differ in size");
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     require(nodes[i] >= 0 && nodes[i] < lattice_.node_count(),
@@ -357,6 +360,7 @@ void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
 }
 
 void Solver::clear_external_forces() {
+  ++edits_;
   if (!external_forces_) return;
   backend_->clear_external_forces();
   std::fill(external_host_.begin(), external_host_.end(), Vec3f{0, 0, 0});
@@ -364,6 +368,7 @@ void Solver::clear_external_forces() {
 
 void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
                              const std::vector<Vec3d>& targets) {
+  ++edits_;
   require(nodes.size() == targets.size(), "constrain_nodes: nodes and targets differ in size");
   std::vector<Vec3f> u(nodes.size()), v(nodes.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) {
@@ -380,6 +385,7 @@ void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
 }
 
 void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
+  ++edits_;
   for (std::int64_t n : nodes) {
     require(n >= 0 && n < lattice_.node_count(),
             "release_nodes: node " + std::to_string(n) + " is out of range");
@@ -391,6 +397,7 @@ void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
 void Solver::set_node_states(const std::vector<std::int64_t>& nodes,
                              const std::vector<Vec3d>& positions,
                              const std::vector<Vec3f>& velocities) {
+  ++edits_;
   require(nodes.size() == positions.size() && nodes.size() == velocities.size(),
           "set_node_states: nodes, positions and velocities differ in size");
   std::vector<Vec3f> u(nodes.size());
@@ -404,6 +411,7 @@ void Solver::set_node_states(const std::vector<std::int64_t>& nodes,
 
 void Solver::set_state(const std::vector<Vec3f>& displacements,
                        const std::vector<Vec3f>& velocities) {
+  ++edits_;
   const auto count = static_cast<std::size_t>(lattice_.node_count());
   require(displacements.size() == count && velocities.size() == count,
           "set_state: expected " + std::to_string(count) + " displacements and velocities");
@@ -414,6 +422,7 @@ void Solver::set_state(const std::vector<Vec3f>& displacements,
 }
 
 void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
+  ++edits_;
   for (std::int64_t n : nodes) {
     require(n >= 0 && n < lattice_.node_count(),
             "delete_nodes: node " + std::to_string(n) + " is out of range");
@@ -425,6 +434,7 @@ void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
 }
 
 void Solver::break_springs(const std::vector<SpringRef>& springs) {
+  ++edits_;
   std::vector<std::int64_t> touched;
   for (const SpringRef& s : springs) {
     require(s.node >= 0 && s.node < lattice_.node_count() && s.direction >= 0 &&

@@ -37,7 +37,8 @@ const char* to_string(StabilityVerdict verdict) {
 StabilityMonitor::StabilityMonitor(StabilityThresholds thresholds) : thresholds_(thresholds) {}
 
 StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
-  const EnergyReport before = solver.energy();
+  // Nothing edited since the last call: the state is what it left (one energy pass saved).
+  const EnergyReport before = started_ && solver.edits() == edits_seen_ ? last_ : solver.energy();
   if (!started_) {
     started_ = true;
     energy_start_ = before.total_nj();
@@ -51,6 +52,8 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
   if (n <= 0 || solver.instability()) {
     report.instability = solver.instability();
     energy_last_ = before.total_nj();
+    last_ = before;
+    edits_seen_ = solver.edits();
     return report;
   }
   // The call's last step alone: the velocities on both sides of it give the period-2 score.
@@ -90,6 +93,8 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
   s.time_s = solver.time_s();
   s.energy_nj = after.total_nj();
   s.work_nj = work_;
+  elastic_drift_ += after.elastic_nj - before.elastic_nj;
+  s.elastic_drift_nj = elastic_drift_;
   s.limit_fraction = sums.moving > 0 ? sums.at_limit / sums.moving : 0.0;
   // Kinetic energy too small to carry a mode (round-off motion) gives no score.
   const double kinetic_floor = 1e-12 * std::max(scale_, 1e-30);
@@ -102,6 +107,8 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
   scale_ = std::max(scale_, magnitude(after));
   max_gain_ = std::max(max_gain_, after.total_nj() - energy_start_ - work_);
   energy_last_ = after.total_nj();
+  last_ = after;
+  edits_seen_ = solver.edits();
   steps_ += report.steps_run;
   if (solver.stable_dt() > 0) dt_ratio_max_ = std::max(dt_ratio_max_, dt / solver.stable_dt());
   max_limit_fraction_ = std::max(max_limit_fraction_, s.limit_fraction);
@@ -173,21 +180,29 @@ StabilitySummary StabilityMonitor::summary(const Solver& solver) const {
     r.allowed = solver.config().stability.allow_unstable;
     return r;
   }
-  // Settling: energy still leaving the lattice over the last quarter of the samples (the work
-  // done meanwhile set aside), or nodes at the velocity limit at the end.
-  double leaving = 0;
+  // Settling, over the last quarter of the samples (the work done meanwhile set aside): energy
+  // still leaving the lattice, or its elastic energy still changing while it steps; or nodes at
+  // the velocity limit at the end.
+  double leaving = 0, deforming = 0;
   if (samples_.size() >= 4) {
     const StabilitySample& q = samples_[(samples_.size() - 1) * 3 / 4];
     const StabilitySample& e = samples_.back();
     leaving = (q.energy_nj - q.work_nj) - (e.energy_nj - e.work_nj);
+    deforming = std::fabs(e.elastic_drift_nj - q.elastic_drift_nj);
   }
-  const double leaving_fraction = r.energy_scale_nj > 0 ? leaving / r.energy_scale_nj : 0.0;
-  if (leaving_fraction > t.settling_change) {
+  const double scale = r.energy_scale_nj > 0 ? r.energy_scale_nj : 1.0;
+  if (leaving / scale > t.settling_change) {
     r.verdict = StabilityVerdict::kSettling;
     r.reason = format_text(
         "energy is still leaving the lattice: %.3g nJ (%.1f%% of the energy scale) over the last "
         "quarter of the run, no gain beyond the work put in",
-        leaving, 100 * leaving_fraction);
+        leaving, 100 * leaving / scale);
+  } else if (deforming / scale > t.settling_change) {
+    r.verdict = StabilityVerdict::kSettling;
+    r.reason = format_text(
+        "the tissue is still deforming: its elastic energy changed %.3g nJ (%.1f%% of the energy "
+        "scale) while it stepped over the last quarter of the run, no gain beyond the work put in",
+        deforming, 100 * deforming / scale);
   } else if (r.end_limit_fraction > t.limit_fraction) {
     r.verdict = StabilityVerdict::kSettling;
     r.reason = format_text(

@@ -173,6 +173,10 @@ class Solver {
   const std::vector<std::string>& fired_triggers() const { return timeline_.fired_triggers(); }
   /// Simulated time since construction, s (Σ n·dt over the steps).
   double time_s() const { return time_s_; }
+  /// Calls since construction that changed the state, loads or topology outside step() (loads,
+  /// gravity, constraints, node states, deletions, broken springs): a reader that saw the same
+  /// count knows the state is what the last step left.
+  std::uint64_t edits() const { return edits_; }
 
  private:
   StepParameters step_parameters(double dt) const;
@@ -203,6 +207,7 @@ class Solver {
   std::unique_ptr<EffectsEngine> effects_;
   std::int64_t torn_synced_ = 0;  // springs already cleared on the host lattice by sync_torn_links
   double time_s_ = 0.0;
+  std::uint64_t edits_ = 0;
   AnimationTimeline timeline_;  // effects.animation (empty when off)
 };
 

@@ -26,8 +26,9 @@
 //                   thesis).
 //   NaN guard       the solver's Instability.
 // Verdict: unstable on a non-finite state, on G above the threshold, or on nodes held at the
-// limit while flipping every step; settling when not unstable but energy is still leaving the
-// lattice over the last quarter of the run or nodes sit at the limit at its end; else stable.
+// limit while flipping every step; settling when not unstable but, over the last quarter of the
+// run, energy is still leaving the lattice or its elastic energy still changing while it steps
+// (the tissue still deforming), or nodes sit at the limit at its end; else stable.
 #pragma once
 
 #include <cstdint>
@@ -52,17 +53,19 @@ struct StabilityThresholds {
   double period2 = 0.9;
   /// Consecutive samples held at the limit while flipping that make a run unstable.
   int held_samples = 3;
-  /// Energy leaving the lattice over the last quarter of the samples, as a fraction of the scale,
-  /// above which a stable run is still "settling".
+  /// Energy leaving the lattice, or the elastic energy changing inside the steps (the tissue still
+  /// deforming), over the last quarter of the samples, as a fraction of the scale, above which a
+  /// stable run is still "settling".
   double settling_change = 0.02;
 };
 
 /// One monitored step call.
 struct StabilitySample {
-  std::int64_t step = 0;  ///< solver steps done after the call
-  double time_s = 0;      ///< solver time after the call
-  double energy_nj = 0;   ///< E after the call
-  double work_nj = 0;     ///< Σ work put in by edits up to the call
+  std::int64_t step = 0;        ///< solver steps done after the call
+  double time_s = 0;            ///< solver time after the call
+  double energy_nj = 0;         ///< E after the call
+  double work_nj = 0;           ///< Σ work put in by edits up to the call
+  double elastic_drift_nj = 0;  ///< Σ of the elastic energy's changes inside the calls so far
   double limit_fraction = 0;
   double period2 = 0;  ///< −correlation of v over the call's last step (0: not measured)
 };
@@ -113,11 +116,14 @@ class StabilityMonitor {
   StabilityThresholds thresholds_;
   std::vector<StabilitySample> samples_;
   bool started_ = false;
+  std::uint64_t edits_seen_ = 0;  // Solver::edits() after the last call
+  EnergyReport last_;             // the energy after the last call
   double energy_start_ = 0, energy_last_ = 0;
   double work_ = 0, work_abs_ = 0;
   double scale_ = 0;
   double max_gain_ = 0;
   double drag_nj_ = 0, drag_power_last_ = 0;
+  double elastic_drift_ = 0;
   double velocity_limit_ = 0;
   std::int64_t steps_ = 0, steps_at_limit_ = 0, run_at_limit_ = 0, longest_at_limit_ = 0;
   std::int64_t run_held_flipping_ = 0, longest_held_flipping_ = 0;
