@@ -100,6 +100,11 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
   const double kinetic_floor = 1e-12 * std::max(scale_, 1e-30);
   if (v00 > kinetic_floor && v11 > kinetic_floor) s.period2 = -vv / std::sqrt(v00 * v11);
   samples_.push_back(s);
+  if (samples_.size() >= kMaxSamples) {  // long sessions: keep every other sample, in order
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < samples_.size(); i += 2) samples_[kept++] = samples_[i];
+    samples_.resize(kept);
+  }
 
   const double run_s = static_cast<double>(report.steps_run) * dt;
   drag_nj_ += 0.5 * (drag_power_last_ + sums.drag_power) * run_s;

@@ -31,6 +31,7 @@
 // (the tissue still deforming), or nodes sit at the limit at its end; else stable.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -109,7 +110,10 @@ class StabilityMonitor {
   StepReport step(Solver& solver, int n, double dt);
   /// The verdict so far.
   StabilitySummary summary(const Solver& solver) const;
+  /// The samples, oldest first; past kMaxSamples every other one is dropped (the verdict reads
+  /// only the last quarter's ends and running totals).
   const std::vector<StabilitySample>& samples() const { return samples_; }
+  static constexpr std::size_t kMaxSamples = 8192;
   const StabilityThresholds& thresholds() const { return thresholds_; }
 
  private:
