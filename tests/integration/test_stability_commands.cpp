@@ -70,29 +70,31 @@ struct Outcome {
   json report;
 };
 
-Outcome simulate(const std::string& yaml, const std::string& tag) {
-  const fs::path dir = test::scratch_dir("stability-simulate-" + tag);
+/// Writes `yaml` into a fresh folder and runs `tsf simulate` on it (report.json beside it) or
+/// `tsf run` (out/run-report.json, with run-report.md's text as `markdown`).
+Outcome run_command(bool simulate, const std::string& yaml, const std::string& tag) {
+  const fs::path dir =
+      test::scratch_dir(std::string("stability-") + (simulate ? "simulate-" : "run-") + tag);
+  const std::string scene = test::shell_quoted(dir / "scene.yaml");
   std::ofstream(dir / "scene.yaml") << yaml;
+  const fs::path report = simulate ? dir / "report.json" : dir / "out" / "run-report.json";
   Outcome o;
-  o.process = test::run_tsf(test::tsf_executable_path(),
-                            "simulate " + test::shell_quoted(dir / "scene.yaml") + " --report " +
-                                test::shell_quoted(dir / "report.json"));
-  if (fs::exists(dir / "report.json")) o.report = json::parse(test::read_text(dir / "report.json"));
-  return o;
-}
-
-Outcome run(const std::string& yaml, const std::string& tag) {
-  const fs::path dir = test::scratch_dir("stability-run-" + tag);
-  std::ofstream(dir / "scene.yaml") << yaml;
-  Outcome o;
-  o.process = test::run_tsf(test::tsf_executable_path(),
-                            "run -q " + test::shell_quoted(dir / "scene.yaml") + " -o " +
-                                test::shell_quoted(dir / "out"));
-  if (fs::exists(dir / "out" / "run-report.json"))
-    o.report = json::parse(test::read_text(dir / "out" / "run-report.json"));
+  o.process =
+      test::run_tsf(test::tsf_executable_path(),
+                    simulate ? "simulate " + scene + " --report " + test::shell_quoted(report)
+                             : "run -q " + scene + " -o " + test::shell_quoted(dir / "out"));
+  if (fs::exists(report)) o.report = json::parse(test::read_text(report));
   if (fs::exists(dir / "out" / "run-report.md"))
     o.report["markdown"] = test::read_text(dir / "out" / "run-report.md");
   return o;
+}
+
+Outcome simulate(const std::string& yaml, const std::string& tag) {
+  return run_command(true, yaml, tag);
+}
+
+Outcome run(const std::string& yaml, const std::string& tag) {
+  return run_command(false, yaml, tag);
 }
 
 /// The stable estimate of the scene, from a dt: auto run's report.
