@@ -183,6 +183,14 @@ TEST(StabilityCommands, RunRefusesThenReportsTheAllowedOverStepUnstable) {
   EXPECT_EQ(allowed.report["stability"].value("verdict", ""), "unstable");
   EXPECT_EQ(allowed.report.value("markdown", "").rfind("# over-step-run: unstable", 0), 0u)
       << allowed.report.value("markdown", "").substr(0, 400);
+
+  const Outcome kept =
+      run(run_scene(times(5.6 * stable), ", allow_unsafe_dt: true, allow_unstable: true"), "kept");
+  EXPECT_EQ(kept.process.status, 0) << kept.process.output;
+  EXPECT_EQ(kept.report.value("verdict", ""), "unstable");
+  EXPECT_NE(
+      kept.report.value("markdown", "").find("`stability.allow_unstable: true` kept the exit"),
+      std::string::npos);
 }
 
 }  // namespace
