@@ -34,8 +34,6 @@ done
 row "haptics-block" "tsf haptics --model lattice" $? "$tmp/haptics/metrics.json"
 "$tsf" run -q "$root/scenes/sinus-ci.yaml" -o "$tmp/sinus-ci" >/dev/null 2>&1
 row "sinus-ci" "tsf run" $? "$tmp/sinus-ci/run-report.json"
-"$tsf" run -q "$root/scenes/sinus-anatomy.yaml" -o "$tmp/sinus-anatomy" >/dev/null 2>&1
-row "sinus-anatomy" "tsf run" $? "$tmp/sinus-anatomy/run-report.json"
 "$tsf" run -q "$root/scenes/sinus-layers.yaml" --voxel-mm 2 -o "$tmp/sinus-layers" >/dev/null 2>&1
 row "sinus-layers (worst instance)" "tsf run --voxel-mm 2" $? "$tmp/sinus-layers/run-report.json"
 
