@@ -444,7 +444,12 @@ void run_haptics(const HapticsArguments& args) {
       {"timing", {{"setup_s", setup_s}, {"playback_s", play_s}}},
       {"outputs",
        {{"samples", csv.string()}, {"plot", args.no_plot ? "" : (out / "force.png").string()}}}};
+  // The deforming tissue's verdict (a rigid target has none).
+  std::optional<crms::StabilitySummary> stability;
+  if (tissue) stability = tissue->stability();
+  report["stability"] = stability ? stability_json(*stability) : json(nullptr);
   write_text_atomically(out / "metrics.json", report.dump(2) + "\n");
+  if (!args.quiet && stability) std::printf("%s\n", stability->headline().c_str());
   if (!args.quiet)
     std::printf(
         "%zu ticks · peak %.3g mN · jitter %.3g%% · kick %.3g%%/ms · pop-through %.3g%% · "
@@ -453,6 +458,7 @@ void run_haptics(const HapticsArguments& args) {
         metrics.kick_relative_per_ms * 100, metrics.pop_through_relative * 100, metrics.latency_ms,
         metrics.bounce_prone ? " (bounce-prone)" : "", metrics.compute_p50_us,
         out.string().c_str());
+  if (stability) require_stable_enough(*stability, scene.name);
 }
 
 }  // namespace

@@ -2,7 +2,6 @@
 // one volume in Hounsfield units (.nrrd or .mha) plus a JSON sidecar saying what was done.
 #include <nlohmann/json.hpp>
 
-#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -12,6 +11,7 @@
 #include "commands.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/common/text_format.h"
 #include "tsf/import/dicom_catalog.h"
 #include "tsf/import/hu_volume_writer.h"
 #include "tsf/import/import_report_json.h"
@@ -36,25 +36,16 @@ struct ImportCommandOptions {
   ImportOptions import;
 };
 
-[[gnu::format(printf, 1, 2)]] std::string text(const char* format, ...) {
-  char buf[256];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
-
 std::string dims_text(const Int3& d) {
   return std::to_string(d.x) + " × " + std::to_string(d.y) + " × " + std::to_string(d.z);
 }
 
 std::string spacing_text(const Vec3d& s) {
-  return text("%.3f × %.3f × %.3f mm", s.x, s.y, s.z);
+  return format_text("%.3f × %.3f × %.3f mm", s.x, s.y, s.z);
 }
 
 std::string vec_text(const Vec3d& v) {
-  return text("(%.4g, %.4g, %.4g)", v.x, v.y, v.z);
+  return format_text("(%.4g, %.4g, %.4g)", v.x, v.y, v.z);
 }
 
 /// Skipped files grouped by reason: "not DICOM (2): a.txt, b.png".
@@ -121,10 +112,11 @@ void print_series(const DicomSeries& s, int index, int count) {
     std::printf("  orientation  rows %s, columns %s\n", vec_text(g.axes.row).c_str(),
                 vec_text(g.axes.column).c_str());
     const auto& f = s.files.front();
-    std::printf(
-        "  tilt         %.2f° from positions%s%s\n", g.tilt_deg,
-        f.has_gantry_tilt ? text(", GantryDetectorTilt %.2f°", f.gantry_tilt_deg).c_str() : "",
-        g.tilted ? " (sheared stack)" : "");
+    std::printf("  tilt         %.2f° from positions%s%s\n", g.tilt_deg,
+                f.has_gantry_tilt
+                    ? format_text(", GantryDetectorTilt %.2f°", f.gantry_tilt_deg).c_str()
+                    : "",
+                g.tilted ? " (sheared stack)" : "");
     for (const auto& m : g.missing)
       std::printf("  missing      gap of %.2f mm after slice %d: about %d slice(s)\n", m.gap_mm,
                   m.after_slice + 1, m.estimated_missing);

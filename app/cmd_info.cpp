@@ -5,7 +5,6 @@
 // as JSON. Nothing is written.
 #include <nlohmann/json.hpp>
 
-#include <cstdarg>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -16,6 +15,7 @@
 #include "commands.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/common/text_format.h"
 #include "tsf/import/ct_geometry.h"
 #include "tsf/import/dicom_catalog.h"
 #include "tsf/import/import_volume.h"
@@ -42,17 +42,8 @@ struct InfoArguments {
   double anatomy_voxel_mm = 2.0;
 };
 
-[[gnu::format(printf, 1, 2)]] std::string text(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
-
 std::string vec_text(const Vec3d& v, int decimals = 1) {
-  return text("(%.*f, %.*f, %.*f)", decimals, v.x, decimals, v.y, decimals, v.z);
+  return format_text("(%.*f, %.*f, %.*f)", decimals, v.x, decimals, v.y, decimals, v.z);
 }
 
 ordered_json v3(const Vec3d& v) {
@@ -143,7 +134,7 @@ ordered_json volume_json(const CtGeometry& g, const ImportReport& r,
     orientation_line = code + " (i → patient " + word(code[0]) + ", j → " + word(code[1]) +
                        ", k → " + word(code[2]) + ")";
     if (oblique > 0.5)
-      orientation_line += text("; oblique, up to %.1f° off the patient axes", oblique);
+      orientation_line += format_text("; oblique, up to %.1f° off the patient axes", oblique);
   } else {
     v["orientation"] = nullptr;
     v["orientation_recorded"] = false;
@@ -299,7 +290,8 @@ void print_anatomy(const ordered_json& j) {
                 where.c_str(), e["confidence"].get<double>());
   };
   auto p3 = [](const ordered_json& v) {
-    return text("(%.1f, %.1f, %.1f)", v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+    return format_text("(%.1f, %.1f, %.1f)", v[0].get<double>(), v[1].get<double>(),
+                       v[2].get<double>());
   };
   for (const ordered_json& l : j["landmarks"])
     line(l, l.value("found", false) ? p3(l["position_mm"]) : "");
@@ -307,7 +299,7 @@ void print_anatomy(const ordered_json& j) {
     line(p, p.value("found", false) ? "through " + p3(p["point_mm"]) + ", normal " + p3(p["normal"])
                                     : "");
   for (const ordered_json& r : j["regions"])
-    line(r, r.value("found", false) ? text("%.1f ml, box ", r.value("ml", 0.0)) +
+    line(r, r.value("found", false) ? format_text("%.1f ml, box ", r.value("ml", 0.0)) +
                                           p3(r["bbox_mm"]["min"]) + " to " + p3(r["bbox_mm"]["max"])
                                     : "");
   for (const auto& w : j["warnings"]) std::printf("  warning: %s\n", w.get<std::string>().c_str());

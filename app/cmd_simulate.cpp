@@ -87,6 +87,9 @@ void run_interactive(const Scene& scene, const SimulateArguments& args) {
                 std::to_string(result.frames) + " of " + std::to_string(result.frames_planned) +
                 " frames; the outputs hold what was reached");
   if (result.instability) throw Error("unstable: " + *result.instability);
+  if (const InstanceResult* worst = result.least_stable())
+    require_stable_enough(worst->stability,
+                          scene.multi_instance ? scene.name + "/" + worst->name : scene.name);
 }
 
 /// What a lattice-only run measured (typed; the report is made from it at the edge).
@@ -96,6 +99,7 @@ struct LatticeRunResult {
   std::vector<std::pair<std::int64_t, crms::EnergyReport>> energy;  ///< (step, energy)
   double max_displacement_mm = 0;
   bool interrupted = false;
+  crms::StabilitySummary stability;
 };
 
 /// Steps the lattice in chunks of solver.report_every, sampling energy after each, until the
@@ -108,10 +112,11 @@ LatticeRunResult step_lattice(const Scene& scene, LatticeRun& built, std::int64_
   Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(steps));
   std::int64_t done = 0;
   InterruptScope interrupts;
+  crms::StabilityMonitor monitor;
   while (done < steps && !solver.instability() && !interrupted()) {
     const auto chunk = static_cast<int>(std::min<std::int64_t>(scene.report_every, steps - done));
     Stopwatch clock;
-    solver.step(chunk, built.dt_s);
+    monitor.step(solver, chunk, built.dt_s);
     r.stepping_s += clock.seconds();
     done += chunk;
     progress.set(static_cast<std::uint64_t>(done));
@@ -119,6 +124,7 @@ LatticeRunResult step_lattice(const Scene& scene, LatticeRun& built, std::int64_
   }
   progress.finish();
   r.interrupted = interrupted();
+  r.stability = monitor.summary(solver);
   for (const Vec3f& u : solver.displacements())
     r.max_displacement_mm =
         std::max(r.max_displacement_mm, std::sqrt(static_cast<double>(dot(u, u))));
@@ -154,6 +160,8 @@ json lattice_report_json(const Scene& scene, const LatticeRun& built, const Latt
       {"tsf_version", TSF_VERSION_STRING},
       {"scene", {{"name", scene.name}, {"file", absolute_path(scene.file).string()}}},
       {"frame", "patient (LPS), mm"},
+      {"stability", stability_json(r.stability)},
+      {"time_step", time_step_json(built.dt_choice)},
       {"interrupted", r.interrupted},
       {"backend", solver.backend_name()},
       {"integrator", crms::to_string(config.integrator)},
@@ -195,6 +203,8 @@ void print_lattice_summary(const Scene& scene, const LatticeRun& built, const La
   const double stable = solver.stable_dt();
   const std::int64_t run = solver.steps_done();
   const double rate = r.stepping_s > 0 ? static_cast<double>(run) / r.stepping_s : 0.0;
+  std::printf("%s\n", r.stability.headline().c_str());
+  std::printf("time step: %s\n", built.dt_choice.how.c_str());
   std::printf(
       "%s: %lld nodes (%lld alive, %lld fixed) on %s, %s, dt %.3g s (%.2f× the stable "
       "%.3g s)\n",
@@ -231,6 +241,7 @@ void run_lattice_only(const Scene& scene, const SimulateArguments& args) {
                 std::to_string(r.steps_requested) + " steps");
   if (!args.quiet) print_lattice_summary(scene, built, r);
   if (const auto& inst = built.solver->instability()) throw Error("unstable: " + inst->describe());
+  require_stable_enough(r.stability, scene.name);
 }
 
 void run_simulate(const SimulateArguments& args) {

@@ -377,6 +377,7 @@ void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
       {"input", absolute_path(args.input).string()},
       {"frame", "patient (LPS), mm"},
       {"session", session_summary},
+      {"stability", stability_json(session.model().stability())},
       {"script", args.script.empty() ? (in.scene_script ? "the scene's script" : "")
                                      : absolute_path(args.script).string()},
       {"frames", r.frames},

@@ -87,6 +87,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const tsf::Error& e) {
+    std::fflush(stdout);  // a summary printed before the error stays before it
     std::fprintf(stderr, "tsf: error: %s\n", e.what());
     return 1;
   } catch (const std::exception& e) {

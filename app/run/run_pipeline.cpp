@@ -562,7 +562,19 @@ std::pair<std::string, std::string> verdict(const InteractionResult& r) {
     return {"interrupted", "stopped by a signal after " + std::to_string(r.frames) + " of " +
                                std::to_string(r.frames_planned) + " frames"};
   if (r.instability) return {"unstable", *r.instability};
+  const InstanceResult* worst = r.least_stable();
+  if (worst && worst->stability.verdict == crms::StabilityVerdict::kUnstable)
+    return {"unstable", (r.instances.size() > 1 ? worst->name + ": " : std::string()) +
+                            worst->stability.headline()};
   return {"completed", "every frame of the script was played"};
+}
+
+/// An unstable verdict the scene allows (stability.allow_unstable) is reported but not a failure;
+/// a halted solver (NaN guard) always is.
+bool failed(const InteractionResult& r, const std::string& verdict_word) {
+  if (verdict_word == "completed") return false;
+  const InstanceResult* worst = r.least_stable();
+  return verdict_word != "unstable" || r.instability || !worst || !worst->stability.allowed;
 }
 
 json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const InteractionOutcome& io,
@@ -629,6 +641,7 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const Int
       {"frame", "patient (LPS), mm"},
       {"verdict", verdict_word},
       {"verdict_reason", verdict_reason},
+      {"stability", interaction.value("stability", json(nullptr))},
       {"warnings", ctx.warnings},
       {"ct", ctx.ct},
       {"output_folder", ctx.folder.path().string()},
@@ -655,7 +668,7 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const Int
       {"energy", energy_json(total)},
       {"exported", exported_json},
       {"failure",
-       verdict_word == "completed" ? json(nullptr) : json(verdict_word + ": " + verdict_reason)},
+       failed(result, verdict_word) ? json(verdict_word + ": " + verdict_reason) : json(nullptr)},
       {"total_seconds", total_s},
   };
 }

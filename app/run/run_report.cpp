@@ -125,13 +125,28 @@ void verdict_section(const ReportContext& c, std::ostream& md) {
   const json& r = c.r;
   const std::string verdict = r.value("verdict", "completed");
   const json& interaction = r["interaction"];
-  md << "# " << c.name << ": " << (verdict == "completed" ? "completed" : verdict) << "\n\n";
-  if (verdict == "unstable")
-    md << "**Unstable.** " << r.value("verdict_reason", "") << ". The report below covers the run "
-       << "up to there. Try a smaller time step (`solver.dt`, or a lower `solver.dt_safety`), the "
-       << "implicit integrator for stiff tissue (`solver.integrator: implicit-euler`), or more "
-       << "damping (`stability.kinetic_damping`, the material's viscosity).\n\n";
-  else if (verdict == "interrupted")
+  const json& stability = r.value("stability", json::object());
+  const std::string stable_word = stability.is_object() ? stability.value("verdict", "") : "";
+  md << "# " << c.name << ": " << (verdict == "completed" ? "completed" : verdict)
+     << (verdict == "completed" && !stable_word.empty() ? ", " + stable_word : std::string())
+     << "\n\n";
+  if (verdict != "unstable" && !stable_word.empty()) {
+    const std::string advice = stability.value("advice", "");
+    md << "**Stability: " << stable_word << ".** " << stability.value("reason", "")
+       << (advice.empty() ? "" : "; try " + advice)
+       << ". Signals and thresholds: docs/stability.md.\n\n";
+  }
+  if (verdict == "unstable") {
+    std::string reason = r.value("verdict_reason", "");
+    if (reason.rfind("unstable: ", 0) == 0) reason = reason.substr(10);
+    md << "**Unstable.** " << reason << ".";
+    if (reason.find("; try ") == std::string::npos)  // the NaN guard's message has no advice
+      md << " Try a smaller time step (`solver.dt`, or a lower `solver.dt_safety`), the implicit "
+            "integrator for stiff tissue (`solver.integrator: implicit-euler`), or more damping "
+            "(`stability.kinetic_damping`, the material's viscosity).";
+    if (r["failure"].is_null()) md << " `stability.allow_unstable: true` kept the exit status 0.";
+    md << " Signals and thresholds: docs/stability.md.\n\n";
+  } else if (verdict == "interrupted")
     md << "**Interrupted.** " << r.value("verdict_reason", "")
        << ". The report, meshes and states hold what was reached; run again (with `--force` into "
           "this folder) to finish.\n\n";

@@ -194,12 +194,16 @@ void finish_instance(const InteractionRunOptions& options, const InteractionResu
   r.lattice_spacing_mm = lattice.geometry().spacing;
   r.dt_s = model.dt();
   r.totals = model.totals();
+  r.stability = model.stability();
   if (options.after_script && !result.instability && !result.interrupted)
     r.extra = options.after_script(r.index, model);
 }
 
 void print_instance_summary(const Scene& scene, const InteractionResult& result,
                             const InstanceResult& r) {
+  std::printf("%s: %s\n",
+              scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
+              r.stability.headline().c_str());
   std::printf(
       "%s: %lld frames (%lld steps of %.3g s) on %s; %zu edits removed %.4g mm³, %zu nodes "
       "deleted, %zu springs broken; lattice %zu → %zu pieces (%zu free); surface %zu → %zu "
@@ -249,6 +253,15 @@ json edit_json(const EditRecord& e) {
             {"total", r.total_us}}}};
 }
 
+/// The worst instance's verdict, named.
+json least_stable_json(const InteractionResult& result) {
+  const InstanceResult* worst = result.least_stable();
+  if (!worst) return nullptr;
+  json s = stability_json(worst->stability);
+  s["instance"] = worst->name;
+  return s;
+}
+
 json path_or_null(const std::filesystem::path& p) {
   return p.empty() ? json(nullptr) : json(p.string());
 }
@@ -260,6 +273,15 @@ std::filesystem::path instance_output_path(const std::filesystem::path& path, co
   if (path.empty() || !scene.multi_instance) return path;
   return path.parent_path() / (path.stem().string() + "-" + scene.instances.at(instance).name +
                                path.extension().string());
+}
+
+const InstanceResult* InteractionResult::least_stable() const {
+  const InstanceResult* worst = nullptr;
+  for (const InstanceResult& r : instances)
+    if (!worst ||
+        static_cast<int>(r.stability.verdict) > static_cast<int>(worst->stability.verdict))
+      worst = &r;
+  return worst;
 }
 
 InteractionResult run_interaction_scene(const Scene& scene, const InteractionRunOptions& options) {
@@ -325,6 +347,7 @@ json instance_report_json(const Scene& scene, const InteractionResult& result,
       {"scene", {{"name", scene.name}, {"file", absolute_path(scene.file).string()}}},
       {"frame", "patient (LPS), mm"},
       {"instance", r.name},
+      {"stability", stability_json(r.stability)},
       {"session", r.session},
       {"material",
        {{"id", inst.material_id.empty() ? json(nullptr) : json(inst.material_id)},
@@ -447,6 +470,7 @@ json interaction_report_json(const Scene& scene, const InteractionResult& result
         {"contacts", contacts},
         {"coupling", coupling}}},
       {"instability", result.instability ? json(*result.instability) : json(nullptr)},
+      {"stability", least_stable_json(result)},
       {"contact", contact_json(result.contact)},
       {"instances", std::move(instances)},
   };

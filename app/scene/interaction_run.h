@@ -86,8 +86,9 @@ struct InstanceResult {
   InteractionOutputs outputs;  ///< this instance's files, as written
   std::size_t states_saved = 0;
   std::optional<std::string> instability;
-  nlohmann::json session;  ///< TissueInstance::summary
-  nlohmann::json extra;    ///< after_script's result
+  crms::StabilitySummary stability;  ///< the instance's verdict (TissueModel::stability)
+  nlohmann::json session;            ///< TissueInstance::summary
+  nlohmann::json extra;              ///< after_script's result
 };
 
 struct InteractionResult {
@@ -101,6 +102,9 @@ struct InteractionResult {
   std::optional<std::string> instability;  ///< "instance: what" of the first one
   bool interrupted = false;                ///< SIGINT/SIGTERM stopped the script
   std::string extra_key = "extra";         ///< InteractionRunOptions::extra_key
+  /// The instance with the worst stability verdict (unstable > settling > stable; the first of
+  /// equals), null when there is none.
+  const InstanceResult* least_stable() const;
 };
 
 /// Builds every instance, plays the script and writes the outputs (the report too, when asked).

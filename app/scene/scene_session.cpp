@@ -363,6 +363,7 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
                {"loaded_nodes", loaded},
                {"elastic_nj_at_start", solver.energy().elastic_nj},
                {"dt_s", r.model->dt()},
+               {"time_step", time_step_json(r.model->time_step_choice())},
                {"integrator", crms::to_string(solver.config().integrator)},
                {"backend", solver.backend_name()},
                {"gravity_mm_s2", nlohmann::json::array({g.x, g.y, g.z})},
@@ -408,17 +409,64 @@ LatticeRun build_lattice_run(const Scene& scene) {
   } catch (const Error& e) {
     throw Error(scene.instance_prefix(index) + e.what());
   }
-  const double stable = run.solver->stable_dt();
-  run.dt_s = std::min(
-      crms::chosen_time_step(inst.integration.dt_s, inst.integration.dt_safety, stable), 1.0);
-  if (!(run.dt_s > 0))
-    throw Error(scene.file.string() + ": solver.dt: the stable step of " +
-                crms::to_string(config.integrator) +
-                " is 0 for this material (explicit Euler needs viscosity > 0); set solver.dt or "
-                "choose symplectic-euler");
+  try {
+    run.dt_choice =
+        crms::choose_time_step(inst.integration.dt_s, inst.integration.dt_safety, *run.solver);
+  } catch (const Error& e) {
+    throw Error(scene.file.string() + ": " + e.what());
+  }
+  run.dt_s = run.dt_choice.dt_s;
   apply_loads_and_initial_state(scene, *run.solver);
   run.setup_s = clock.seconds();
   return run;
+}
+
+nlohmann::json time_step_json(const crms::TimeStepChoice& c) {
+  return {{"dt_s", c.dt_s},
+          {"stable_estimate_s", c.stable_s},
+          {"dt_over_estimate", c.ratio()},
+          {"automatic", c.automatic},
+          {"safety", c.safety},
+          {"stability_limited", c.limited},
+          {"how", c.how}};
+}
+
+nlohmann::json stability_json(const crms::StabilitySummary& s) {
+  return {{"verdict", crms::to_string(s.verdict)},
+          {"headline", s.headline()},
+          {"reason", s.reason},
+          {"advice", s.advice},
+          {"allowed_by_scene", s.allowed},
+          {"energy_nj",
+           {{"start", s.energy_start_nj},
+            {"end", s.energy_end_nj},
+            {"work_in", s.work_in_nj},
+            {"dissipated", s.dissipated_nj},
+            {"largest_unexplained_gain", s.max_gain_nj},
+            {"scale", s.energy_scale_nj},
+            {"gain_fraction", s.gain_fraction},
+            {"balance_checked", s.energy_balance_checked},
+            {"kinetic_drag_estimate", s.kinetic_drag_nj}}},
+          {"velocity_limit",
+           {{"mm_s", s.velocity_limit_mm_s},
+            {"max_fraction_at_limit", s.max_limit_fraction},
+            {"end_fraction_at_limit", s.end_limit_fraction},
+            {"steps_at_limit", s.steps_at_limit},
+            {"longest_steps_at_limit", s.longest_at_limit}}},
+          {"period2",
+           {{"max_score", s.max_period2},
+            {"end_score", s.end_period2},
+            {"samples_held_and_flipping", s.held_flipping_samples}}},
+          {"non_finite", s.non_finite ? nlohmann::json(*s.non_finite) : nlohmann::json(nullptr)},
+          {"samples", s.samples},
+          {"steps", s.steps},
+          {"dt_max_over_estimate", s.dt_max_over_stable}};
+}
+
+void require_stable_enough(const crms::StabilitySummary& s, const std::string& who) {
+  if (s.verdict == crms::StabilityVerdict::kUnstable && !s.allowed)
+    throw Error((who.empty() ? "" : who + ": ") + s.headline() +
+                " (set stability.allow_unstable: true to exit 0 anyway)");
 }
 
 }  // namespace tsf::app

@@ -16,6 +16,8 @@
 #include "scene/scene.h"
 #include "tsf/crms/lattice.h"
 #include "tsf/crms/solver.h"
+#include "tsf/crms/stability_monitor.h"
+#include "tsf/crms/time_step_choice.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/volume/voxel_volume.h"
 
@@ -84,8 +86,17 @@ struct LatticeRun {
   std::unique_ptr<crms::Solver> solver;
   std::int64_t fixed_nodes = 0;
   double dt_s = 0;
+  crms::TimeStepChoice dt_choice;
   double setup_s = 0;
 };
 LatticeRun build_lattice_run(const Scene& scene);
+
+/// How the time step was chosen, as the `time_step` section of the session summary.
+nlohmann::json time_step_json(const crms::TimeStepChoice& choice);
+/// The stability verdict as every report's `stability` section (headline first).
+nlohmann::json stability_json(const crms::StabilitySummary& summary);
+/// Throws tsf::Error "unstable: …" for an unstable verdict the scene does not allow
+/// (stability.allow_unstable): the commands exit non-zero after writing their reports.
+void require_stable_enough(const crms::StabilitySummary& summary, const std::string& who);
 
 }  // namespace tsf::app

@@ -260,12 +260,15 @@ void read_solver(const Field& f, Scene& s, SceneIntegration& integration) {
 }
 
 void read_stability(const Field& f, crms::StabilityControls& st) {
-  f.expect_keys({"kinetic_damping", "velocity_limit", "velocity_limit_fraction"});
+  f.expect_keys({"kinetic_damping", "velocity_limit", "velocity_limit_fraction", "allow_unsafe_dt",
+                 "allow_unstable"});
   st.kinetic_damping = f["kinetic_damping"].number(0.0, 0.0, 1e3);
   st.velocity_limit = (!f["velocity_limit"].defined() || f["velocity_limit"].is_auto())
                           ? -1.0
                           : f["velocity_limit"].number(0.0, 0.0, 1e9);
   st.velocity_limit_auto_fraction = f["velocity_limit_fraction"].number(0.25, 0.0, 10.0, true);
+  st.allow_unsafe_dt = f["allow_unsafe_dt"].boolean(false);
+  st.allow_unstable = f["allow_unstable"].boolean(false);
 }
 
 void read_anchors(const Field& f, std::vector<SceneAnchor>& anchors) {

@@ -5,10 +5,10 @@
 #include <cstdio>
 #include <map>
 
-#include "text_format.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/common/text_format.h"
 #include "tsf/import/volume_file_reader.h"
 
 namespace tsf::import {
@@ -32,7 +32,8 @@ bool same_vector(const Vec3d& a, const Vec3d& b, double tol) {
 }
 
 std::string vec_text(const Vec3d& v) {
-  return "(" + fmt("%.4g", v.x) + ", " + fmt("%.4g", v.y) + ", " + fmt("%.4g", v.z) + ")";
+  return "(" + format_text("%.4g", v.x) + ", " + format_text("%.4g", v.y) + ", " +
+         format_text("%.4g", v.z) + ")";
 }
 
 /// Groups slices by a key with a tolerance; returns one representative slice per group and the
@@ -171,8 +172,8 @@ void analyze_series(DicomSeries& s, const fs::path& root, const SliceStackOption
     if (spacings.size() > 1)
       s.problems.push_back("images differ in pixel spacing: " +
                            describe_groups(spacings, [&](int k) {
-                             return fmt("%g", frame_of(k).spacing_between_rows) + "\\" +
-                                    fmt("%g", frame_of(k).spacing_between_columns) + " mm";
+                             return format_text("%g", frame_of(k).spacing_between_rows) + "\\" +
+                                    format_text("%g", frame_of(k).spacing_between_columns) + " mm";
                            }));
   }
 
@@ -219,7 +220,7 @@ void analyze_series(DicomSeries& s, const fs::path& root, const SliceStackOption
       std::vector<std::string> names;
       for (int k : d.slices) names.push_back(name_of(k));
       s.problems.push_back(plural(d.slices.size(), "slice") + " share one position (" +
-                           fmt("%.3f", d.offset_mm) +
+                           format_text("%.3f", d.offset_mm) +
                            " mm along the slice normal): " + join_limited(names) +
                            " — more than one volume in the series (phases, echoes or repeats)");
     }

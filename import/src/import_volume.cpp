@@ -11,10 +11,10 @@
 #include <set>
 
 #include "huge_pages.h"
-#include "text_format.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/common/text_format.h"
 #include "tsf/import/ct_geometry.h"
 #include "tsf/import/dicom_catalog.h"
 #include "tsf/import/dicom_pixel_reader.h"
@@ -181,21 +181,23 @@ void fill_series(const DicomCatalog& catalog, const DicomSeries& s, ImportReport
 
 void add_geometry_warnings(const DicomSeries& s, const SliceStackGeometry& g, ImportReport& r) {
   for (const auto& m : g.missing)
-    r.warnings.push_back(
-        "gap of " + fmt("%.2f", m.gap_mm) + " mm after slice " + std::to_string(m.after_slice + 1) +
-        " (regular gap " + fmt("%.2f", g.regular_gap_mm) + " mm): about " +
-        std::to_string(m.estimated_missing) + " missing slice(s), interpolated across");
+    r.warnings.push_back("gap of " + format_text("%.2f", m.gap_mm) + " mm after slice " +
+                         std::to_string(m.after_slice + 1) + " (regular gap " +
+                         format_text("%.2f", g.regular_gap_mm) + " mm): about " +
+                         std::to_string(m.estimated_missing) +
+                         " missing slice(s), interpolated across");
   if (g.uneven)
     r.warnings.push_back("uneven slice spacing: gaps " + describe_gap_runs(g.gap_runs) +
                          " along the slice normal; resampled to uniform spacing");
   if (g.tilted)
-    r.warnings.push_back("gantry tilt of " + fmt("%.2f", g.tilt_deg) + "° (slice positions drift " +
-                         fmt("%.1f", g.max_drift_mm) +
+    r.warnings.push_back("gantry tilt of " + format_text("%.2f", g.tilt_deg) +
+                         "° (slice positions drift " + format_text("%.1f", g.max_drift_mm) +
                          " mm in-plane); resampled onto an orthogonal grid");
   const DicomFileInfo& f = s.files.front();
   if (f.has_gantry_tilt && std::abs(std::abs(f.gantry_tilt_deg) - g.tilt_deg) > 0.5)
-    r.warnings.push_back("GantryDetectorTilt (0018,1120) says " + fmt("%.2f", f.gantry_tilt_deg) +
-                         "° but the slice positions show " + fmt("%.2f", g.tilt_deg) +
+    r.warnings.push_back("GantryDetectorTilt (0018,1120) says " +
+                         format_text("%.2f", f.gantry_tilt_deg) +
+                         "° but the slice positions show " + format_text("%.2f", g.tilt_deg) +
                          "°: the positions were used");
 }
 
@@ -303,7 +305,7 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
     std::string reasons;
     for (const auto& reason : g.resampling_reasons) reasons += "\n  - " + reason;
     for (const auto& m : g.missing)
-      reasons += "\n  - gap of " + fmt("%.2f", m.gap_mm) + " mm after slice " +
+      reasons += "\n  - gap of " + format_text("%.2f", m.gap_mm) + " mm after slice " +
                  std::to_string(m.after_slice + 1) + ": about " +
                  std::to_string(m.estimated_missing) + " missing slice(s)";
     throw Error("series " + s.series_instance_uid + " under '" + path.string() +
@@ -369,7 +371,8 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
     rs.tilt_resolution = g.tilt_resolution;
     rs.slice_spacing_mm = g.grid.spacing.z;
     rs.slice_spacing_rule = options.resampled_slice_spacing_mm > 0
-                                ? "requested (" + fmt("%.3f", options.resampled_slice_spacing_mm) +
+                                ? "requested (" +
+                                      format_text("%.3f", options.resampled_slice_spacing_mm) +
                                       " mm), adjusted so whole slices span the volume"
                                 : std::string("the most frequent slice gap") +
                                       (g.tilted ? " along the table axis" : "") +
@@ -433,7 +436,7 @@ ImportResult import_volume(const fs::path& path, const ImportOptions& options) {
   const auto& o = result.report.output;
   if (o.units == "HU" && o.min_value > kAirCeilingHu)
     result.report.warnings.push_back(
-        "the lowest value is " + fmt("%.0f", static_cast<double>(o.min_value)) +
+        "the lowest value is " + format_text("%.0f", static_cast<double>(o.min_value)) +
         " HU: no air in the volume (air is about -1000 HU); check that the values are HU and "
         "that the rescale intercept was applied");
   result.report.seconds.total = total.seconds();

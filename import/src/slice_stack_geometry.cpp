@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <numeric>
 
-#include "text_format.h"
 #include "tsf/common/error.h"
+#include "tsf/common/text_format.h"
 
 namespace tsf::import {
 namespace {
@@ -27,9 +27,9 @@ double median_of(std::vector<double> v) {
 int checked_count(double extent_mm, double spacing_mm, const char* axis, bool round_to_nearest) {
   const double steps = extent_mm / spacing_mm;
   if (!std::isfinite(steps) || steps + 1 > kMaxVoxelsPerAxis)
-    throw Error(std::string("slice positions describe a grid of ") + fmt("%.4g", steps + 1) +
-                " voxels along " + axis + " (extent " + fmt("%.6g", extent_mm) + " mm at " +
-                fmt("%.4g", spacing_mm) +
+    throw Error(std::string("slice positions describe a grid of ") +
+                format_text("%.4g", steps + 1) + " voxels along " + axis + " (extent " +
+                format_text("%.6g", extent_mm) + " mm at " + format_text("%.4g", spacing_mm) +
                 " mm spacing); expected at most 65536: the positions are not one volume");
   const double n = round_to_nearest ? std::round(steps) : std::ceil(steps - 1e-6);
   return static_cast<int>(n) + 1;
@@ -46,7 +46,7 @@ std::string describe_gap_runs(const std::vector<SliceGapRun>& runs) {
   std::string out;
   for (const auto& r : runs) {
     if (!out.empty()) out += ", ";
-    out += fmt("%.2f", r.gap_mm) + " mm ×" + std::to_string(r.count);
+    out += format_text("%.2f", r.gap_mm) + " mm ×" + std::to_string(r.count);
   }
   return out;
 }
@@ -60,8 +60,8 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
                 " (a single image has no slice spacing: import the whole series folder)");
   if (!(spacing_x > 0) || !(spacing_y > 0) || !std::isfinite(spacing_x) ||
       !std::isfinite(spacing_y))
-    throw Error("pixel spacing " + fmt("%g", spacing_y) + "\\" + fmt("%g", spacing_x) +
-                " mm is not positive and finite");
+    throw Error("pixel spacing " + format_text("%g", spacing_y) + "\\" +
+                format_text("%g", spacing_x) + " mm is not positive and finite");
   if (columns <= 0 || rows <= 0)
     throw Error("image size " + std::to_string(columns) + "×" + std::to_string(rows) + " is empty");
   for (const auto& p : positions) require_finite(p, "ImagePositionPatient");
@@ -83,7 +83,8 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
   const double row_dot_column = dot(row, column);
   if (std::abs(row_dot_column) > std::sin(0.1 * kPi / 180))
     throw Error("ImageOrientationPatient row and column are not orthogonal (angle " +
-                fmt("%.3f", std::acos(std::clamp(row_dot_column, -1.0, 1.0)) * 180 / kPi) + "°)");
+                format_text("%.3f", std::acos(std::clamp(row_dot_column, -1.0, 1.0)) * 180 / kPi) +
+                "°)");
   column = normalized_or_zero(column - row * row_dot_column);
   g.axes = {row, column};
   g.normal = cross(row, column);
@@ -138,9 +139,9 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
   }
   const double widest = *std::max_element(g.gaps_mm.begin(), g.gaps_mm.end());
   if (widest > options.max_gap_factor * g.regular_gap_mm)
-    throw Error("a gap of " + fmt("%.2f", widest) + " mm between slices is " +
-                fmt("%.0f", widest / g.regular_gap_mm) + "× the regular gap of " +
-                fmt("%.2f", g.regular_gap_mm) +
+    throw Error("a gap of " + format_text("%.2f", widest) + " mm between slices is " +
+                format_text("%.0f", widest / g.regular_gap_mm) + "× the regular gap of " +
+                format_text("%.2f", g.regular_gap_mm) +
                 " mm: the series holds separate stacks, not one volume");
   for (double gap : g.gaps_mm)
     if (std::abs(gap - g.median_gap_mm) > tol) g.uneven = true;
@@ -176,7 +177,8 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
   g.tilt_deg = std::acos(std::clamp(dot(g.stack_direction, n), -1.0, 1.0)) * 180 / kPi;
   g.tilted = g.max_drift_mm > options.tilt_drift_tolerance_px * std::min(spacing_x, spacing_y);
 
-  if (g.tilted) g.resampling_reasons.push_back("gantry tilt " + fmt("%.2f", g.tilt_deg) + "°");
+  if (g.tilted)
+    g.resampling_reasons.push_back("gantry tilt " + format_text("%.2f", g.tilt_deg) + "°");
   if (g.uneven)
     g.resampling_reasons.push_back("uneven slice spacing (" + describe_gap_runs(g.gap_runs) + ")");
   g.needs_resampling = g.tilted || g.uneven;
@@ -205,7 +207,7 @@ SliceStackGeometry analyze_slice_stack(const std::vector<Vec3d>& positions, cons
   const Vec3d x_raw = row - z_axis * dot(row, z_axis);
   if (length(x_raw) < 0.1)
     throw Error("slices are stacked along their own row direction (tilt " +
-                fmt("%.1f", g.tilt_deg) + "°): not a tomographic volume");
+                format_text("%.1f", g.tilt_deg) + "°): not a tomographic volume");
   const Vec3d x_axis = normalized_or_zero(x_raw);
   const Vec3d y_axis = cross(z_axis, x_axis);
   grid.axes = {x_axis, y_axis, z_axis};

@@ -11,9 +11,9 @@
 #include <fstream>
 #include <new>
 
-#include "text_format.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
+#include "tsf/common/text_format.h"
 #include "tsf/import/imaging_library_setup.h"
 #include "tsf/import/volume_statistics.h"
 
@@ -198,11 +198,11 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
   for (unsigned a = 0; a < 3; ++a) {
     const double size = a < nd ? static_cast<double>(io->GetDimensions(a)) : 1.0;
     if (size < 1)
-      throw Error(where + "size " + fmt("%.0f", size) + " along axis " + std::to_string(a) +
+      throw Error(where + "size " + format_text("%.0f", size) + " along axis " + std::to_string(a) +
                   " (expected at least 1)");
     voxels *= size;
     if (size > 2147483647.0)
-      throw Error(where + "size " + fmt("%.0f", size) + " along axis " + std::to_string(a) +
+      throw Error(where + "size " + format_text("%.0f", size) + " along axis " + std::to_string(a) +
                   " is out of range");
     h.dims[static_cast<int>(a)] = static_cast<int>(size);
     h.spacing[static_cast<int>(a)] = a < nd ? io->GetSpacing(a) : 1.0;
@@ -213,7 +213,7 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
     }
   }
   if (voxels > static_cast<double>(max_voxels))
-    throw Error(where + "the header claims " + fmt("%.0f", voxels) + " voxels (" +
+    throw Error(where + "the header claims " + format_text("%.0f", voxels) + " voxels (" +
                 std::to_string(h.dims.x) + "×" + std::to_string(h.dims.y) + "×" +
                 std::to_string(h.dims.z) + "), more than the limit of " +
                 std::to_string(max_voxels) + ": refused before allocating");
@@ -238,7 +238,7 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
 
   for (int a = 0; a < 3; ++a) {
     if (!(h.spacing[a] > 0) || !std::isfinite(h.spacing[a]))
-      throw Error(where + "spacing " + fmt("%g", h.spacing[a]) + " along axis " +
+      throw Error(where + "spacing " + format_text("%g", h.spacing[a]) + " along axis " +
                   std::to_string(a) + " (expected a positive number of mm)");
     if (!std::isfinite(h.origin[a])) throw Error(where + "the origin is not finite");
   }
@@ -249,7 +249,7 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
       const double expected = a == b ? 1.0 : 0.0;
       if (!(std::abs(d - expected) < 1e-3))
         throw Error(where + "the direction matrix is not orthonormal (axes " + std::to_string(a) +
-                    "·" + std::to_string(b) + " = " + fmt("%.4f", d) +
+                    "·" + std::to_string(b) + " = " + format_text("%.4f", d) +
                     "): sheared volumes are not supported, resample it onto an orthogonal grid");
     }
   return h;

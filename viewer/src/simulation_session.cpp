@@ -27,6 +27,8 @@ SimulationSession::SimulationSession(std::unique_ptr<interaction::TissueModel> m
   stats_.alive_nodes = model_->alive_nodes();
   stats_.dt_s = model_->dt();
   stats_.live_triangles = model_->surface().live_triangle_count();
+  stats_.stability = crms::to_string(model_->stability().verdict);
+  stats_.dt_over_estimate = model_->time_step_choice().ratio();
 }
 
 void SimulationSession::publish_initial() {
@@ -65,6 +67,8 @@ void SimulationSession::step(double dt_display, const ToolCommand& command) {
   stats_.tool_force_un = model_->contact().force_un;
   stats_.removed_mm3 = tot.removed_mm3;
   stats_.live_triangles = model_->surface().live_triangle_count();
+  stats_.stability = crms::to_string(model_->stability().verdict);
+  stats_.dt_over_estimate = model_->time_step_choice().ratio();
   // Rates over the last ~1 s of wall time.
   const double wall = wall_seconds();
   recent_.push_back({wall, tot.steps, tot.simulated_s});

@@ -652,14 +652,16 @@ void Viewer::Impl::update_hud(const ToolCommand& shown) {
   const NamedTool& tool = session->tools()[static_cast<std::size_t>(holding ? shown.tool : 0)];
   char buf[1024];
   std::snprintf(buf, sizeof buf,
-                "backend  %s   lattice %d x %d x %d (%s nodes alive)   dt %.3g s\n"
+                "backend  %s   lattice %d x %d x %d (%s nodes alive)   dt %.3g s (%.2fx the "
+                "stable estimate)   %s\n"
                 "sim      %s steps/s   %.3gx real time   t = %.4f s\n"
                 "render   %.0f fps   %.1f ms/frame   %s triangles\n"
                 "tool     %s (%s)  [%s%s]   |F| = %s uN   removed %.1f mm3%s%s",
                 stats.backend.c_str(), stats.lattice_dims.x, stats.lattice_dims.y,
                 stats.lattice_dims.z, thousands(static_cast<double>(stats.alive_nodes)).c_str(),
-                stats.dt_s, thousands(stats.steps_per_s).c_str(), stats.realtime, stats.simulated_s,
-                fps, mean * 1e3, thousands(static_cast<double>(uploader.live_triangles())).c_str(),
+                stats.dt_s, stats.dt_over_estimate, stats.stability.c_str(),
+                thousands(stats.steps_per_s).c_str(), stats.realtime, stats.simulated_s, fps,
+                mean * 1e3, thousands(static_cast<double>(uploader.live_triangles())).c_str(),
                 holding ? tool.name.c_str() : "none",
                 holding ? interaction::to_string(tool.tool.shape) : "-", mode_name(shown.mode),
                 (options.offscreen || shown.mode != interaction::ToolMode::kIdle)

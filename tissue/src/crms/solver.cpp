@@ -128,6 +128,10 @@ double Solver::stable_dt() const {
                                                           : stable_.symplectic_euler_s;
 }
 
+double Solver::velocity_limit_mm_s(double dt) const {
+  return step_parameters(dt).velocity_limit;
+}
+
 StepParameters Solver::step_parameters(double dt) const {
   StepParameters p;
   p.dt = static_cast<float>(dt);
@@ -291,6 +295,7 @@ StepReport Solver::synchronize() {
 }
 
 void Solver::clear_instability() {
+  ++edits_;
   instability_.reset();
   backend_->reset_guard();
 }
@@ -327,6 +332,7 @@ Instability Solver::make_instability(std::int64_t node, std::int64_t step) const
 }
 
 void Solver::set_gravity(const Vec3d& gravity) {
+  ++edits_;
   SolverConfig c = config_;
   c.gravity = gravity;
   validate_solver_config(c);
@@ -335,6 +341,7 @@ void Solver::set_gravity(const Vec3d& gravity) {
 
 void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
                                  const std::vector<Vec3f>& forces) {
+  ++edits_;
   require(nodes.size() == forces.size(), "set_external_forces: nodes and forces differ in size");
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     require(nodes[i] >= 0 && nodes[i] < lattice_.node_count(),
@@ -346,16 +353,22 @@ void Solver::set_external_forces(const std::vector<std::int64_t>& nodes,
     require_compiled_feature_set(features() | features::kExternalForces);
     backend_->enable_external_forces();
     external_forces_ = true;
+    external_host_.assign(static_cast<std::size_t>(lattice_.node_count()), Vec3f{0, 0, 0});
   }
   backend_->set_external_forces(nodes, forces);
+  for (std::size_t i = 0; i < nodes.size(); ++i) external_host_[nodes[i]] = forces[i];
 }
 
 void Solver::clear_external_forces() {
-  if (external_forces_) backend_->clear_external_forces();
+  ++edits_;
+  if (!external_forces_) return;
+  backend_->clear_external_forces();
+  std::fill(external_host_.begin(), external_host_.end(), Vec3f{0, 0, 0});
 }
 
 void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
                              const std::vector<Vec3d>& targets) {
+  ++edits_;
   require(nodes.size() == targets.size(), "constrain_nodes: nodes and targets differ in size");
   std::vector<Vec3f> u(nodes.size()), v(nodes.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) {
@@ -372,6 +385,7 @@ void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
 }
 
 void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
+  ++edits_;
   for (std::int64_t n : nodes) {
     require(n >= 0 && n < lattice_.node_count(),
             "release_nodes: node " + std::to_string(n) + " is out of range");
@@ -383,6 +397,7 @@ void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
 void Solver::set_node_states(const std::vector<std::int64_t>& nodes,
                              const std::vector<Vec3d>& positions,
                              const std::vector<Vec3f>& velocities) {
+  ++edits_;
   require(nodes.size() == positions.size() && nodes.size() == velocities.size(),
           "set_node_states: nodes, positions and velocities differ in size");
   std::vector<Vec3f> u(nodes.size());
@@ -396,6 +411,7 @@ void Solver::set_node_states(const std::vector<std::int64_t>& nodes,
 
 void Solver::set_state(const std::vector<Vec3f>& displacements,
                        const std::vector<Vec3f>& velocities) {
+  ++edits_;
   const auto count = static_cast<std::size_t>(lattice_.node_count());
   require(displacements.size() == count && velocities.size() == count,
           "set_state: expected " + std::to_string(count) + " displacements and velocities");
@@ -406,6 +422,7 @@ void Solver::set_state(const std::vector<Vec3f>& displacements,
 }
 
 void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
+  ++edits_;
   for (std::int64_t n : nodes) {
     require(n >= 0 && n < lattice_.node_count(),
             "delete_nodes: node " + std::to_string(n) + " is out of range");
@@ -417,6 +434,7 @@ void Solver::delete_nodes(const std::vector<std::int64_t>& nodes) {
 }
 
 void Solver::break_springs(const std::vector<SpringRef>& springs) {
+  ++edits_;
   std::vector<std::int64_t> touched;
   for (const SpringRef& s : springs) {
     require(s.node >= 0 && s.node < lattice_.node_count() && s.direction >= 0 &&
@@ -480,6 +498,12 @@ EnergyReport Solver::energy() const {
   r.kinetic_nj = s.kinetic;
   r.elastic_nj = s.elastic + effects_energy_nj();
   r.gravitational_nj = s.gravitational;
+  if (external_forces_) {  // constant loads: potential −Σ F·u (µN·mm = nJ)
+    std::vector<Vec3f> u;
+    backend_->read_state(&u, nullptr);
+    for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+      if (lattice_.alive(n)) r.load_nj -= static_cast<double>(dot(external_host_[n], u[n]));
+  }
   return r;
 }
 

@@ -84,11 +84,8 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
   crms::SolverConfig solver_config = options_.solver;
   if (options_.configure_effects) options_.configure_effects(lattice, solver_config);
   solver_ = std::make_unique<crms::Solver>(std::move(lattice), solver_config);
-  dt_ = crms::chosen_time_step(options_.dt_s, options_.dt_safety, solver_->stable_dt());
-  require(dt_ > 0 && std::isfinite(dt_),
-          "tissue model: the stable time step of this material is 0 (explicit Euler needs "
-          "viscosity > 0): set dt or use symplectic Euler");
-  dt_ = std::min(dt_, 1.0);
+  dt_choice_ = crms::choose_time_step(options_.dt_s, options_.dt_safety, *solver_);
+  dt_ = dt_choice_.dt_s;
 
   coupler_ =
       std::make_unique<coupler::Coupler>(geometry, coupler::CouplerOptions{options_.coupler_mode});
@@ -303,7 +300,7 @@ AdvanceReport TissueModel::advance(double dt_display) {
   for (std::int64_t p = 0; p < passes; ++p) {
     const std::int64_t chunk = steps * (p + 1) / passes - steps * p / passes;
     Stopwatch clock;
-    const crms::StepReport sr = solver_->step(static_cast<int>(chunk), dt_);
+    const crms::StepReport sr = monitor_.step(*solver_, static_cast<int>(chunk), dt_);
     r.step_us += micros(clock);
     r.steps += sr.steps_run;
     gatherer_->state_changed();

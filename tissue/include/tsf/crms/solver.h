@@ -61,7 +61,8 @@ struct EnergyReport {
   double kinetic_nj = 0;        ///< Σ ½·m·|v|²
   double elastic_nj = 0;        ///< Σ springs ½(ks/L)(l−L)² + Σ angles ½kθψ²
   double gravitational_nj = 0;  ///< −Σ m·g·u (0 at rest)
-  double total_nj() const { return kinetic_nj + elastic_nj + gravitational_nj; }
+  double load_nj = 0;           ///< −Σ F·u of the constant external forces (0 without loads)
+  double total_nj() const { return kinetic_nj + elastic_nj + gravitational_nj + load_nj; }
 };
 
 /// A spring by one end: node and face direction d (0..5 = −x,+x,−y,+y,−z,+z).
@@ -94,6 +95,8 @@ class Solver {
   /// Stable dt estimate of the configured integrator, s (implicit Euler: the symplectic bound,
   /// as a scale for accuracy rather than a limit).
   double stable_dt() const;
+  /// The |v| limit the kernels apply at step dt, mm/s (0: none; stability.velocity_limit).
+  double velocity_limit_mm_s(double dt) const;
 
   // ---- stepping ----
   /// Advances n steps of dt seconds and waits for them; reports an instability if one occurred
@@ -170,6 +173,10 @@ class Solver {
   const std::vector<std::string>& fired_triggers() const { return timeline_.fired_triggers(); }
   /// Simulated time since construction, s (Σ n·dt over the steps).
   double time_s() const { return time_s_; }
+  /// Calls since construction that changed the state, loads or topology outside step() (loads,
+  /// gravity, constraints, node states, deletions, broken springs): a reader that saw the same
+  /// count knows the state is what the last step left.
+  std::uint64_t edits() const { return edits_; }
 
  private:
   StepParameters step_parameters(double dt) const;
@@ -193,12 +200,14 @@ class Solver {
   std::unique_ptr<SolverBackend> backend_;
   bool on_cuda_ = false;
   bool external_forces_ = false;
+  std::vector<Vec3f> external_host_;  // host copy of the external forces (load energy)
   std::int64_t steps_done_ = 0;
   std::optional<Instability> instability_;
   unsigned effect_bits_ = 0;
   std::unique_ptr<EffectsEngine> effects_;
   std::int64_t torn_synced_ = 0;  // springs already cleared on the host lattice by sync_torn_links
   double time_s_ = 0.0;
+  std::uint64_t edits_ = 0;
   AnimationTimeline timeline_;  // effects.animation (empty when off)
 };
 

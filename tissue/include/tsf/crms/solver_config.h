@@ -62,6 +62,12 @@ struct StabilityControls {
   double velocity_limit = -1.0;
   /// Fraction used by the automatic limit; range (0, 10].
   double velocity_limit_auto_fraction = 0.25;
+  /// A given dt above the explicit integrator's stable estimate is refused (time_step_choice.h)
+  /// unless this is set; the run is then watched like any other and reported unstable if it is.
+  bool allow_unsafe_dt = false;
+  /// An unstable verdict (stability_monitor.h) makes the commands exit non-zero unless this is
+  /// set; the report still says unstable.
+  bool allow_unstable = false;
 };
 
 struct SolverConfig {

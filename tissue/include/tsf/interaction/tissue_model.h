@@ -41,6 +41,8 @@
 #include "tsf/coupler/vertex_binder.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/solver.h"
+#include "tsf/crms/stability_monitor.h"
+#include "tsf/crms/time_step_choice.h"
 #include "tsf/imt/imt_surface.h"
 #include "tsf/interaction/rest_space_map.h"
 #include "tsf/interaction/tool.h"
@@ -137,6 +139,12 @@ class TissueModel {
   crms::Solver& solver() { return *solver_; }
   const coupler::Coupler& coupler() const { return *coupler_; }
   double dt() const { return dt_; }
+  /// How dt was chosen (crms/time_step_choice.h): the estimate and the rule.
+  const crms::TimeStepChoice& time_step_choice() const { return dt_choice_; }
+  /// The stability verdict so far (crms/stability_monitor.h): advance() steps through it, so the
+  /// tools' edits between frames count as work put in.
+  crms::StabilitySummary stability() const { return monitor_.summary(*solver_); }
+  const crms::StabilityMonitor& stability_monitor() const { return monitor_; }
   /// Per lattice node: 1 when anchored by the scene (labels, shapes).
   const std::vector<std::uint8_t>& anchored() const { return anchored_; }
 
@@ -182,6 +190,8 @@ class TissueModel {
   std::unique_ptr<collision::ToolContact> contact_resolver_;
   std::vector<std::uint8_t> anchored_;
   double dt_ = 0;
+  crms::TimeStepChoice dt_choice_;
+  crms::StabilityMonitor monitor_;
   // The tool in use: its pose and mode of the last apply_tool.
   std::optional<collision::WorldTool> last_tool_;
   ToolMode last_mode_ = ToolMode::kIdle;

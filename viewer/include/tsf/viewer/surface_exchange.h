@@ -58,6 +58,8 @@ struct SimulationStats {
   std::size_t live_triangles = 0;
   double removed_mm3 = 0;
   std::string error;  ///< set when the simulation stopped (instability, bad tool); empty else
+  std::string stability = "stable";  ///< the verdict so far (crms/stability_monitor.h)
+  double dt_over_estimate = 0;       ///< dt / the stable estimate
 };
 
 class SurfaceExchange {
