@@ -139,6 +139,17 @@ class YamlField {
     for (int a = 0; a < 3; ++a) v[a] = at(static_cast<std::size_t>(a)).number();
     return v;
   }
+  /// A required list of 3 numbers, each in [-limit, limit].
+  Vec3d vec3_within(double limit) const {
+    const Vec3d v = vec3();
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(v[a]) <= limit)) {
+        std::ostringstream s;
+        s << "expected a list of 3 numbers in [" << -limit << ", " << limit << "], got " << v[a];
+        fail(s.str());
+      }
+    return v;
+  }
   /// The scalar `auto` (a value the program derives).
   bool is_auto() const { return defined() && node_.IsScalar() && node_.Scalar() == "auto"; }
   std::size_t size() const {
