@@ -15,7 +15,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
+#include "geometry_limits.h"
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
 
@@ -62,6 +64,60 @@ bool get_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long 
   return false;
 }
 
+/// A value that is present but cannot be used: its tag, its text and what was expected. Thrown by
+/// get_checked_double, caught per file (the file is then damaged; import.md, "What is skipped,
+/// refused and repaired").
+struct InvalidValue : Error {
+  using Error::Error;
+};
+
+/// The accepted values of an attribute used for geometry or rescale.
+struct ValueRange {
+  double lo = -HUGE_VAL, hi = HUGE_VAL;
+  bool lo_open = false;
+  const char* unit = "";
+};
+constexpr ValueRange kAnyFinite{};
+constexpr ValueRange kPositionMm{-kMaxCoordinateMm, kMaxCoordinateMm, false, " mm"};
+constexpr ValueRange kPixelSpacingMm{0, kMaxSpacingMm, true, " mm"};
+
+/// Value `pos` of `tag` (DS, IS or FD) used for geometry or rescale: false when the attribute
+/// is absent; InvalidValue when it is present but empty, short of values, not a number, not
+/// finite or outside `range` (one unparsable RescaleIntercept must not become 0).
+bool get_checked_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long pos,
+                        const ValueRange& range) {
+  DcmElement* element = nullptr;
+  if (item.findAndGetElement(tag, element).bad() || !element) return false;
+  const std::string name = std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() +
+                           (pos > 0 || element->getVM() > 1 ? "[" + std::to_string(pos) + "]" : "");
+  OFString text;
+  const std::string t = element->getOFString(text, pos).good() ? trim(text.c_str()) : "";
+  std::ostringstream expected;
+  if (std::isinf(range.lo) && std::isinf(range.hi))
+    expected << "expected a finite decimal number";
+  else
+    expected << "expected a number in " << (range.lo_open ? "(" : "[") << range.lo << ", "
+             << range.hi << "]" << range.unit;
+  if (t.empty())
+    throw InvalidValue(name + " is empty or missing (" + std::to_string(element->getVM()) +
+                       " values): " + expected.str());
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  const bool in_range = (range.lo_open ? v > range.lo : v >= range.lo) && v <= range.hi;
+  if (!end || *end != '\0' || !std::isfinite(v) || !in_range)
+    throw InvalidValue(name + " is '" + t + "': " + expected.str());
+  out = v;
+  return true;
+}
+
+bool get_checked_vec3(DcmItem& item, const DcmTagKey& tag, Vec3d& out, unsigned long first,
+                      const ValueRange& range) {
+  for (int a = 0; a < 3; ++a)
+    if (!get_checked_double(item, tag, out[a], first + static_cast<unsigned long>(a), range))
+      return false;
+  return true;
+}
+
 bool get_long(DcmItem& item, const DcmTagKey& tag, long& out) {
   long v = 0;
   if (item.findAndGetLongInt(tag, v).good()) {
@@ -74,12 +130,6 @@ bool get_long(DcmItem& item, const DcmTagKey& tag, long& out) {
     return true;
   }
   return false;
-}
-
-bool get_vec3(DcmItem& item, const DcmTagKey& tag, Vec3d& out, unsigned long first = 0) {
-  for (int a = 0; a < 3; ++a)
-    if (!get_double(item, tag, out[a], first + static_cast<unsigned long>(a))) return false;
-  return true;
 }
 
 DcmItem* sequence_item(DcmItem* item, const DcmTagKey& sequence) {
@@ -97,14 +147,19 @@ DcmItem* functional_group(DcmItem* per_frame, DcmItem* shared, const DcmTagKey& 
 
 void read_plane_attributes(DcmItem& position_item, DcmItem& orientation_item, DcmItem& spacing_item,
                            DcmItem& rescale_item, DicomFrameInfo& f) {
-  f.has_position = get_vec3(position_item, DCM_ImagePositionPatient, f.position);
-  f.has_orientation = get_vec3(orientation_item, DCM_ImageOrientationPatient, f.row, 0) &&
-                      get_vec3(orientation_item, DCM_ImageOrientationPatient, f.column, 3);
-  f.has_pixel_spacing = get_double(spacing_item, DCM_PixelSpacing, f.spacing_between_rows, 0) &&
-                        get_double(spacing_item, DCM_PixelSpacing, f.spacing_between_columns, 1);
+  f.has_position =
+      get_checked_vec3(position_item, DCM_ImagePositionPatient, f.position, 0, kPositionMm);
+  f.has_orientation =
+      get_checked_vec3(orientation_item, DCM_ImageOrientationPatient, f.row, 0, kAnyFinite) &&
+      get_checked_vec3(orientation_item, DCM_ImageOrientationPatient, f.column, 3, kAnyFinite);
+  f.has_pixel_spacing = get_checked_double(spacing_item, DCM_PixelSpacing, f.spacing_between_rows,
+                                           0, kPixelSpacingMm) &&
+                        get_checked_double(spacing_item, DCM_PixelSpacing,
+                                           f.spacing_between_columns, 1, kPixelSpacingMm);
   double slope = 1, intercept = 0;
-  const bool has_slope = get_double(rescale_item, DCM_RescaleSlope, slope);
-  const bool has_intercept = get_double(rescale_item, DCM_RescaleIntercept, intercept);
+  const bool has_slope = get_checked_double(rescale_item, DCM_RescaleSlope, slope, 0, kAnyFinite);
+  const bool has_intercept =
+      get_checked_double(rescale_item, DCM_RescaleIntercept, intercept, 0, kAnyFinite);
   f.has_rescale = has_slope || has_intercept;
   f.rescale_slope = has_slope ? slope : 1.0;
   f.rescale_intercept = has_intercept ? intercept : 0.0;
@@ -213,7 +268,11 @@ void read_frames(DcmDataset& ds, DicomFileInfo& info) {
     DcmItem* val = functional_group(pf, shared, DCM_PixelValueTransformationSequence);
     DicomFrameInfo fi = top;  // top-level values are the fallback for absent groups
     DicomFrameInfo g;
-    read_plane_attributes(pos ? *pos : ds, ori ? *ori : ds, mea ? *mea : ds, val ? *val : ds, g);
+    try {
+      read_plane_attributes(pos ? *pos : ds, ori ? *ori : ds, mea ? *mea : ds, val ? *val : ds, g);
+    } catch (const InvalidValue& e) {
+      throw InvalidValue("frame " + std::to_string(f + 1) + ": " + e.what());
+    }
     if (pos) fi.has_position = g.has_position, fi.position = g.position;
     if (ori) fi.has_orientation = g.has_orientation, fi.row = g.row, fi.column = g.column;
     if (mea && g.has_pixel_spacing)
@@ -387,7 +446,13 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
   classify_image(ds, info);
   if (info.kind != DicomObjectKind::image && info.kind != DicomObjectKind::localizer) return info;
   const DicomObjectKind kind_before_frames = info.kind;
-  read_frames(ds, info);
+  try {
+    read_frames(ds, info);
+  } catch (const InvalidValue& e) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = e.what();
+    return info;
+  }
   if (kind_before_frames == DicomObjectKind::localizer && info.kind == DicomObjectKind::image)
     info.kind = DicomObjectKind::localizer;
   return info;

@@ -4,13 +4,20 @@
 #include <itkImageIOBase.h>
 #include <itkImageIOFactory.h>
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <new>
+#include <sstream>
+#include <vector>
 
+#include "geometry_limits.h"
 #include "text_format.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
@@ -50,6 +57,33 @@ std::uint64_t file_size_or_zero(const fs::path& p) {
   return ec ? 0 : static_cast<std::uint64_t>(n);
 }
 
+struct HeaderField {
+  std::string key, value;
+  int line = 0;
+};
+
+/// Every number of a geometry field is finite and within ±kMaxCoordinateMm ("none" stands for a
+/// non-spatial NRRD axis): ITK's readers turn NaN into 0 or 1, overflow a 1e300 spacing into a
+/// default, or abort in vnl on a non-finite NIfTI sform.
+void check_geometry_fields(const std::vector<HeaderField>& fields, const std::string& where) {
+  for (const HeaderField& f : fields) {
+    std::string text = f.value;
+    for (char& c : text)
+      if (c == '(' || c == ')' || c == ',') c = ' ';
+    std::istringstream tokens(text);
+    std::string t;
+    while (tokens >> t) {
+      if (t == "none") continue;
+      char* end = nullptr;
+      const double v = std::strtod(t.c_str(), &end);
+      if (!end || *end != '\0' || !std::isfinite(v) || !(std::abs(v) <= kMaxCoordinateMm))
+        throw Error(where + (f.line > 0 ? "line " + std::to_string(f.line) + ", " : "") + f.key +
+                    " is '" + f.value + "': '" + t + "' is not a finite number within ±" +
+                    fmt("%g", kMaxCoordinateMm) + " mm");
+    }
+  }
+}
+
 /// Where the voxel bytes of a volume file live, from its header text.
 struct DataLocation {
   bool known = false;  ///< false: a layout these checks do not model (lists, text encodings)
@@ -57,6 +91,10 @@ struct DataLocation {
   bool compressed = false;
   bool deflate = false;  ///< gzip/zlib: the compression-ratio bound applies
   bool has_space = false;
+  fs::path data_path;             ///< the file holding the voxel bytes
+  std::uint64_t data_offset = 0;  ///< where they start in it
+  /// Header fields that place or scale the volume: (key as written, value, line; 0 = binary).
+  std::vector<HeaderField> geometry;
 };
 
 DataLocation locate_nrrd_data(const fs::path& path) {
@@ -66,8 +104,10 @@ DataLocation locate_nrrd_data(const fs::path& path) {
   std::size_t header_bytes = 0;
   std::string encoding = "raw", data_file;
   bool ended = false;
+  int line_number = 0;
   while (header_bytes < kMaxHeaderText && std::getline(in, line)) {
     header_bytes += line.size() + 1;
+    ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) {
       ended = true;
@@ -82,6 +122,8 @@ DataLocation locate_nrrd_data(const fs::path& path) {
     if (key == "encoding") encoding = lower(value);
     if (key == "data file" || key == "datafile") data_file = value;
     if (key == "space" || key == "space directions" || key == "space origin") loc.has_space = true;
+    if (key == "space directions" || key == "space origin" || key == "spacings")
+      loc.geometry.push_back({trim(line.substr(0, colon)), value, line_number});
   }
   loc.compressed =
       encoding == "gzip" || encoding == "gz" || encoding == "bzip2" || encoding == "bz2";
@@ -93,9 +135,12 @@ DataLocation locate_nrrd_data(const fs::path& path) {
     const std::uint64_t total = file_size_or_zero(path);
     loc.available_bytes = total > header_bytes ? total - header_bytes : 0;
     loc.known = true;
+    loc.data_path = path;
+    loc.data_offset = header_bytes;
   } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
              lower(data_file) != "list") {
-    loc.available_bytes = file_size_or_zero(path.parent_path() / data_file);
+    loc.data_path = path.parent_path() / data_file;
+    loc.available_bytes = file_size_or_zero(loc.data_path);
     loc.known = true;
   }
   return loc;
@@ -107,14 +152,19 @@ DataLocation locate_meta_data(const fs::path& path) {
   std::size_t consumed = 0;
   std::ifstream in(path, std::ios::binary);
   std::string line, data_file;
+  int line_number = 0;
   while (consumed < kMaxHeaderText && std::getline(in, line)) {
     consumed += line.size() + 1;
+    ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const auto eq = line.find('=');
     if (eq == std::string::npos) continue;
     const std::string key = lower(trim(line.substr(0, eq)));
     const std::string value = trim(line.substr(eq + 1));
     if (key == "compresseddata") loc.compressed = loc.deflate = lower(value) == "true";
+    for (const char* g : {"offset", "origin", "position", "elementspacing", "elementsize",
+                          "transformmatrix", "rotation", "orientation"})
+      if (key == g) loc.geometry.push_back({trim(line.substr(0, eq)), value, line_number});
     if (key == "elementdatafile") {
       data_file = value;
       header_bytes = consumed;
@@ -126,12 +176,65 @@ DataLocation locate_meta_data(const fs::path& path) {
     const std::uint64_t total = file_size_or_zero(path);
     loc.available_bytes = total > header_bytes ? total - header_bytes : 0;
     loc.known = true;
+    loc.data_path = path;
+    loc.data_offset = header_bytes;
   } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
              lower(data_file) != "list") {
-    loc.available_bytes = file_size_or_zero(path.parent_path() / data_file);
+    loc.data_path = path.parent_path() / data_file;
+    loc.available_bytes = file_size_or_zero(loc.data_path);
     loc.known = true;
   }
   return loc;
+}
+
+/// The NIfTI-1 header fields that place and scale the volume (those its qform_code and
+/// sform_code put in use), as text for check_geometry_fields. NIfTI-2 headers are left to ITK.
+std::vector<HeaderField> nifti_geometry_fields(const fs::path& path, bool gzipped) {
+  unsigned char h[348] = {};
+  int n = 0;
+  if (gzipped) {
+    gzFile gz = gzopen(path.c_str(), "rb");
+    if (!gz) return {};
+    n = gzread(gz, h, sizeof h);
+    gzclose(gz);
+  } else {
+    std::ifstream in(path, std::ios::binary);
+    in.read(reinterpret_cast<char*>(h), sizeof h);
+    n = static_cast<int>(in.gcount());
+  }
+  if (n != static_cast<int>(sizeof h)) return {};
+  std::int32_t size = 0;
+  std::memcpy(&size, h, 4);
+  const bool swapped = size != 348;
+  if (swapped && __builtin_bswap32(static_cast<std::uint32_t>(size)) != 348) return {};
+  auto i16 = [&](int at) {
+    std::uint16_t v = 0;
+    std::memcpy(&v, h + at, 2);
+    return static_cast<std::int16_t>(swapped ? __builtin_bswap16(v) : v);
+  };
+  auto f32 = [&](int at) {
+    std::uint32_t v = 0;
+    std::memcpy(&v, h + at, 4);
+    if (swapped) v = __builtin_bswap32(v);
+    float f = 0;
+    std::memcpy(&f, &v, 4);
+    return f;
+  };
+  std::vector<HeaderField> fields;
+  auto add = [&](const std::string& key, int at) {
+    fields.push_back({key, fmt("%g", static_cast<double>(f32(at)))});
+  };
+  for (int i = 1; i <= 3; ++i) add("pixdim[" + std::to_string(i) + "]", 76 + 4 * i);
+  if (i16(252) > 0) {
+    const char* names[6] = {"quatern_b", "quatern_c", "quatern_d",
+                            "qoffset_x", "qoffset_y", "qoffset_z"};
+    for (int i = 0; i < 6; ++i) add(names[i], 256 + 4 * i);
+  }
+  if (i16(254) > 0)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        add(std::string("srow_") + "xyz"[r] + "[" + std::to_string(c) + "]", 280 + 16 * r + 4 * c);
+  return fields;
 }
 
 DataLocation locate_nifti_data(const fs::path& path) {
@@ -139,7 +242,62 @@ DataLocation locate_nifti_data(const fs::path& path) {
   loc.known = true;
   loc.available_bytes = file_size_or_zero(path);
   loc.compressed = loc.deflate = ends_with(lower(path.filename().string()), ".gz");
+  loc.data_path = path;
+  loc.geometry = nifti_geometry_fields(path, loc.compressed);
   return loc;
+}
+
+/// Inflates the compressed voxel data of `loc` to nowhere, so that zlib checks every gzip
+/// member's CRC-32 and length (or a zlib stream's Adler-32): ITK's readers stop once they have
+/// the voxels, before the trailer, so flipped bits in a gzip NRRD decoded as valid voxels. The
+/// data must end with a complete stream and decompress to at least `min_bytes` and at most
+/// 2·min_bytes + 1 MiB (a gzip bomb is cut off, not inflated for ages).
+void check_deflate_stream(const DataLocation& loc, std::uint64_t min_bytes,
+                          const std::string& where) {
+  std::ifstream in(loc.data_path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(loc.data_offset));
+  z_stream z{};
+  if (!in || inflateInit2(&z, 15 + 32) != Z_OK)  // 15 + 32: gzip or zlib, detected
+    throw Error(where + "cannot read its compressed data");
+  std::vector<unsigned char> input(1 << 16), output(1 << 18);
+  const std::uint64_t max_bytes = 2 * min_bytes + (1u << 20);
+  std::uint64_t total = 0;
+  bool ended = false;
+  std::string problem;
+  while (problem.empty()) {
+    if (z.avail_in == 0) {
+      in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
+      z.next_in = input.data();
+      z.avail_in = static_cast<uInt>(in.gcount());
+      if (z.avail_in == 0) break;
+    }
+    if (ended) {  // after a complete member only another gzip member may follow
+      if (z.avail_in < 2 || z.next_in[0] != 0x1f || z.next_in[1] != 0x8b) {
+        problem = "bytes follow the end of the compressed stream";
+        break;
+      }
+      inflateReset(&z);
+      ended = false;
+    }
+    z.next_out = output.data();
+    z.avail_out = static_cast<uInt>(output.size());
+    const int r = inflate(&z, Z_NO_FLUSH);
+    total += output.size() - z.avail_out;
+    if (r == Z_STREAM_END)
+      ended = true;
+    else if (r != Z_OK && r != Z_BUF_ERROR)
+      problem = z.msg ? z.msg : "corrupt compressed data";
+    if (total > max_bytes)
+      problem = "it decompresses to more than " + std::to_string(max_bytes) + " bytes";
+  }
+  inflateEnd(&z);
+  if (problem.empty() && !ended) problem = "the compressed stream is cut short (no trailer)";
+  if (problem.empty() && total < min_bytes)
+    problem = "it decompresses to " + std::to_string(total) + " bytes, fewer than the " +
+              std::to_string(min_bytes) + " the header declares";
+  if (!problem.empty())
+    throw Error(where + "the compressed voxel data fail their check: " + problem + " (" +
+                loc.data_path.string() + ")");
 }
 
 itk::ImageIOBase::Pointer create_io(const fs::path& path) {
@@ -179,6 +337,8 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
     loc = locate_nifti_data(path);
   }
 
+  const std::string where = "'" + path.string() + "': ";
+  check_geometry_fields(loc.geometry, where);
   auto io = create_io(path);
   io->SetFileName(path.string());
   try {
@@ -187,7 +347,6 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
     throw Error("cannot read the header of '" + path.string() + "': " + e.GetDescription());
   }
   const unsigned nd = io->GetNumberOfDimensions();
-  const std::string where = "'" + path.string() + "': ";
   if (nd < 2 || nd > 4 || (nd == 4 && io->GetDimensions(3) != 1))
     throw Error(where + std::to_string(nd) + "-D image, expected a 3-D volume");
   if (io->GetNumberOfComponents() != 1)
@@ -232,15 +391,20 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
                 " bytes of voxel data but only " + std::to_string(loc.available_bytes) +
                 " compressed bytes follow (gzip cannot compress more than ~1000:1): a false "
                 "header");
+  if (loc.known && loc.deflate && !loc.data_path.empty())
+    check_deflate_stream(loc, h.voxel_bytes, where);
   if (h.dims.z < 2)
     throw Error(where + "a single slice (" + std::to_string(h.dims.x) + "×" +
                 std::to_string(h.dims.y) + "), expected a volume of at least 2 slices");
 
   for (int a = 0; a < 3; ++a) {
-    if (!(h.spacing[a] > 0) || !std::isfinite(h.spacing[a]))
+    if (!(h.spacing[a] > 0 && h.spacing[a] <= kMaxSpacingMm))
       throw Error(where + "spacing " + fmt("%g", h.spacing[a]) + " along axis " +
-                  std::to_string(a) + " (expected a positive number of mm)");
-    if (!std::isfinite(h.origin[a])) throw Error(where + "the origin is not finite");
+                  std::to_string(a) + " (expected a number of mm in (0, " +
+                  fmt("%g", kMaxSpacingMm) + "])");
+    if (!(std::abs(h.origin[a]) <= kMaxCoordinateMm))
+      throw Error(where + "origin " + fmt("%g", h.origin[a]) + " along axis " + std::to_string(a) +
+                  " (expected a finite number of mm within ±" + fmt("%g", kMaxCoordinateMm) + ")");
   }
   for (int a = 0; a < 3; ++a)
     for (int b = a; b < 3; ++b) {

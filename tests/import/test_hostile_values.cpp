@@ -1,0 +1,236 @@
+// Values that cannot be right: a DICOM slice whose geometry or rescale attribute is present but
+// empty, unparsable, not finite or absurd; a volume file whose header carries non-finite or
+// absurd geometry, or whose gzip stream fails its own check. Each is refused naming the file,
+// the attribute or key, the value and what was expected; none becomes 0 or 1 silently
+// (import.md, "Limits and safety"). Runs under ASan + UBSan in CI ("Robustness").
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+
+#include "dicom_test_files.h"
+#include "support/test_data.h"
+#include "tsf/common/error.h"
+#include "tsf/import/dicom_file_info.h"
+#include "tsf/import/import_volume.h"
+
+namespace tsf::import {
+namespace {
+namespace fs = std::filesystem;
+using test_files::copy_with_changes;
+
+ImportOptions quiet() {
+  ImportOptions o;
+  o.show_progress = false;
+  return o;
+}
+
+/// The error of importing `path` ("" when it was accepted; a failure when not a tsf::Error).
+std::string import_error(const fs::path& path) {
+  try {
+    import_volume(path, quiet());
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << path << ": not a tsf::Error: " << e.what();
+  }
+  return "";
+}
+
+/// Three slices of the GE sample in `dir`, the second edited by `change`.
+fs::path ge_series_with_second_slice(const fs::path& dir,
+                                     const std::function<void(DcmDataset&)>& change) {
+  const fs::path ge = test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing";
+  fs::create_directories(dir);
+  for (const char* name : {"01.dcm", "03.dcm"}) fs::copy_file(ge / name, dir / name);
+  copy_with_changes(ge / "02.dcm", dir / "02.dcm", change);
+  return dir;
+}
+
+TEST(HostileValuesRobustness, UnusableRescaleOrGeometryValuesRefuseTheSeriesNamingThem) {
+  const fs::path root = test::scratch_dir("hostile-dicom-values");
+  // The untouched three slices are a volume: what follows fails because of the one edit.
+  const fs::path control = ge_series_with_second_slice(root / "control", [](DcmDataset&) {});
+  ASSERT_EQ(import_error(control), "");
+
+  struct Case {
+    const char* name;
+    DcmTagKey tag;
+    const char* value;
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"intercept-nan", DCM_RescaleIntercept, "NaN",
+       "RescaleIntercept (0028,1052) is 'NaN': expected a finite decimal number"},
+      {"intercept-empty", DCM_RescaleIntercept, "",
+       "RescaleIntercept (0028,1052) is empty or missing (0 values): expected a finite decimal"},
+      {"intercept-text", DCM_RescaleIntercept, "abc",
+       "RescaleIntercept (0028,1052) is 'abc': expected a finite decimal number"},
+      {"slope-inf", DCM_RescaleSlope, "1e400", "RescaleSlope (0028,1053) is '1e400'"},
+      {"spacing-huge", DCM_PixelSpacing, "1e300\\1e300",
+       "PixelSpacing (0028,0030)[0] is '1e300': expected a number in (0, 1000] mm"},
+      {"spacing-one-value", DCM_PixelSpacing, "0.5",
+       "PixelSpacing (0028,0030)[1] is empty or missing (1 values)"},
+      {"position-nan", DCM_ImagePositionPatient, "0\\nan\\0",
+       "ImagePositionPatient (0020,0032)[1] is 'nan': expected a number in [-1e+06, 1e+06] mm"},
+      {"orientation-text", DCM_ImageOrientationPatient, "1\\0\\0\\0\\one\\0",
+       "ImageOrientationPatient (0020,0037)[4] is 'one'"},
+  };
+  for (const Case& c : cases) {
+    const fs::path dir = ge_series_with_second_slice(
+        root / c.name, [&](DcmDataset& ds) { ds.putAndInsertString(c.tag, c.value); });
+    const std::string e = import_error(dir);
+    EXPECT_NE(e.find("02.dcm"), std::string::npos) << c.name << ": " << e;
+    EXPECT_NE(e.find(c.expected), std::string::npos) << c.name << ": " << e;
+    const DicomFileInfo info = read_dicom_file_info(dir / "02.dcm");
+    EXPECT_EQ(info.kind, DicomObjectKind::unreadable) << c.name;
+  }
+}
+
+void write_bytes(const fs::path& p, const std::string& bytes) {
+  std::ofstream(p, std::ios::binary) << bytes;
+}
+
+const char* const kSpace =
+    "space: left-posterior-superior\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n";
+
+/// A 4×4×4 int16 NRRD with `fields` in its header and `data` after it.
+std::string nrrd(const std::string& fields, const std::string& encoding, const std::string& data) {
+  return "NRRD0004\ntype: int16\ndimension: 3\nsizes: 4 4 4\nendian: little\nencoding: " +
+         encoding + "\n" + fields + "\n" + data;
+}
+
+/// A 4×4×4 int16 MetaImage with `fields` before its LOCAL data.
+std::string mha(const std::string& fields) {
+  return "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_SHORT\n" + fields +
+         "ElementDataFile = LOCAL\n" + std::string(128, '\0');
+}
+
+/// A 4×4×4 int16 NIfTI-1 file: sform (code 1) row x = `srow_x`, pixdim[1] = `dx`; qform off.
+std::string nifti(const float srow_x[4], float dx) {
+  std::string h(352, '\0');
+  auto put32 = [&](std::size_t at, std::int32_t v) { std::memcpy(&h[at], &v, 4); };
+  auto put16 = [&](std::size_t at, std::int16_t v) { std::memcpy(&h[at], &v, 2); };
+  auto putf = [&](std::size_t at, float v) { std::memcpy(&h[at], &v, 4); };
+  put32(0, 348);
+  const std::int16_t dim[8] = {3, 4, 4, 4, 1, 1, 1, 1};
+  for (int i = 0; i < 8; ++i) put16(40 + 2 * i, dim[i]);
+  put16(70, 4);   // int16
+  put16(72, 16);  // bitpix
+  for (int i = 0; i < 8; ++i) putf(76 + 4 * i, i == 1 ? dx : 1.0f);
+  putf(108, 352.0f);
+  put16(254, 1);  // sform_code
+  for (int c = 0; c < 4; ++c) {
+    putf(280 + 4 * c, srow_x[c]);
+    putf(296 + 4 * c, c == 1 ? 1.0f : 0.0f);
+    putf(312 + 4 * c, c == 2 ? 1.0f : 0.0f);
+  }
+  std::memcpy(&h[344], "n+1\0", 4);
+  return h + std::string(128, '\0');
+}
+
+/// gzip member (stored, no compression) of `data`: CRC-32 and length in its trailer.
+std::string gzip_stored(const std::string& data) {
+  std::string g("\x1f\x8b\x08\x00\x00\x00\x00\x00\x00\x03", 10);
+  const auto n = static_cast<std::uint16_t>(data.size());
+  g += '\x01';  // final stored block
+  g += static_cast<char>(n & 0xff);
+  g += static_cast<char>(n >> 8);
+  g += static_cast<char>(~n & 0xff);
+  g += static_cast<char>((~n >> 8) & 0xff);
+  g += data;
+  std::uint32_t crc = 0xffffffffu;
+  for (unsigned char c : data) {
+    crc ^= c;
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+  }
+  crc = ~crc;
+  for (const std::uint32_t v : {crc, static_cast<std::uint32_t>(data.size())})
+    for (int b = 0; b < 4; ++b) g += static_cast<char>((v >> (8 * b)) & 0xff);
+  return g;
+}
+
+TEST(HostileValuesRobustness, NonFiniteOrAbsurdVolumeGeometryIsRefusedNamingTheKey) {
+  const fs::path dir = test::scratch_dir("hostile-volume-geometry");
+  const std::string voxels(128, '\0');
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float sform_ok[4] = {1, 0, 0, 0}, sform_nan[4] = {nan, 0, 0, 0};
+  struct Case {
+    const char* name;
+    std::string bytes;
+    const char* expected;  ///< "" = accepted
+  };
+  const Case cases[] = {
+      {"ok.nrrd", nrrd(std::string(kSpace) + "space origin: (0,0,0)\n", "raw", voxels), ""},
+      {"origin-nan.nrrd",
+       nrrd(std::string(kSpace) + "space origin: (nan,nan,nan)\n", "raw", voxels),
+       "line 9, space origin is '(nan,nan,nan)': 'nan' is not a finite number within ±1e+06 mm"},
+      {"direction-huge.nrrd",
+       nrrd("space: left-posterior-superior\nspace directions: (1e300,0,0) (0,1,0) (0,0,1)\n",
+            "raw", voxels),
+       "space directions is '(1e300,0,0) (0,1,0) (0,0,1)': '1e300' is not a finite number"},
+      {"spacings-nan.nrrd", nrrd("spacings: nan 1 1\n", "raw", voxels),
+       "line 7, spacings is 'nan 1 1': 'nan' is not a finite"},
+      {"spacing-far.nrrd", nrrd("spacings: 5000 1 1\n", "raw", voxels),
+       "spacing 5000 along axis 0 (expected a number of mm in (0, 1000])"},
+      {"ok.mha", mha("Offset = 0 0 0\nElementSpacing = 1 1 1\n"), ""},
+      {"offset-nan.mha", mha("Offset = nan nan nan\n"), "line 5, Offset is 'nan nan nan'"},
+      {"spacing-huge.mha", mha("ElementSpacing = 1e300 1 1\n"),
+       "line 5, ElementSpacing is '1e300 1 1': '1e300' is not a finite number"},
+      {"matrix-inf.mha", mha("TransformMatrix = inf 0 0 0 1 0 0 0 1\n"),
+       "line 5, TransformMatrix is 'inf 0 0 0 1 0 0 0 1'"},
+      {"ok.nii", nifti(sform_ok, 1), ""},
+      {"sform-nan.nii", nifti(sform_nan, 1), "srow_x[0] is 'nan': 'nan' is not a finite number"},
+      {"pixdim-inf.nii", nifti(sform_ok, std::numeric_limits<float>::infinity()),
+       "pixdim[1] is 'inf'"},
+  };
+  for (const Case& c : cases) {
+    write_bytes(dir / c.name, c.bytes);
+    const std::string e = import_error(dir / c.name);
+    if (std::string(c.expected).empty()) {
+      EXPECT_EQ(e, "") << c.name;
+      continue;
+    }
+    EXPECT_NE(e.find("'" + (dir / c.name).string() + "': "), std::string::npos) << e;
+    EXPECT_NE(e.find(c.expected), std::string::npos) << c.name << ": " << e;
+  }
+}
+
+TEST(HostileValuesRobustness, GzipVoxelDataFailingItsCrcOrLengthAreRefused) {
+  const fs::path dir = test::scratch_dir("hostile-gzip");
+  std::string voxels(128, '\0');
+  for (std::size_t i = 0; i < voxels.size(); ++i) voxels[i] = static_cast<char>(i);
+  const std::string header = std::string(kSpace) + "space origin: (0,0,0)\n";
+  const std::string good = gzip_stored(voxels);
+  write_bytes(dir / "ok.nrrd", nrrd(header, "gzip", good));
+  ASSERT_EQ(import_error(dir / "ok.nrrd"), "");
+  // One flipped voxel bit: the deflate data stay valid, only the CRC-32 tells.
+  std::string flipped = good;
+  flipped[15 + 40] ^= 0x04;
+  write_bytes(dir / "flipped.nrrd", nrrd(header, "gzip", flipped));
+  std::string e = import_error(dir / "flipped.nrrd");
+  EXPECT_NE(e.find("the compressed voxel data fail their check: incorrect data check"),
+            std::string::npos)
+      << e;
+  // A wrong length in the trailer.
+  std::string length = good;
+  length[length.size() - 4] ^= 0x01;
+  write_bytes(dir / "length.nrrd", nrrd(header, "gzip", length));
+  e = import_error(dir / "length.nrrd");
+  EXPECT_NE(e.find("incorrect length check"), std::string::npos) << e;
+  // Cut before the trailer: the voxels are all there, the check is not.
+  write_bytes(dir / "cut.nrrd", nrrd(header, "gzip", good.substr(0, good.size() - 8)));
+  e = import_error(dir / "cut.nrrd");
+  EXPECT_NE(e.find("cut short"), std::string::npos) << e;
+  // Garbage after the stream.
+  write_bytes(dir / "trailing.nrrd", nrrd(header, "gzip", good + "garbage"));
+  e = import_error(dir / "trailing.nrrd");
+  EXPECT_NE(e.find("bytes follow the end"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace tsf::import
