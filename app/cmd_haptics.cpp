@@ -84,15 +84,7 @@ struct HapticRunFile {
 HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
   HapticRunFile run;
   run.file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(run.file);
-  } catch (const YAML::BadFile&) {
-    throw Error(run.file + ": cannot open the trajectory file");
-  } catch (const YAML::Exception& e) {
-    throw Error(run.file + ": not valid YAML: " + e.what());
-  }
-  const Field top(root, "", run.file);
+  const Field top(load_yaml_file(run.file), "", run.file);
   if (!top.defined()) top.fail("the trajectory file is empty");
   top.expect_keys({"stylus", "force_law", "lattice_gain", "loop", "target", "path"});
   const Field st = top["stylus"];

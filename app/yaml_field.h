@@ -166,16 +166,50 @@ class YamlField {
   std::string file_;
 };
 
-/// Loads a YAML file; a missing file or a syntax error names the file (and line).
+/// Fails on a key written twice in one mapping anywhere under `node`: yaml-cpp keeps both and
+/// node[key] returns the first, so the second would be ignored silently. Names the key path and
+/// both lines. Nesting deeper than 256 levels is refused too (no scene needs it).
+inline void check_unique_keys(const YAML::Node& node, const std::string& path,
+                              const std::string& file, int depth = 0) {
+  if (depth > 256) YamlField(node, path, file).fail("nested more than 256 levels deep");
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i)
+      check_unique_keys(node[i], path + "[" + std::to_string(i) + "]", file, depth + 1);
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::vector<std::pair<std::string, int>> seen;  // key, line (1-based)
+  for (const auto& kv : node) {
+    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+    const std::string child = path.empty() ? key : path + "." + key;
+    if (kv.first.IsScalar()) {
+      for (const auto& [k, line] : seen)
+        if (k == key)
+          YamlField(kv.first, child, file)
+              .fail("the key is given twice, first at line " + std::to_string(line) +
+                    ": expected each key once");
+      seen.emplace_back(key, kv.first.Mark().line + 1);
+    }
+    check_unique_keys(kv.second, child, file, depth + 1);
+  }
+}
+
+/// Loads a YAML file (every human-edited file of the app is read here); a missing file, a syntax
+/// error or a duplicated key names the file (and line).
 inline YAML::Node load_yaml_file(const std::string& file) {
+  YAML::Node root;
   try {
-    return YAML::LoadFile(file);
+    root = YAML::LoadFile(file);
   } catch (const YAML::BadFile&) {
     throw Error(file + ": cannot read the file");
   } catch (const YAML::ParserException& e) {
     throw Error(file + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " +
                 e.msg);
+  } catch (const YAML::Exception& e) {
+    throw Error(file + ": not valid YAML: " + e.what());
   }
+  check_unique_keys(root, "", file);
+  return root;
 }
 
 }  // namespace tsf::app

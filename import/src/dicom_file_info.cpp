@@ -476,23 +476,36 @@ DicomDirContents read_dicomdir(const fs::path& dicomdir) {
     if (!record) continue;
     OFString id;
     if (record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty()) continue;
+    // A File ID is a relative path of '\\'-separated components (PS3.10 8.5): a component that
+    // climbs ("..") or carries a path of its own ('/', ':') would reach files outside the
+    // file-set, so the DICOMDIR is refused naming the record and the ID.
     fs::path relative;
     std::string component;
     for (const char c : std::string(id.c_str()) + "\\") {
-      if (c == '\\') {
-        component = trim(component);
-        if (!component.empty() && component != "." && component != "..") relative /= component;
-        component.clear();
-      } else {
+      if (c != '\\') {
         component += c;
+        continue;
       }
+      component = trim(component);
+      if (component == ".." || component.find_first_of("/:") != std::string::npos)
+        throw Error("DICOMDIR '" + dicomdir.string() + "': directory record " +
+                    std::to_string(r + 1) + ": ReferencedFileID (0004,1500) '" + id.c_str() +
+                    "' leaves the file-set (component '" + component +
+                    "'): expected a relative path of '\\'-separated names");
+      if (!component.empty() && component != ".") relative /= component;
+      component.clear();
     }
     if (relative.empty()) continue;
     fs::path found;
     fs::path dir = base;
     for (int level = 0; level < 4 && found.empty(); ++level) {
-      std::error_code ec;
-      if (fs::is_regular_file(dir / relative, ec)) found = dir / relative;
+      std::error_code ec, ec_dir;
+      // Found only where it is a regular file inside `dir` once links are resolved.
+      const fs::path real = fs::weakly_canonical(dir / relative, ec);
+      const fs::path real_dir = fs::weakly_canonical(dir, ec_dir);
+      const auto inside = std::mismatch(real_dir.begin(), real_dir.end(), real.begin(), real.end());
+      if (!ec && !ec_dir && inside.first == real_dir.end() && fs::is_regular_file(real, ec))
+        found = dir / relative;
       if (!dir.has_parent_path() || dir.parent_path() == dir) break;
       dir = dir.parent_path();
     }

@@ -12,6 +12,9 @@
 #include <limits>
 #include <string>
 
+#include <dcmtk/dcmdata/dcddirif.h>
+#include <dcmtk/dcmdata/dcsequen.h>
+
 #include "dicom_test_files.h"
 #include "support/test_data.h"
 #include "tsf/common/error.h"
@@ -230,6 +233,80 @@ TEST(HostileValuesRobustness, GzipVoxelDataFailingItsCrcOrLengthAreRefused) {
   write_bytes(dir / "trailing.nrrd", nrrd(header, "gzip", good + "garbage"));
   e = import_error(dir / "trailing.nrrd");
   EXPECT_NE(e.find("bytes follow the end"), std::string::npos) << e;
+}
+
+/// A DICOMDIR in `root` referencing two GE slices in root/DICOM, then its second record's
+/// ReferencedFileID replaced by `id`.
+void dicomdir_with_second_id(const fs::path& root, const std::string& id) {
+  const fs::path ge = test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing";
+  fs::create_directories(root / "DICOM");
+  fs::copy_file(ge / "01.dcm", root / "DICOM" / "IM1");
+  fs::copy_file(ge / "02.dcm", root / "DICOM" / "IM2");
+  {
+    // DicomDirInterface takes file IDs relative to the working folder; restored on any exit.
+    struct WorkingFolder {
+      fs::path saved = fs::current_path();
+      ~WorkingFolder() { fs::current_path(saved); }
+    } restore;
+    fs::current_path(root);
+    DicomDirInterface dicomdir;
+    dicomdir.enableInventMode(OFTrue);
+    ASSERT_TRUE(
+        dicomdir.createNewDicomDir(DicomDirInterface::AP_GeneralPurpose, "DICOMDIR").good());
+    for (const char* f : {"DICOM/IM1", "DICOM/IM2"}) ASSERT_TRUE(dicomdir.addDicomFile(f).good());
+    ASSERT_TRUE(dicomdir.writeDicomDir().good());
+  }
+  DcmFileFormat file;
+  ASSERT_TRUE(file.loadFile((root / "DICOMDIR").c_str()).good());
+  DcmSequenceOfItems* records = nullptr;
+  ASSERT_TRUE(file.getDataset()->findAndGetSequence(DCM_DirectoryRecordSequence, records).good());
+  int images = 0;
+  for (unsigned long r = 0; r < records->card(); ++r) {
+    DcmItem* record = records->getItem(r);
+    OFString old;
+    if (record->findAndGetOFStringArray(DCM_ReferencedFileID, old).good() && ++images == 2) {
+      ASSERT_TRUE(record->putAndInsertString(DCM_ReferencedFileID, id.c_str()).good());
+    }
+  }
+  ASSERT_EQ(images, 2);
+  ASSERT_TRUE(file.saveFile((root / "DICOMDIR").c_str()).good());
+}
+
+TEST(HostileValuesRobustness, ADicomdirReferenceOutsideItsFileSetIsRefused) {
+  const fs::path root = test::scratch_dir("hostile-dicomdir");
+  // A file outside the file-set, reachable by an absolute ID or by climbing.
+  const fs::path outside = root / "outside";
+  fs::create_directories(outside);
+  fs::copy_file(test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing" / "03.dcm",
+                outside / "IM3");
+  dicomdir_with_second_id(root / "control", "DICOM\\IM2");
+  EXPECT_EQ(import_error(root / "control" / "DICOMDIR"), "");
+  const std::string absolute = (outside / "IM3").string();
+  struct Case {
+    const char* name;
+    std::string id, component;
+  };
+  const Case cases[] = {{"absolute", absolute, absolute},
+                        {"climbing", "..\\..\\outside\\IM3", ".."},
+                        {"drive", "C:\\IM3", "C:"}};
+  for (const Case& c : cases) {
+    const fs::path dicomdir = root / c.name / "DICOMDIR";
+    dicomdir_with_second_id(root / c.name, c.id);
+    const std::string e = import_error(dicomdir);
+    EXPECT_NE(e.find("DICOMDIR '" + dicomdir.string() + "': directory record"), std::string::npos)
+        << e;
+    EXPECT_NE(e.find("ReferencedFileID (0004,1500) '" + c.id +
+                     "' leaves the file-set (component '" + c.component + "')"),
+              std::string::npos)
+        << c.name << ": " << e;
+  }
+  // A link inside the file-set that points out of it is not followed.
+  const fs::path linked = root / "linked";
+  dicomdir_with_second_id(linked, "DICOM\\LINK");
+  fs::create_symlink(outside / "IM3", linked / "DICOM" / "LINK");
+  const DicomDirContents contents = read_dicomdir(linked / "DICOMDIR");
+  EXPECT_EQ(contents.files.size(), 1u);
+  EXPECT_EQ(contents.missing.size(), 1u);
 }
 
 }  // namespace

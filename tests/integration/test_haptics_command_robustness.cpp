@@ -1,6 +1,7 @@
-// `tsf haptics` given trajectory numbers that no run can hold: a point far outside the scene, a
-// path speed so slow the playback would last for ages, a duplicated key. Each is refused before
-// any output is written, naming the file and the key; never a crash or a huge allocation.
+// `tsf haptics` given files no run can hold: a point far outside the scene, a path speed so slow
+// the playback would last for ages, a key written twice (in the trajectory or the scene). Each is
+// refused before any output is written, naming the file and the key; never a crash or a huge
+// allocation.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -15,44 +16,58 @@ namespace {
 
 namespace fs = std::filesystem;
 
+const char* const kTarget =
+    "stylus: {radius: 3}\ntarget: {shape: sphere, size: 8, centre: [0, 0, 0]}\n";
+const char* const kPass = "path: {kind: straight, from: [-20, 0, 0], to: [20, 0, 0], speed: 100}\n";
+
 struct Refusal {
   const char* name;
-  const char* path;      ///< the trajectory file's `path:` mapping
-  const char* expected;  ///< text the error must contain
+  std::string trajectory;  ///< the trajectory file
+  std::string scene_tail;  ///< appended to a copy of scenes/haptics-block.yaml
+  std::string expected;    ///< the error, after "<file>: "
 };
 
-TEST(HapticsCommandRobustness, RefusesTrajectoriesNoRunCanHoldNamingTheKey) {
+TEST(HapticsCommandRobustness, RefusesFilesNoRunCanHoldNamingTheKey) {
   TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path dir = test::scratch_dir("haptics-command-robustness");
-  const fs::path scene = test::source_dir() / "scenes" / "haptics-block.yaml";
+  const std::string block = test::read_text(test::source_dir() / "scenes" / "haptics-block.yaml");
+  ASSERT_FALSE(block.empty());
   const Refusal cases[] = {
       {"far-keyframe",
-       "{kind: keyframes, keyframes: [{time: 0, position: [-20, 0, 0]}, "
-       "{time: 0.01, position: [1e12, 0, 0]}]}",
+       std::string(kTarget) +
+           "path: {kind: keyframes, keyframes: [{time: 0, position: [-20, 0, 0]},\n"
+           "  {time: 0.01, position: [1e12, 0, 0]}]}\n",
+       "",
        "path.keyframes[1].position: expected a list of 3 numbers in [-100000, 100000], got "
        "1e+12"},
-      {"far-target", "{kind: straight, from: [-20, 0, 0], to: [20, 0, 0], speed: 100}", ""},
-      {"slow", "{kind: straight, from: [-20, 0, 0], to: [20, 0, 0], speed: 1e-12}",
-       "path.speed, loop.rate: haptic playback: the trajectory lasts 4e+13 s"},
+      {"far-target",
+       std::string("target: {shape: sphere, size: 8, centre: [0, 0, -3e5]}\n") + kPass, "",
+       "target.centre: expected a list of 3 numbers in [-100000, 100000], got -300000"},
+      {"slow",
+       std::string(kTarget) +
+           "path: {kind: straight, from: [-20, 0, 0], to: [20, 0, 0], speed: 1e-12}\n",
+       "", "path.speed, loop.rate: haptic playback: the trajectory lasts 4e+13 s"},
+      {"twice-top", std::string(kTarget) + kPass + "stylus: {radius: 5}\n", "",
+       "stylus: the key is given twice, first at line 1: expected each key once (line 4)"},
+      {"twice-nested",
+       std::string(kTarget) +
+           "path: {kind: straight, from: [-20, 0, 0], to: [20, 0, 0], speed: 1, speed: 100}\n",
+       "", "path.speed: the key is given twice, first at line 3"},
+      {"twice-scene", std::string(kTarget) + kPass, "name: another-name\n",
+       "name: the key is given twice, first at line 6"},
   };
   for (const Refusal& c : cases) {
     const fs::path traj = dir / (std::string(c.name) + ".yaml");
-    const bool far_target = std::string(c.name) == "far-target";
-    {
-      std::ofstream f(traj);
-      f << "stylus: {radius: 3}\n"
-        << "target: {shape: sphere, size: 8, centre: "
-        << (far_target ? "[0, 0, -3e5]" : "[0, 0, 0]") << "}\n"
-        << "path: " << c.path << "\n";
-    }
+    const fs::path scene = dir / (std::string(c.name) + "-scene.yaml");
+    std::ofstream(traj) << c.trajectory;
+    std::ofstream(scene) << block << c.scene_tail;
     const fs::path out = dir / c.name;
     const test::ProcessRun r =
         test::run_tsf(exe, "haptics -q --no-plot " + test::shell_quoted(scene) + " -t " +
                                test::shell_quoted(traj) + " --out " + test::shell_quoted(out));
-    const std::string expected =
-        far_target ? "target.centre: expected a list of 3 numbers in" : c.expected;
+    const fs::path named = c.scene_tail.empty() ? traj : scene;
     EXPECT_EQ(r.status, 1) << c.name << ": " << r.output;
-    EXPECT_NE(r.output.find(traj.string() + ": " + expected), std::string::npos)
+    EXPECT_NE(r.output.find(named.string() + ": " + c.expected), std::string::npos)
         << c.name << ": " << r.output;
     EXPECT_FALSE(fs::exists(out / "samples.csv")) << c.name;
   }
