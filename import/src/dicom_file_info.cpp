@@ -16,7 +16,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
+#include "compressed_frame_header.h"
 #include "geometry_limits.h"
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
@@ -314,6 +316,84 @@ bool pixel_data_is_complete(DcmElement& pixel_data, const DcmXfer& xfer) {
   return last->getPartialValue(tail, length - n, n).good();
 }
 
+/// The fragment (item index in the pixel sequence) where each frame starts: one fragment per
+/// frame, or the Basic Offset Table's byte offsets; only frame 1 when neither says. An empty
+/// result with `problem` set when the frames cannot all have a fragment.
+std::vector<unsigned long> frame_fragments(DcmPixelSequence& sequence, int frames,
+                                           std::string& problem) {
+  const unsigned long fragments = sequence.card() > 0 ? sequence.card() - 1 : 0;
+  if (fragments < static_cast<unsigned long>(frames)) {
+    problem = "the pixel data hold " + std::to_string(fragments) +
+              " fragments, fewer than the NumberOfFrames " + std::to_string(frames);
+    return {};
+  }
+  std::vector<unsigned long> first(1, 1);
+  if (fragments == static_cast<unsigned long>(frames)) {
+    for (int f = 1; f < frames; ++f) first.push_back(static_cast<unsigned long>(f) + 1);
+    return first;
+  }
+  DcmPixelItem* table = nullptr;
+  if (frames < 2 || sequence.getItem(table, 0).bad() || !table ||
+      table->getLength() != 4u * static_cast<Uint32>(frames))
+    return first;
+  std::vector<Uint8> bytes(table->getLength());
+  if (table->getPartialValue(bytes.data(), 0, table->getLength()).bad()) return first;
+  // Offsets count bytes from the first fragment's item tag (8 bytes of tag and length each).
+  std::uint64_t position = 0;
+  unsigned long item = 1;
+  for (int f = 1; f < frames; ++f) {
+    const std::uint64_t offset =
+        std::uint64_t{bytes[4 * f]} | (std::uint64_t{bytes[4 * f + 1]} << 8) |
+        (std::uint64_t{bytes[4 * f + 2]} << 16) | (std::uint64_t{bytes[4 * f + 3]} << 24);
+    while (position < offset && item <= fragments) {
+      DcmPixelItem* fragment = nullptr;
+      if (sequence.getItem(fragment, item).bad() || !fragment) return {first.front()};
+      position += 8 + std::uint64_t{fragment->getLength()};
+      ++item;
+    }
+    if (position != offset || item > fragments) {
+      problem = "the Basic Offset Table's offset " + std::to_string(offset) + " of frame " +
+                std::to_string(f + 1) + " is not the start of a fragment";
+      return {};
+    }
+    first.push_back(item);
+  }
+  return first;
+}
+
+/// Compares the codestream header of every frame with the DICOM header (compressed_frame_header.h);
+/// "" when all agree, else the first disagreement with its frame.
+std::string check_compressed_frames(DcmElement& pixel_data, const DcmXfer& xfer,
+                                    const DicomFileInfo& info) {
+  if (!has_checked_frame_header(info.transfer_syntax_uid)) return "";
+  auto* pixel = dynamic_cast<DcmPixelData*>(&pixel_data);
+  DcmPixelSequence* sequence = nullptr;
+  if (!pixel || pixel->getEncapsulatedRepresentation(xfer.getXfer(), nullptr, sequence).bad() ||
+      !sequence)
+    return "the compressed pixel data have no fragments";
+  std::string problem;
+  const std::vector<unsigned long> first =
+      frame_fragments(*sequence, info.number_of_frames, problem);
+  if (!problem.empty()) return problem;
+  const ExpectedFrame expected{info.rows, info.columns, info.samples_per_pixel, info.bits_allocated,
+                               info.bits_stored};
+  constexpr Uint32 kHeaderBytes = 16384;  // markers before the frame header fit well within
+  std::vector<std::uint8_t> head(kHeaderBytes);
+  for (std::size_t f = 0; f < first.size(); ++f) {
+    DcmPixelItem* fragment = nullptr;
+    if (sequence->getItem(fragment, first[f]).bad() || !fragment)
+      return "frame " + std::to_string(f + 1) + " has no fragment";
+    const Uint32 length = fragment->getLength();
+    const Uint32 n = std::min(length, kHeaderBytes);
+    if (n > 0 && fragment->getPartialValue(head.data(), 0, n).bad())
+      return "frame " + std::to_string(f + 1) + " cannot be read";
+    const std::string d =
+        compare_frame_header(info.transfer_syntax_uid, head.data(), n, length, expected);
+    if (!d.empty()) return "frame " + std::to_string(f + 1) + ": " + d;
+  }
+  return "";
+}
+
 }  // namespace
 
 const char* to_string(DicomObjectKind kind) {
@@ -445,6 +525,14 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
 
   classify_image(ds, info);
   if (info.kind != DicomObjectKind::image && info.kind != DicomObjectKind::localizer) return info;
+  if (info.pixel_data_encapsulated) {
+    const std::string disagreement = check_compressed_frames(*pixel_data, xfer, info);
+    if (!disagreement.empty()) {
+      info.kind = DicomObjectKind::unreadable;
+      info.skip_reason = "compressed pixel data disagree with the header: " + disagreement;
+      return info;
+    }
+  }
   const DicomObjectKind kind_before_frames = info.kind;
   try {
     read_frames(ds, info);

@@ -1,0 +1,156 @@
+// The DICOM pixel path facing data that lie: compressed frames whose own header disagrees with
+// the DICOM header are refused before decoding, naming both values; the JPEG decoders' chatter
+// is kept off the terminal without touching file descriptor 2 (sanitizer reports go there).
+// Runs under ASan + UBSan in CI ("Robustness").
+#include <gdcmImageChangeTransferSyntax.h>
+#include <gdcmImageReader.h>
+#include <gdcmImageWriter.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "dicom_test_files.h"
+#include "support/test_data.h"
+#include "tsf/common/error.h"
+#include "tsf/import/dicom_pixel_reader.h"
+
+namespace tsf::import {
+namespace {
+namespace fs = std::filesystem;
+
+/// Runs `f` with file descriptor 2 sent to a file; what reached it.
+std::string fd2_output_of(const std::function<void()>& f, const fs::path& file) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  FILE* capture = std::fopen(file.c_str(), "w+");
+  if (saved < 0 || !capture) return "(cannot capture fd 2)";
+  ::dup2(::fileno(capture), 2);
+  f();
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::fclose(capture);
+  return test_files::file_bytes(file);
+}
+
+TEST(DecoderRobustness, JpegChatterIsSilencedButFileDescriptorTwoStaysOpen) {
+  TSF_SHARED_DATA_OR_SKIP(data);
+  const fs::path dir = data / "dicom" / "ct-chest-slice-transfer-syntaxes-cornerstone";
+  const fs::path scratch = test::scratch_dir("jpeg-stderr");
+  const std::string out = fd2_output_of(
+      [&] {
+        // 12-bit JPEG: GDCM's 8-bit libjpeg complains before the 12-bit one decodes it.
+        for (const char* name : {"JPEGProcess2_4TransferSyntax_1.2.840.10008.1.2.4.51",
+                                 "JPEGProcess14SV1TransferSyntax_1.2.840.10008.1.2.4.70"}) {
+          const std::vector<float> v =
+              decode_dicom_file(dir / (std::string("CTImage.dcm_") + name + ".dcm"));
+          EXPECT_FALSE(v.empty()) << name;
+          // What is written to fd 2 (as a sanitizer report is) reaches it.
+          const std::string marker = std::string("fd2-still-open ") + name + "\n";
+          EXPECT_EQ(::write(2, marker.data(), marker.size()), static_cast<ssize_t>(marker.size()));
+        }
+      },
+      scratch / "fd2.txt");
+  EXPECT_EQ(out.find("Unsupported JPEG"), std::string::npos) << out;
+  EXPECT_NE(out.find("fd2-still-open JPEGProcess2_4"), std::string::npos) << out;
+  EXPECT_NE(out.find("fd2-still-open JPEGProcess14SV1"), std::string::npos) << out;
+}
+
+/// The GE sample's first slice transcoded by GDCM into `syntax`.
+fs::path transcoded(const fs::path& dir, const char* name, gdcm::TransferSyntax::TSType syntax) {
+  const fs::path source = test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing" / "01.dcm";
+  const fs::path target = dir / (std::string(name) + ".dcm");
+  gdcm::ImageReader reader;
+  reader.SetFileName(source.c_str());
+  EXPECT_TRUE(reader.Read()) << source;
+  gdcm::ImageChangeTransferSyntax change;
+  change.SetTransferSyntax(syntax);
+  change.SetInput(reader.GetImage());
+  EXPECT_TRUE(change.Change()) << name;
+  gdcm::ImageWriter writer;
+  writer.SetFileName(target.c_str());
+  writer.SetFile(reader.GetFile());
+  writer.SetImage(change.GetOutput());
+  EXPECT_TRUE(writer.Write()) << target;
+  return target;
+}
+
+/// The error of decoding `path` ("" when it decoded).
+std::string decode_error(const fs::path& path) {
+  try {
+    decode_dicom_file(path);
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << path << ": not a tsf::Error: " << e.what();
+  }
+  return "";
+}
+
+TEST(DecoderRobustness, ACompressedFrameDisagreeingWithTheHeaderIsRefusedBeforeDecoding) {
+  const fs::path dir = test::scratch_dir("frame-headers");
+  const fs::path native = test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing" / "01.dcm";
+  const std::vector<float> reference = decode_dicom_file(native);
+  struct Codec {
+    const char* name;
+    gdcm::TransferSyntax::TSType syntax;
+    const char* marker;
+  };
+  const Codec codecs[] = {
+      {"jpeg-lossless", gdcm::TransferSyntax::JPEGLosslessProcess14_1, "the JPEG SOF says"},
+      {"jpeg-ls", gdcm::TransferSyntax::JPEGLSLossless, "the JPEG-LS SOF55 says"},
+      {"j2k", gdcm::TransferSyntax::JPEG2000Lossless, "the JPEG 2000 SIZ says"},
+      {"rle", gdcm::TransferSyntax::RLELossless, "RLE"},
+  };
+  for (const Codec& c : codecs) {
+    const fs::path good = transcoded(dir, c.name, c.syntax);
+    // Lossless: the transcoded slice decodes to the native values.
+    ASSERT_EQ(decode_error(good), "") << c.name;
+    EXPECT_EQ(decode_dicom_file(good), reference) << c.name;
+
+    const fs::path narrow = dir / (std::string(c.name) + "-columns.dcm");
+    const bool rle = std::string(c.name) == "rle";
+    test_files::copy_with_changes(good, narrow, [&](DcmDataset& ds) {
+      // RLE carries no size: a header claiming far more rows than its segments can hold.
+      if (rle)
+        ds.putAndInsertUint16(DCM_Rows, 60000);
+      else
+        ds.putAndInsertUint16(DCM_Columns, 256);
+    });
+    std::string e = decode_error(narrow);
+    EXPECT_NE(e.find(narrow.filename().string()), std::string::npos) << e;
+    EXPECT_NE(e.find(rle ? "too few for the 512×60000 pixels of the DICOM header"
+                         : "says 512×512 pixels, the DICOM header (Columns×Rows) 256×512"),
+              std::string::npos)
+        << c.name << ": " << e;
+    EXPECT_NE(e.find(c.marker), std::string::npos) << c.name << ": " << e;
+
+    const fs::path wide = dir / (std::string(c.name) + "-bits.dcm");
+    test_files::copy_with_changes(good, wide, [](DcmDataset& ds) {
+      ds.putAndInsertUint16(DCM_BitsAllocated, 32);
+      ds.putAndInsertUint16(DCM_BitsStored, 32);
+      ds.putAndInsertUint16(DCM_HighBit, 31);
+    });
+    e = decode_error(wide);
+    EXPECT_NE(e.find(rle ? "the RLE header has 2 segments, the DICOM header 1 SamplesPerPixel × 32 "
+                           "BitsAllocated needs 4"
+                         : "BitsAllocated is 32"),
+              std::string::npos)
+        << c.name << ": " << e;
+
+    const fs::path frames = dir / (std::string(c.name) + "-frames.dcm");
+    test_files::copy_with_changes(
+        good, frames, [](DcmDataset& ds) { ds.putAndInsertString(DCM_NumberOfFrames, "3"); });
+    e = decode_error(frames);
+    EXPECT_NE(e.find("the pixel data hold 1 fragments, fewer than the NumberOfFrames 3"),
+              std::string::npos)
+        << c.name << ": " << e;
+  }
+}
+
+}  // namespace
+}  // namespace tsf::import
