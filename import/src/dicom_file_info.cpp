@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "compressed_frame_header.h"
+#include "dicom_nesting.h"
 #include "geometry_limits.h"
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
@@ -453,6 +454,15 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
     info.skip_reason = "not DICOM";
     return info;
   }
+  // DCMTK parses nested sequences recursively: a hostile depth is refused before it recurses.
+  const DicomNesting nesting = dicom_nesting(path, kMaxSequenceDepth);
+  if (nesting.depth > kMaxSequenceDepth) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "sequences nested more than " + std::to_string(kMaxSequenceDepth) +
+                       " deep: refused before parsing";
+    info.series_instance_uid = nesting.series_instance_uid;
+    return info;
+  }
   DcmFileFormat file;
   const OFCondition status =
       file.loadFile(path.c_str(), EXS_Unknown, EGL_noChange, kMaxHeaderValueLength, ERM_autoDetect);
@@ -548,6 +558,9 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
 
 DicomDirContents read_dicomdir(const fs::path& dicomdir) {
   setup_imaging_libraries();
+  if (dicom_nesting(dicomdir, kMaxSequenceDepth).depth > kMaxSequenceDepth)
+    throw Error("DICOMDIR '" + dicomdir.string() + "' nests sequences more than " +
+                std::to_string(kMaxSequenceDepth) + " deep: refused before parsing");
   DcmFileFormat file;
   const OFCondition status = file.loadFile(dicomdir.c_str(), EXS_Unknown, EGL_noChange,
                                            kMaxHeaderValueLength, ERM_autoDetect);

@@ -11,9 +11,11 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include <dcmtk/dcmdata/dcddirif.h>
 #include <dcmtk/dcmdata/dcsequen.h>
+#include <zlib.h>
 
 #include "dicom_test_files.h"
 #include "support/test_data.h"
@@ -307,6 +309,86 @@ TEST(HostileValuesRobustness, ADicomdirReferenceOutsideItsFileSetIsRefused) {
   const DicomDirContents contents = read_dicomdir(linked / "DICOMDIR");
   EXPECT_EQ(contents.files.size(), 1u);
   EXPECT_EQ(contents.missing.size(), 1u);
+}
+
+/// Little-endian bytes of a 16- and 32-bit value.
+std::string le16(unsigned v) {
+  return {static_cast<char>(v & 0xff), static_cast<char>(v >> 8)};
+}
+std::string le32(std::uint32_t v) {
+  return le16(v & 0xffff) + le16(v >> 16);
+}
+
+/// An explicit VR little endian element with a short (2-byte) length.
+std::string element(unsigned group, unsigned elem, const char* vr, std::string value) {
+  if (value.size() % 2) value += '\0';
+  return le16(group) + le16(elem) + vr + le16(static_cast<unsigned>(value.size())) + value;
+}
+
+/// A CT-like data set whose one sequence nests `depth` undefined-length sequences; explicit or
+/// implicit VR little endian, or deflated (a meta header naming the transfer syntax first).
+std::string nested_file(int depth, const std::string& syntax) {
+  const bool implicit = syntax == "1.2.840.10008.1.2";
+  std::string ds = element(0x0008, 0x0016, "UI", "1.2.840.10008.5.1.4.1.1.2") +
+                   element(0x0008, 0x0018, "UI", "1.2.3.4") +
+                   element(0x0020, 0x000E, "UI", "1.2.3.99");
+  if (implicit) {  // implicit VR: tag, 4-byte length
+    ds.clear();
+    for (const auto& [e, v] :
+         {std::pair<unsigned, std::string>{0x0016, "1.2.840.10008.5.1.4.1.1.2"},
+          {0x0018, "1.2.3.4\0"}})
+      ds += le16(0x0008) + le16(e) + le32(static_cast<std::uint32_t>(v.size())) + v;
+    ds += le16(0x0020) + le16(0x000E) + le32(8) + std::string("1.2.3.99", 8);
+  }
+  const std::string open_sq = le16(0x0040) + le16(0xA730) +
+                              (implicit ? std::string() : std::string("SQ\0\0", 4)) +
+                              le32(0xFFFFFFFFu) + le16(0xFFFE) + le16(0xE000) + le32(0xFFFFFFFFu);
+  const std::string close_sq =
+      le16(0xFFFE) + le16(0xE00D) + le32(0) + le16(0xFFFE) + le16(0xE0DD) + le32(0);
+  for (int i = 0; i < depth; ++i) ds += open_sq;
+  for (int i = 0; i < depth; ++i) ds += close_sq;
+  if (syntax == "1.2.840.10008.1.2.1.99") {
+    std::string out(compressBound(static_cast<uLong>(ds.size())) + 64, '\0');
+    z_stream z{};
+    deflateInit2(&z, 6, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY);
+    z.next_in = reinterpret_cast<Bytef*>(ds.data());
+    z.avail_in = static_cast<uInt>(ds.size());
+    z.next_out = reinterpret_cast<Bytef*>(out.data());
+    z.avail_out = static_cast<uInt>(out.size());
+    deflate(&z, Z_FINISH);
+    out.resize(z.total_out);
+    deflateEnd(&z);
+    ds = out;
+  }
+  std::string meta = std::string("OB\0\0", 4);
+  meta = le16(0x0002) + le16(0x0001) + meta + le32(2) + std::string("\0\1", 2) +
+         element(0x0002, 0x0002, "UI", "1.2.840.10008.5.1.4.1.1.2") +
+         element(0x0002, 0x0003, "UI", "1.2.3.4") + element(0x0002, 0x0010, "UI", syntax);
+  meta = element(0x0002, 0x0000, "UL", le32(static_cast<std::uint32_t>(meta.size()))) + meta;
+  return std::string(128, '\0') + "DICM" + meta + ds;
+}
+
+TEST(HostileValuesRobustness, DeeplyNestedSequencesAreRefusedBeforeTheParserRecurses) {
+  const fs::path dir = test::scratch_dir("hostile-nesting");
+  for (const char* syntax :
+       {"1.2.840.10008.1.2.1", "1.2.840.10008.1.2", "1.2.840.10008.1.2.1.99"}) {
+    // 10,000 levels overflowed DCMTK's recursive reader (a crash in --list too).
+    const fs::path deep = dir / (std::string("deep-") + syntax + ".dcm");
+    write_bytes(deep, nested_file(10000, syntax));
+    DicomFileInfo info = read_dicom_file_info(deep);
+    EXPECT_EQ(info.kind, DicomObjectKind::unreadable) << syntax;
+    EXPECT_EQ(info.skip_reason, "sequences nested more than 64 deep: refused before parsing")
+        << syntax;
+    EXPECT_EQ(info.series_instance_uid, "1.2.3.99") << syntax;
+    // 60 levels are parsed as usual (a file without pixel data).
+    const fs::path shallow = dir / (std::string("shallow-") + syntax + ".dcm");
+    write_bytes(shallow, nested_file(60, syntax));
+    info = read_dicom_file_info(shallow);
+    EXPECT_EQ(info.kind, DicomObjectKind::non_image) << syntax << ": " << info.skip_reason;
+  }
+  // In a folder: the listing names the file and its reason, nothing crashes.
+  const std::string e = import_error(dir);
+  EXPECT_NE(e.find("sequences nested more than 64 deep"), std::string::npos) << e;
 }
 
 }  // namespace
