@@ -182,6 +182,14 @@ std::string compare_rle(const std::uint8_t* p, std::size_t n, std::uint64_t frag
 
 }  // namespace
 
+double max_samples_per_compressed_byte(const std::string& transfer_syntax_uid) {
+  if (codec_of(transfer_syntax_uid) != Codec::jpeg) return 0;
+  const int process = std::stoi(transfer_syntax_uid.substr(std::string(kJpegPrefix).size()));
+  if (process == 57 || process == 70) return 8;
+  if (process == 50 || process == 51) return 256;
+  return 0;
+}
+
 bool has_checked_frame_header(const std::string& transfer_syntax_uid) {
   return codec_of(transfer_syntax_uid) != Codec::none;
 }

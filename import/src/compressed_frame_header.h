@@ -21,6 +21,15 @@ struct ExpectedFrame {
 /// Whether frames of `transfer_syntax_uid` carry a header compare_frame_header reads.
 bool has_checked_frame_header(const std::string& transfer_syntax_uid);
 
+/// The most samples one byte of compressed data can hold in `transfer_syntax_uid`, so that a
+/// header claiming more pixels than the file can encode is refused before the decoder allocates
+/// for them: 8 for lossless JPEG (processes 14 and SV1: a Huffman code per sample, at least one
+/// bit), 256 for sequential DCT JPEG (baseline, extended: at least a DC and an end-of-block code
+/// per 8×8 block). 0 where no bound exists: JPEG-LS run mode, JPEG 2000 and progressive JPEG
+/// compress a blank image without limit (the voxel limit bounds those); RLE is bounded per
+/// segment by compare_frame_header.
+double max_samples_per_compressed_byte(const std::string& transfer_syntax_uid);
+
 /// Compares the codestream header at the start of one frame (`data`, the first `n` bytes of its
 /// first fragment of `fragment_length` bytes) with `expected`. Returns "" when they agree, else
 /// what disagrees, e.g. "the JPEG 2000 SIZ says 22000×22000 pixels, the header 512×512".

@@ -376,6 +376,22 @@ std::string check_compressed_frames(DcmElement& pixel_data, const DcmXfer& xfer,
   const std::vector<unsigned long> first =
       frame_fragments(*sequence, info.number_of_frames, problem);
   if (!problem.empty()) return problem;
+  const double per_byte = max_samples_per_compressed_byte(info.transfer_syntax_uid);
+  if (per_byte > 0) {
+    std::uint64_t bytes = 0;
+    for (unsigned long i = 1; i < sequence->card(); ++i) {
+      DcmPixelItem* fragment = nullptr;
+      if (sequence->getItem(fragment, i).good() && fragment) bytes += fragment->getLength();
+    }
+    const double samples =
+        static_cast<double>(info.decoded_bytes()) / std::max(1, (info.bits_allocated + 7) / 8);
+    if (samples > per_byte * static_cast<double>(bytes))
+      return "the compressed pixel data hold " + std::to_string(bytes) +
+             " bytes, too few for the " + std::to_string(info.columns) + "×" +
+             std::to_string(info.rows) + "×" + std::to_string(info.number_of_frames) +
+             " pixels of the DICOM header (at most " + std::to_string(static_cast<int>(per_byte)) +
+             " samples per byte in " + dicom_uid_name(info.transfer_syntax_uid) + ")";
+  }
   const ExpectedFrame expected{info.rows, info.columns, info.samples_per_pixel, info.bits_allocated,
                                info.bits_stored};
   constexpr Uint32 kHeaderBytes = 16384;  // markers before the frame header fit well within

@@ -10,6 +10,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
 
@@ -150,6 +151,32 @@ TEST(DecoderRobustness, ACompressedFrameDisagreeingWithTheHeaderIsRefusedBeforeD
               std::string::npos)
         << c.name << ": " << e;
   }
+}
+
+TEST(DecoderRobustness, AJpegClaimingMorePixelsThanItsBytesCanHoldIsRefusedBeforeAllocating) {
+  const fs::path dir = test::scratch_dir("jpeg-claims");
+  const fs::path good =
+      transcoded(dir, "jpeg-lossless", gdcm::TransferSyntax::JPEGLosslessProcess14_1);
+  // Header and SOF agree on 20000×20000 (400 M samples) in about 200 kB: lossless JPEG needs a
+  // bit per sample, so the file cannot hold them.
+  const fs::path big = dir / "claims-20000.dcm";
+  test_files::copy_with_changes(good, big, [](DcmDataset& ds) {
+    ds.putAndInsertUint16(DCM_Rows, 20000);
+    ds.putAndInsertUint16(DCM_Columns, 20000);
+  });
+  std::string bytes = test_files::file_bytes(big);
+  const std::size_t sof = bytes.find("\xFF\xC3");
+  ASSERT_NE(sof, std::string::npos);
+  for (std::size_t at : {sof + 5, sof + 7}) {  // Y, X: big-endian 20000
+    bytes[at] = static_cast<char>(20000 >> 8);
+    bytes[at + 1] = static_cast<char>(20000 & 0xff);
+  }
+  std::ofstream(big, std::ios::binary) << bytes;
+  const std::string e = decode_error(big);
+  EXPECT_NE(e.find("too few for the 20000×20000×1 pixels of the DICOM header (at most 8 samples "
+                   "per byte"),
+            std::string::npos)
+      << e;
 }
 
 }  // namespace
