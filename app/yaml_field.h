@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -166,31 +167,36 @@ class YamlField {
   std::string file_;
 };
 
-/// Fails on a key written twice in one mapping anywhere under `node`: yaml-cpp keeps both and
-/// node[key] returns the first, so the second would be ignored silently. Names the key path and
-/// both lines. Nesting deeper than 256 levels is refused too (no scene needs it).
-inline void check_unique_keys(const YAML::Node& node, const std::string& path,
-                              const std::string& file, int depth = 0) {
-  if (depth > 256) YamlField(node, path, file).fail("nested more than 256 levels deep");
+/// Checks the shape of a loaded YAML file before any reader looks at it (load_yaml_file):
+/// - a key written twice in one mapping is refused naming the key path and both lines (yaml-cpp
+///   keeps both and node[key] answers the first, so the second would be ignored silently);
+/// - a key that is not plain text (a list or a mapping used as a key) is refused;
+/// - nesting deeper than 256 levels (a recursive alias nests without end) and more than 10^6
+///   nodes in all (aliases can multiply a small file many times over) are refused.
+inline void check_yaml_shape(const YAML::Node& node, const std::string& path,
+                             const std::string& file, int depth, std::size_t& nodes) {
+  const auto short_path = [&] { return path.size() > 80 ? path.substr(0, 80) + "..." : path; };
+  if (depth > 256) YamlField(node, short_path(), file).fail("nested more than 256 levels deep");
+  if (++nodes > 1000000)
+    YamlField(node, short_path(), file).fail("the file holds more than 10^6 values (aliases?)");
   if (node.IsSequence()) {
     for (std::size_t i = 0; i < node.size(); ++i)
-      check_unique_keys(node[i], path + "[" + std::to_string(i) + "]", file, depth + 1);
+      check_yaml_shape(node[i], path + "[" + std::to_string(i) + "]", file, depth + 1, nodes);
     return;
   }
   if (!node.IsMap()) return;
-  std::vector<std::pair<std::string, int>> seen;  // key, line (1-based)
+  std::map<std::string, int> seen;  // key -> line (1-based)
   for (const auto& kv : node) {
-    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+    if (!kv.first.IsScalar())
+      YamlField(kv.first, short_path(), file).fail("expected a plain key, not a list or mapping");
+    const std::string key = kv.first.Scalar();
     const std::string child = path.empty() ? key : path + "." + key;
-    if (kv.first.IsScalar()) {
-      for (const auto& [k, line] : seen)
-        if (k == key)
-          YamlField(kv.first, child, file)
-              .fail("the key is given twice, first at line " + std::to_string(line) +
-                    ": expected each key once");
-      seen.emplace_back(key, kv.first.Mark().line + 1);
-    }
-    check_unique_keys(kv.second, child, file, depth + 1);
+    const auto [at, inserted] = seen.emplace(key, kv.first.Mark().line + 1);
+    if (!inserted)
+      YamlField(kv.first, child, file)
+          .fail("the key is given twice, first at line " + std::to_string(at->second) +
+                ": expected each key once");
+    check_yaml_shape(kv.second, child, file, depth + 1, nodes);
   }
 }
 
@@ -208,7 +214,8 @@ inline YAML::Node load_yaml_file(const std::string& file) {
   } catch (const YAML::Exception& e) {
     throw Error(file + ": not valid YAML: " + e.what());
   }
-  check_unique_keys(root, "", file);
+  std::size_t nodes = 0;
+  check_yaml_shape(root, "", file, 0, nodes);
   return root;
 }
 

@@ -1,5 +1,6 @@
 // `tsf haptics` given files no run can hold: a point far outside the scene, a path speed so slow
-// the playback would last for ages, a key written twice (in the trajectory or the scene). Each is
+// the playback would last for ages, a key written twice (in the trajectory or the scene), a list
+// as a key, aliases that nest without end or multiply a small file. Each is
 // refused before any output is written, naming the file and the key; never a crash or a huge
 // allocation.
 #include <gtest/gtest.h>
@@ -19,6 +20,23 @@ namespace fs = std::filesystem;
 const char* const kTarget =
     "stylus: {radius: 3}\ntarget: {shape: sphere, size: 8, centre: [0, 0, 0]}\n";
 const char* const kPass = "path: {kind: straight, from: [-20, 0, 0], to: [20, 0, 0], speed: 100}\n";
+
+std::string repeated(const std::string& s, int n) {
+  std::string out;
+  for (int i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+/// Nine levels of aliases, each ten times the one before: 10^9 values from 400 bytes.
+std::string laughs() {
+  std::string s = "a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int i = 1; i < 9; ++i) {
+    s += "a" + std::to_string(i) + ": &a" + std::to_string(i) + " [";
+    for (int k = 0; k < 10; ++k) s += (k ? ", *a" : "*a") + std::to_string(i - 1);
+    s += "]\n";
+  }
+  return s;
+}
 
 struct Refusal {
   const char* name;
@@ -55,6 +73,12 @@ TEST(HapticsCommandRobustness, RefusesFilesNoRunCanHoldNamingTheKey) {
        "", "path.speed: the key is given twice, first at line 3"},
       {"twice-scene", std::string(kTarget) + kPass, "name: another-name\n",
        "name: the key is given twice, first at line 6"},
+      {"list-as-key", std::string(kTarget) + kPass + "? [1, 2]\n: 3\n", "",
+       "(top level): expected a plain key, not a list or mapping (line 4)"},
+      {"recursive-alias", std::string(kTarget) + kPass + "loop: &x [1, *x]\n", "",
+       "loop" + repeated("[1]", 25) + "[...: nested more than 256 levels deep (line 4)"},
+      {"alias-bomb", std::string(kTarget) + kPass + laughs(), "",
+       "a5[7][8][8][8][7][0]: the file holds more than 10^6 values (aliases?) (line 4)"},
   };
   for (const Refusal& c : cases) {
     const fs::path traj = dir / (std::string(c.name) + ".yaml");
