@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <future>
 #include <new>
 #include <sstream>
 #include <vector>
@@ -300,6 +301,22 @@ void check_deflate_stream(const DataLocation& loc, std::uint64_t min_bytes,
                 loc.data_path.string() + ")");
 }
 
+/// Where the voxel bytes of the volume file `path` live; `format` is set to nrrd, metaimage or
+/// nifti.
+DataLocation locate_data(const fs::path& path, std::string& format) {
+  const std::string name = lower(path.filename().string());
+  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) {
+    format = "nrrd";
+    return locate_nrrd_data(path);
+  }
+  if (ends_with(name, ".mha") || ends_with(name, ".mhd")) {
+    format = "metaimage";
+    return locate_meta_data(path);
+  }
+  format = "nifti";
+  return locate_nifti_data(path);
+}
+
 itk::ImageIOBase::Pointer create_io(const fs::path& path) {
   setup_imaging_libraries();
   auto io = itk::ImageIOFactory::CreateImageIO(path.string().c_str(),
@@ -323,19 +340,8 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw Error("'" + path.string() + "' is not a file");
   VolumeFileHeader h;
-  const std::string name = lower(path.filename().string());
-  DataLocation loc;
-  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) {
-    h.format = "nrrd";
-    loc = locate_nrrd_data(path);
-    h.has_patient_orientation = loc.has_space;
-  } else if (ends_with(name, ".mha") || ends_with(name, ".mhd")) {
-    h.format = "metaimage";
-    loc = locate_meta_data(path);
-  } else {
-    h.format = "nifti";
-    loc = locate_nifti_data(path);
-  }
+  const DataLocation loc = locate_data(path, h.format);
+  h.has_patient_orientation = h.format != "nrrd" || loc.has_space;
 
   const std::string where = "'" + path.string() + "': ";
   check_geometry_fields(loc.geometry, where);
@@ -391,8 +397,6 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
                 " bytes of voxel data but only " + std::to_string(loc.available_bytes) +
                 " compressed bytes follow (gzip cannot compress more than ~1000:1): a false "
                 "header");
-  if (loc.known && loc.deflate && !loc.data_path.empty())
-    check_deflate_stream(loc, h.voxel_bytes, where);
   if (h.dims.z < 2)
     throw Error(where + "a single slice (" + std::to_string(h.dims.x) + "×" +
                 std::to_string(h.dims.y) + "), expected a volume of at least 2 slices");
@@ -423,6 +427,15 @@ HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& opt
                                   ImportReport& report) {
   Stopwatch clock;
   const VolumeFileHeader h = inspect_volume_file(path, options.max_voxels);
+  // Compressed voxel data are checked (CRC, length) while ITK decompresses them for the image,
+  // on a thread of their own: the check costs a second inflate pass, not its time.
+  std::string format;
+  const DataLocation loc = locate_data(path, format);
+  std::future<void> deflate_check;
+  if (loc.known && loc.deflate && !loc.data_path.empty())
+    deflate_check = std::async(std::launch::async, [&] {
+      check_deflate_stream(loc, h.voxel_bytes, "'" + path.string() + "': ");
+    });
   auto io = create_io(path);
   auto reader = itk::ImageFileReader<HuImage>::New();
   reader->SetImageIO(io);
@@ -430,11 +443,13 @@ HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& opt
   try {
     reader->Update();
   } catch (const itk::ExceptionObject& e) {
+    if (deflate_check.valid()) deflate_check.get();  // its error names the cause better
     throw Error("cannot read '" + path.string() + "': " + e.GetDescription());
   } catch (const std::bad_alloc&) {
     throw Error("not enough memory to read '" + path.string() + "' (" +
                 std::to_string(h.dims.volume()) + " voxels)");
   }
+  if (deflate_check.valid()) deflate_check.get();
   HuImage::Pointer image = reader->GetOutput();
   image->DisconnectPipeline();
   image->SetMetaDataDictionary(itk::MetaDataDictionary());  // nothing from the source header
