@@ -12,7 +12,6 @@
 #include <gdcmImageChangeTransferSyntax.h>
 #include <gdcmImageReader.h>
 #include <gdcmImageWriter.h>
-#include <zlib.h>
 
 #include <cstring>
 #include <filesystem>
@@ -21,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "tsf/io/mesh_sequence.h"
-#include "tsf/volume/analytic_volumes.h"
+#include "support/crafted_bytes.h"
+#include "tissue/io/mesh_sequence_test_helpers.h"
 
 namespace fs = std::filesystem;
 
@@ -75,20 +74,6 @@ bool dicom_seeds(const fs::path& source_dir, const fs::path& out) {
   return true;
 }
 
-std::string gzip(const std::string& data) {
-  std::string out(compressBound(static_cast<uLong>(data.size())) + 64, '\0');
-  z_stream z{};
-  deflateInit2(&z, 9, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
-  z.avail_in = static_cast<uInt>(data.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = static_cast<uInt>(out.size());
-  deflate(&z, Z_FINISH);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  return out;
-}
-
 void volume_seeds(const fs::path& out) {
   std::string voxels(4 * 4 * 4 * 2, '\0');
   for (std::size_t i = 0; i < voxels.size(); i += 2) voxels[i] = static_cast<char>(i * 7);
@@ -97,54 +82,23 @@ void volume_seeds(const fs::path& out) {
       "left-posterior-superior\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,1.25)\nspace origin: "
       "(-10,20.5,-30)\nencoding: ";
   write(out / "raw.nrrd", std::string(1, '\0') + nrrd + "raw\n\n" + voxels);
-  write(out / "gzip.nrrd", std::string(1, '\0') + nrrd + "gzip\n\n" + gzip(voxels));
+  write(out / "gzip.nrrd",
+        std::string(1, '\0') + nrrd + "gzip\n\n" + tsf::test::deflated(voxels, 15 + 16));
   write(out / "image.mha",
         std::string(1, '\1') +
             "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_SHORT\n"
             "ElementSpacing = 0.5 0.5 1.25\nOffset = -10 20.5 -30\nTransformMatrix = 1 0 0 0 1 0 "
             "0 0 1\nElementDataFile = LOCAL\n" +
             voxels);
-  std::string h(352, '\0');
-  auto put32 = [&](std::size_t at, std::int32_t v) { std::memcpy(&h[at], &v, 4); };
-  auto put16 = [&](std::size_t at, std::int16_t v) { std::memcpy(&h[at], &v, 2); };
-  auto putf = [&](std::size_t at, float v) { std::memcpy(&h[at], &v, 4); };
-  put32(0, 348);
-  const std::int16_t dim[8] = {3, 4, 4, 4, 1, 1, 1, 1};
-  for (int i = 0; i < 8; ++i) put16(40 + 2 * i, dim[i]);
-  put16(70, 4);
-  put16(72, 16);
-  const float pixdim[8] = {1, 0.5f, 0.5f, 1.25f, 1, 1, 1, 1};
-  for (int i = 0; i < 8; ++i) putf(76 + 4 * i, pixdim[i]);
-  putf(108, 352.0f);
-  put16(252, 1);  // qform: identity rotation, offset
-  putf(268, -10.0f);
-  putf(272, 20.5f);
-  putf(276, -30.0f);
-  std::memcpy(&h[344], "n+1\0", 4);
+  const float pixdim[3] = {0.5f, 0.5f, 1.25f}, qoffset[3] = {-10, 20.5f, -30}, srow[4] = {};
+  const std::string h = tsf::test::nifti1_header(4, 4, 4, pixdim, 1, qoffset, 0, srow);
   write(out / "image.nii", std::string(1, '\2') + h + voxels);
-  write(out / "image.nii.gz", std::string(1, '\3') + gzip(h + voxels));
+  write(out / "image.nii.gz", std::string(1, '\3') + tsf::test::deflated(h + voxels, 15 + 16));
 }
 
 void tsfmesh_seed(const fs::path& out) {
-  tsf::io::MeshSequence s;
-  s.geometry = tsf::cube_geometry({4, 4, 4}, 0.5);
-  s.rest.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  s.rest.normals = {{-0.577f, -0.577f, -0.577f}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  s.rest.labels = {1, 1, 2, 3};
-  s.rest.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
-  tsf::io::MeshFrame pose;
-  pose.time_s = 0.1;
-  pose.positions = {{0, 0, 0}, {1.1f, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  s.frames.push_back(pose);
-  tsf::io::MeshFrame cut;
-  cut.time_s = 0.2;
-  cut.topology_changed = true;
-  cut.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  cut.labels = {1, 1, 1};
-  cut.triangles = {{0, 1, 2}};
-  s.frames.push_back(cut);
   fs::create_directories(out);
-  tsf::io::write_mesh_sequence(out / "tiny.tsfmesh", s);
+  tsf::io::write_mesh_sequence(out / "tiny.tsfmesh", tsf::io::test::tiny_sequence());
 }
 
 void yaml_seeds(const fs::path& source_dir, const fs::path& out) {

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "dicom_test_files.h"
+#include "support/error_of.h"
 #include "support/test_data.h"
 #include "tsf/common/error.h"
 #include "tsf/import/dicom_pixel_reader.h"
@@ -82,14 +83,7 @@ fs::path transcoded(const fs::path& dir, const char* name, gdcm::TransferSyntax:
 
 /// The error of decoding `path` ("" when it decoded).
 std::string decode_error(const fs::path& path) {
-  try {
-    decode_dicom_file(path);
-  } catch (const Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << path << ": not a tsf::Error: " << e.what();
-  }
-  return "";
+  return test::error_of([&] { decode_dicom_file(path); });
 }
 
 TEST(DecoderRobustness, ACompressedFrameDisagreeingWithTheHeaderIsRefusedBeforeDecoding) {

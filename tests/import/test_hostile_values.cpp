@@ -13,11 +13,11 @@
 #include <string>
 #include <utility>
 
-#include <dcmtk/dcmdata/dcddirif.h>
 #include <dcmtk/dcmdata/dcsequen.h>
-#include <zlib.h>
 
 #include "dicom_test_files.h"
+#include "support/crafted_bytes.h"
+#include "support/error_of.h"
 #include "support/test_data.h"
 #include "tsf/common/error.h"
 #include "tsf/import/dicom_file_info.h"
@@ -28,22 +28,11 @@ namespace {
 namespace fs = std::filesystem;
 using test_files::copy_with_changes;
 
-ImportOptions quiet() {
-  ImportOptions o;
-  o.show_progress = false;
-  return o;
-}
-
-/// The error of importing `path` ("" when it was accepted; a failure when not a tsf::Error).
+/// The error of importing `path` ("" when it was accepted).
 std::string import_error(const fs::path& path) {
-  try {
-    import_volume(path, quiet());
-  } catch (const Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << path << ": not a tsf::Error: " << e.what();
-  }
-  return "";
+  ImportOptions options;
+  options.show_progress = false;
+  return test::error_of([&] { import_volume(path, options); });
 }
 
 /// Three slices of the GE sample in `dir`, the second edited by `change`.
@@ -117,25 +106,8 @@ std::string mha(const std::string& fields) {
 
 /// A 4×4×4 int16 NIfTI-1 file: sform (code 1) row x = `srow_x`, pixdim[1] = `dx`; qform off.
 std::string nifti(const float srow_x[4], float dx) {
-  std::string h(352, '\0');
-  auto put32 = [&](std::size_t at, std::int32_t v) { std::memcpy(&h[at], &v, 4); };
-  auto put16 = [&](std::size_t at, std::int16_t v) { std::memcpy(&h[at], &v, 2); };
-  auto putf = [&](std::size_t at, float v) { std::memcpy(&h[at], &v, 4); };
-  put32(0, 348);
-  const std::int16_t dim[8] = {3, 4, 4, 4, 1, 1, 1, 1};
-  for (int i = 0; i < 8; ++i) put16(40 + 2 * i, dim[i]);
-  put16(70, 4);   // int16
-  put16(72, 16);  // bitpix
-  for (int i = 0; i < 8; ++i) putf(76 + 4 * i, i == 1 ? dx : 1.0f);
-  putf(108, 352.0f);
-  put16(254, 1);  // sform_code
-  for (int c = 0; c < 4; ++c) {
-    putf(280 + 4 * c, srow_x[c]);
-    putf(296 + 4 * c, c == 1 ? 1.0f : 0.0f);
-    putf(312 + 4 * c, c == 2 ? 1.0f : 0.0f);
-  }
-  std::memcpy(&h[344], "n+1\0", 4);
-  return h + std::string(128, '\0');
+  const float pixdim[3] = {dx, 1, 1}, qoffset[3] = {0, 0, 0};
+  return test::nifti1_header(4, 4, 4, pixdim, 0, qoffset, 1, srow_x) + std::string(128, '\0');
 }
 
 /// gzip member (stored, no compression) of `data`: CRC-32 and length in its trailer.
@@ -244,20 +216,7 @@ void dicomdir_with_second_id(const fs::path& root, const std::string& id) {
   fs::create_directories(root / "DICOM");
   fs::copy_file(ge / "01.dcm", root / "DICOM" / "IM1");
   fs::copy_file(ge / "02.dcm", root / "DICOM" / "IM2");
-  {
-    // DicomDirInterface takes file IDs relative to the working folder; restored on any exit.
-    struct WorkingFolder {
-      fs::path saved = fs::current_path();
-      ~WorkingFolder() { fs::current_path(saved); }
-    } restore;
-    fs::current_path(root);
-    DicomDirInterface dicomdir;
-    dicomdir.enableInventMode(OFTrue);
-    ASSERT_TRUE(
-        dicomdir.createNewDicomDir(DicomDirInterface::AP_GeneralPurpose, "DICOMDIR").good());
-    for (const char* f : {"DICOM/IM1", "DICOM/IM2"}) ASSERT_TRUE(dicomdir.addDicomFile(f).good());
-    ASSERT_TRUE(dicomdir.writeDicomDir().good());
-  }
+  test_files::write_dicomdir(root, {"DICOM/IM1", "DICOM/IM2"});
   DcmFileFormat file;
   ASSERT_TRUE(file.loadFile((root / "DICOMDIR").c_str()).good());
   DcmSequenceOfItems* records = nullptr;
@@ -347,19 +306,7 @@ std::string nested_file(int depth, const std::string& syntax) {
       le16(0xFFFE) + le16(0xE00D) + le32(0) + le16(0xFFFE) + le16(0xE0DD) + le32(0);
   for (int i = 0; i < depth; ++i) ds += open_sq;
   for (int i = 0; i < depth; ++i) ds += close_sq;
-  if (syntax == "1.2.840.10008.1.2.1.99") {
-    std::string out(compressBound(static_cast<uLong>(ds.size())) + 64, '\0');
-    z_stream z{};
-    deflateInit2(&z, 6, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY);
-    z.next_in = reinterpret_cast<Bytef*>(ds.data());
-    z.avail_in = static_cast<uInt>(ds.size());
-    z.next_out = reinterpret_cast<Bytef*>(out.data());
-    z.avail_out = static_cast<uInt>(out.size());
-    deflate(&z, Z_FINISH);
-    out.resize(z.total_out);
-    deflateEnd(&z);
-    ds = out;
-  }
+  if (syntax == "1.2.840.10008.1.2.1.99") ds = test::deflated(ds, -15);
   std::string meta = std::string("OB\0\0", 4);
   meta = le16(0x0002) + le16(0x0001) + meta + le32(2) + std::string("\0\1", 2) +
          element(0x0002, 0x0002, "UI", "1.2.840.10008.5.1.4.1.1.2") +

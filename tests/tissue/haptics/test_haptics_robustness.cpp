@@ -6,24 +6,17 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <string>
 
 #include "haptics_test_helpers.h"
+#include "support/error_of.h"
 #include "tsf/common/error.h"
 
 namespace tsf::haptics {
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using tsf::test::error_of;
 
 TEST(HapticsRobustness, AStylusFarOutsideTheVolumeIsAnErrorNotAnOverflow) {
   const VoxelVolume volume = test::sphere_volume_of(5, 16, 0.5, 0.5);
