@@ -42,13 +42,24 @@ std::string trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
+/// Whether `tag` is in `item` with a value short enough to be a header attribute. DCMTK leaves
+/// longer values on disk and reads them when asked, allocating the declared length: a damaged
+/// file declaring 4 GB for a UID would cost 4 GB (import.md, "Limits and safety").
+bool has_header_value(DcmItem& item, const DcmTagKey& tag) {
+  DcmElement* element = nullptr;
+  return item.findAndGetElement(tag, element).good() && element &&
+         element->getLength() <= kMaxHeaderValueLength;
+}
+
 std::string get_string(DcmItem& item, const DcmTagKey& tag) {
   OFString value;
-  if (item.findAndGetOFStringArray(tag, value).good()) return trim(value.c_str());
+  if (has_header_value(item, tag) && item.findAndGetOFStringArray(tag, value).good())
+    return trim(value.c_str());
   return {};
 }
 
 bool get_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long pos = 0) {
+  if (!has_header_value(item, tag)) return false;
   Float64 f = 0;
   if (item.findAndGetFloat64(tag, f, pos).good() && std::isfinite(f)) {
     out = f;
@@ -93,6 +104,9 @@ bool get_checked_double(DcmItem& item, const DcmTagKey& tag, double& out, unsign
   if (item.findAndGetElement(tag, element).bad() || !element) return false;
   const std::string name = std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() +
                            (pos > 0 || element->getVM() > 1 ? "[" + std::to_string(pos) + "]" : "");
+  if (element->getLength() > kMaxHeaderValueLength)
+    throw InvalidValue(name + " declares " + std::to_string(element->getLength()) +
+                       " bytes: expected a decimal number");
   OFString text;
   const std::string t = element->getOFString(text, pos).good() ? trim(text.c_str()) : "";
   std::ostringstream expected;
@@ -122,6 +136,7 @@ bool get_checked_vec3(DcmItem& item, const DcmTagKey& tag, Vec3d& out, unsigned 
 }
 
 bool get_long(DcmItem& item, const DcmTagKey& tag, long& out) {
+  if (!has_header_value(item, tag)) return false;
   long v = 0;
   if (item.findAndGetLongInt(tag, v).good()) {
     out = v;
@@ -592,7 +607,9 @@ DicomDirContents read_dicomdir(const fs::path& dicomdir) {
     DcmItem* record = records->getItem(r);
     if (!record) continue;
     OFString id;
-    if (record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty()) continue;
+    if (!has_header_value(*record, DCM_ReferencedFileID) ||
+        record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty())
+      continue;
     // A File ID is a relative path of '\\'-separated components (PS3.10 8.5): a component that
     // climbs ("..") or carries a path of its own ('/', ':') would reach files outside the
     // file-set, so the DICOMDIR is refused naming the record and the ID.

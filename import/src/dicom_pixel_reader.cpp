@@ -99,6 +99,13 @@ void apply_modality_lut(const DicomFileInfo& info, float* values, std::size_t n,
   const long first = info.pixel_representation == 1
                          ? static_cast<long>(static_cast<std::int16_t>(descriptor[1]))
                          : static_cast<long>(descriptor[1]);
+  // At most 65536 entries of 16 bits: a larger declared length would be allocated on reading.
+  DcmElement* lut_data = nullptr;
+  if (lut->findAndGetElement(DCM_LUTData, lut_data).bad() || !lut_data ||
+      lut_data->getLength() > 2u * 65536u)
+    throw Error(where(info) +
+                ": Modality LUT Data (0028,3006) is missing or longer than 65536 "
+                "entries");
   const Uint16* data = nullptr;
   unsigned long count = 0;
   if (lut->findAndGetUint16Array(DCM_LUTData, data, &count).bad() || !data ||
