@@ -190,6 +190,10 @@ double max_samples_per_compressed_byte(const std::string& transfer_syntax_uid) {
   return 0;
 }
 
+bool one_fragment_per_frame(const std::string& transfer_syntax_uid) {
+  return codec_of(transfer_syntax_uid) == Codec::rle;
+}
+
 bool has_checked_frame_header(const std::string& transfer_syntax_uid) {
   return codec_of(transfer_syntax_uid) != Codec::none;
 }

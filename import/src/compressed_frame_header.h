@@ -30,6 +30,9 @@ bool has_checked_frame_header(const std::string& transfer_syntax_uid);
 /// segment by compare_frame_header.
 double max_samples_per_compressed_byte(const std::string& transfer_syntax_uid);
 
+/// Whether `transfer_syntax_uid` puts each frame in exactly one fragment (RLE, PS3.5 A.4.2).
+bool one_fragment_per_frame(const std::string& transfer_syntax_uid);
+
 /// Compares the codestream header at the start of one frame (`data`, the first `n` bytes of its
 /// first fragment of `fragment_length` bytes) with `expected`. Returns "" when they agree, else
 /// what disagrees, e.g. "the JPEG 2000 SIZ says 22000×22000 pixels, the header 512×512".

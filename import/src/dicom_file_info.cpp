@@ -387,6 +387,14 @@ std::string check_compressed_frames(DcmElement& pixel_data, const DcmXfer& xfer,
   if (!pixel || pixel->getEncapsulatedRepresentation(xfer.getXfer(), nullptr, sequence).bad() ||
       !sequence)
     return "the compressed pixel data have no fragments";
+  const unsigned long fragments = sequence->card() > 0 ? sequence->card() - 1 : 0;
+  if (one_fragment_per_frame(info.transfer_syntax_uid) &&
+      fragments != static_cast<unsigned long>(info.number_of_frames))
+    return dicom_uid_name(info.transfer_syntax_uid) +
+           " puts each frame in one fragment: the pixel "
+           "data hold " +
+           std::to_string(fragments) + " fragments for NumberOfFrames " +
+           std::to_string(info.number_of_frames);
   std::string problem;
   const std::vector<unsigned long> first =
       frame_fragments(*sequence, info.number_of_frames, problem);
