@@ -7,6 +7,7 @@
 #include <dcmtk/dcmdata/dcpixseq.h>
 #include <dcmtk/dcmdata/dcpxitem.h>
 #include <dcmtk/dcmdata/dcsequen.h>
+#include <dcmtk/dcmdata/dcstack.h>
 #include <dcmtk/dcmdata/dcuid.h>
 #include <dcmtk/dcmdata/dcxfer.h>
 
@@ -332,6 +333,51 @@ bool pixel_data_is_complete(DcmElement& pixel_data, const DcmXfer& xfer) {
   return last->getPartialValue(tail, length - n, n).good();
 }
 
+/// The first element whose binary value cannot be what its VR says (a length that is not a whole
+/// number of US, SS, UL, SL, FL, FD or AT values), or an Image Pixel attribute GDCM reads as US
+/// that is not one US: GDCM asserts on both and kills the process, so they are refused first
+/// (import.md, "Limits and safety"). "" when there is none.
+std::string binary_value_problem(DcmDataset& ds) {
+  for (const DcmTagKey& tag :
+       {DCM_SamplesPerPixel, DCM_Rows, DCM_Columns, DCM_BitsAllocated, DCM_BitsStored, DCM_HighBit,
+        DCM_PixelRepresentation, DCM_PlanarConfiguration}) {
+    DcmElement* e = nullptr;
+    if (ds.findAndGetElement(tag, e).good() && e && (e->ident() != EVR_US || e->getLength() != 2))
+      return std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() + " has VR " +
+             DcmVR(e->ident()).getVRName() + " and " + std::to_string(e->getLength()) +
+             " bytes: expected one US value";
+  }
+  DcmStack stack;
+  while (ds.nextObject(stack, OFTrue).good()) {
+    DcmObject* o = stack.top();
+    if (!o || !o->isLeaf()) continue;
+    Uint32 unit = 0;
+    switch (o->ident()) {
+      case EVR_US:
+      case EVR_SS:
+        unit = 2;
+        break;
+      case EVR_UL:
+      case EVR_SL:
+      case EVR_FL:
+      case EVR_AT:
+        unit = 4;
+        break;
+      case EVR_FD:
+        unit = 8;
+        break;
+      default:
+        break;
+    }
+    const Uint32 length = o->getLength();
+    if (unit > 0 && length != DCM_UndefinedLength && length % unit != 0)
+      return "element " + std::string(o->getTag().toString().c_str()) + " has VR " +
+             DcmVR(o->ident()).getVRName() + " and " + std::to_string(length) +
+             " bytes: not a whole number of values";
+  }
+  return "";
+}
+
 /// The fragment (item index in the pixel sequence) where each frame starts: one fragment per
 /// frame, or the Basic Offset Table's byte offsets; only frame 1 when neither says. An empty
 /// result with `problem` set when the frames cannot all have a fragment.
@@ -572,6 +618,12 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
     return info;
   }
 
+  const std::string binary = binary_value_problem(ds);
+  if (!binary.empty()) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "damaged header: " + binary;
+    return info;
+  }
   classify_image(ds, info);
   if (info.kind != DicomObjectKind::image && info.kind != DicomObjectKind::localizer) return info;
   if (info.pixel_data_encapsulated) {
