@@ -382,6 +382,9 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
                 std::to_string(h.dims.x) + "×" + std::to_string(h.dims.y) + "×" +
                 std::to_string(h.dims.z) + "), more than the limit of " +
                 std::to_string(max_voxels) + ": refused before allocating");
+  // GetComponentSize throws for a type ITK could not name (an unknown MetaImage ElementType).
+  if (io->GetComponentType() == itk::CommonEnums::IOComponent::UNKNOWNCOMPONENTTYPE)
+    throw Error(where + "the voxel type is not one ITK reads (expected an integer or float type)");
   h.component_type = itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType());
   h.voxel_bytes = static_cast<std::uint64_t>(voxels) * io->GetComponentSize();
   h.available_bytes = loc.available_bytes;
