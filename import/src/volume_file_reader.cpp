@@ -163,6 +163,10 @@ DataLocation locate_meta_data(const fs::path& path) {
     const std::string key = lower(trim(line.substr(0, eq)));
     const std::string value = trim(line.substr(eq + 1));
     if (key == "compresseddata") loc.compressed = loc.deflate = lower(value) == "true";
+    // MetaIO loops and sizes its arrays by NDims before anything else is checked.
+    if (key == "ndims" && value != "2" && value != "3" && value != "4")
+      throw Error("'" + path.string() + "': line " + std::to_string(line_number) + ", NDims is '" +
+                  value.substr(0, 32) + "': expected 2, 3 or 4");
     for (const char* g : {"offset", "origin", "position", "elementspacing", "elementsize",
                           "transformmatrix", "rotation", "orientation"})
       if (key == g) loc.geometry.push_back({trim(line.substr(0, eq)), value, line_number});
