@@ -109,45 +109,40 @@ TEST(DecoderRobustness, ACompressedFrameDisagreeingWithTheHeaderIsRefusedBeforeD
     ASSERT_EQ(decode_error(good), "") << c.name;
     EXPECT_EQ(decode_dicom_file(good), reference) << c.name;
 
-    const fs::path narrow = dir / (std::string(c.name) + "-columns.dcm");
     const bool rle = std::string(c.name) == "rle";
-    test_files::copy_with_changes(good, narrow, [&](DcmDataset& ds) {
-      // RLE carries no size: a header claiming far more rows than its segments can hold.
-      if (rle)
-        ds.putAndInsertUint16(DCM_Rows, 60000);
-      else
-        ds.putAndInsertUint16(DCM_Columns, 256);
-    });
-    std::string e = decode_error(narrow);
-    EXPECT_NE(e.find(narrow.filename().string()), std::string::npos) << e;
-    EXPECT_NE(e.find(rle ? "too few for the 512×60000 pixels of the DICOM header"
-                         : "says 512×512 pixels, the DICOM header (Columns×Rows) 256×512"),
-              std::string::npos)
-        << c.name << ": " << e;
-    EXPECT_NE(e.find(c.marker), std::string::npos) << c.name << ": " << e;
-
-    const fs::path wide = dir / (std::string(c.name) + "-bits.dcm");
-    test_files::copy_with_changes(good, wide, [](DcmDataset& ds) {
-      ds.putAndInsertUint16(DCM_BitsAllocated, 32);
-      ds.putAndInsertUint16(DCM_BitsStored, 32);
-      ds.putAndInsertUint16(DCM_HighBit, 31);
-    });
-    e = decode_error(wide);
-    EXPECT_NE(e.find(rle ? "the RLE header has 2 segments, the DICOM header 1 SamplesPerPixel × 32 "
-                           "BitsAllocated needs 4"
-                         : "BitsAllocated is 32"),
-              std::string::npos)
-        << c.name << ": " << e;
-
-    const fs::path frames = dir / (std::string(c.name) + "-frames.dcm");
-    test_files::copy_with_changes(
-        good, frames, [](DcmDataset& ds) { ds.putAndInsertString(DCM_NumberOfFrames, "3"); });
-    e = decode_error(frames);
-    EXPECT_NE(e.find(rle ? "RLELossless puts each frame in one fragment: the pixel data hold 1 "
-                           "fragments for NumberOfFrames 3"
-                         : "the pixel data hold 1 fragments, fewer than the NumberOfFrames 3"),
-              std::string::npos)
-        << c.name << ": " << e;
+    // A copy of `good` edited by `change` is refused naming the copy and saying `expected`.
+    const auto expect_refused = [&](const char* suffix,
+                                    const std::function<void(DcmDataset&)>& change,
+                                    const std::string& expected) {
+      const fs::path copy = dir / (std::string(c.name) + suffix);
+      test_files::copy_with_changes(good, copy, change);
+      const std::string e = decode_error(copy);
+      EXPECT_NE(e.find(copy.filename().string()), std::string::npos) << e;
+      EXPECT_NE(e.find(expected), std::string::npos) << c.name << ": " << e;
+    };
+    expect_refused(
+        "-columns.dcm",
+        [&](DcmDataset& ds) {
+          // RLE carries no size: a header claiming far more rows than its segments can hold.
+          ds.putAndInsertUint16(rle ? DCM_Rows : DCM_Columns, rle ? 60000 : 256);
+        },
+        rle ? "too few for the 512×60000 pixels of the DICOM header"
+            : std::string(c.marker) + " 512×512 pixels, the DICOM header (Columns×Rows) 256×512");
+    expect_refused(
+        "-bits.dcm",
+        [](DcmDataset& ds) {
+          ds.putAndInsertUint16(DCM_BitsAllocated, 32);
+          ds.putAndInsertUint16(DCM_BitsStored, 32);
+          ds.putAndInsertUint16(DCM_HighBit, 31);
+        },
+        rle ? "the RLE header has 2 segments, the DICOM header 1 SamplesPerPixel × 32 "
+              "BitsAllocated needs 4"
+            : "BitsAllocated is 32");
+    expect_refused(
+        "-frames.dcm", [](DcmDataset& ds) { ds.putAndInsertString(DCM_NumberOfFrames, "3"); },
+        rle ? "RLELossless puts each frame in one fragment: the pixel data hold 1 fragments for "
+              "NumberOfFrames 3"
+            : "the pixel data hold 1 fragments, fewer than the NumberOfFrames 3");
   }
 }
 
