@@ -27,6 +27,8 @@ if [ ! -f "$BUILD/CMakeCache.txt" ]; then
 fi
 ninja -C "$BUILD" -j "${TSF_JOBS:-$(nproc)}" "${TARGETS[@]/#/tsf_fuzz_}" >/dev/null
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}"
+# Leaks inside GDCM and ITK on inputs they reject are theirs (fuzz/lsan-third-party.supp).
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$ROOT/fuzz/lsan-third-party.supp}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 for t in "${TARGETS[@]}"; do
   work="$BUILD/corpus/$t"
@@ -39,8 +41,12 @@ for t in "${TARGETS[@]}"; do
     -rss_limit_mb=2560 -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" \
     -ignore_crashes=1 -fork=1 "$work" "$ROOT/fuzz/corpus/$t" >"$log" 2>&1
   set -e
-  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{s += $2} END {print s + 0}')
+  # The fork-mode status lines: "#RUNS: cov: ... oom/timeout/crash: O/T/C time: ...".
+  last=$(grep -E '^#[0-9]+: cov' "$log" | tail -1)
+  runs=$(echo "$last" | sed -E 's/^#([0-9]+):.*/\1/')
+  otc=$(echo "$last" | sed -E 's/.*oom\/timeout\/crash: ([0-9]+\/[0-9]+\/[0-9]+).*/\1/')
   after=$(find "$work" -type f | wc -l)
   found=$(find "$findings" -type f | wc -l)
-  echo "fuzz $t: ${SECONDS_PER_TARGET} s, $runs inputs run, corpus $before -> $after, findings $found ($findings)"
+  echo "fuzz $t: ${SECONDS_PER_TARGET} s, ${runs:-0} inputs run, oom/timeout/crash ${otc:-?}," \
+    "corpus $before -> $after, $found finding files in $findings"
 done
