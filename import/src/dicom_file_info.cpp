@@ -45,11 +45,12 @@ std::string trim(const std::string& s) {
 
 /// Whether `tag` is in `item` with a value short enough to be a header attribute. DCMTK leaves
 /// longer values on disk and reads them when asked, allocating the declared length: a damaged
-/// file declaring 4 GB for a UID would cost 4 GB (import.md, "Limits and safety").
+/// file declaring 4 GB for a UID would cost 4 GB (import.md, "Limits and safety"). The length
+/// field as read is compared: getLength() of a string element loads the value to measure it.
 bool has_header_value(DcmItem& item, const DcmTagKey& tag) {
   DcmElement* element = nullptr;
   return item.findAndGetElement(tag, element).good() && element &&
-         element->getLength() <= kMaxHeaderValueLength;
+         element->getLengthField() <= kMaxHeaderValueLength;
 }
 
 std::string get_string(DcmItem& item, const DcmTagKey& tag) {
@@ -105,8 +106,8 @@ bool get_checked_double(DcmItem& item, const DcmTagKey& tag, double& out, unsign
   if (item.findAndGetElement(tag, element).bad() || !element) return false;
   const std::string name = std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() +
                            (pos > 0 || element->getVM() > 1 ? "[" + std::to_string(pos) + "]" : "");
-  if (element->getLength() > kMaxHeaderValueLength)
-    throw InvalidValue(name + " declares " + std::to_string(element->getLength()) +
+  if (element->getLengthField() > kMaxHeaderValueLength)
+    throw InvalidValue(name + " declares " + std::to_string(element->getLengthField()) +
                        " bytes: expected a decimal number");
   OFString text;
   const std::string t = element->getOFString(text, pos).good() ? trim(text.c_str()) : "";
@@ -342,9 +343,10 @@ std::string binary_value_problem(DcmDataset& ds) {
        {DCM_SamplesPerPixel, DCM_Rows, DCM_Columns, DCM_BitsAllocated, DCM_BitsStored, DCM_HighBit,
         DCM_PixelRepresentation, DCM_PlanarConfiguration}) {
     DcmElement* e = nullptr;
-    if (ds.findAndGetElement(tag, e).good() && e && (e->ident() != EVR_US || e->getLength() != 2))
+    if (ds.findAndGetElement(tag, e).good() && e &&
+        (e->ident() != EVR_US || e->getLengthField() != 2))
       return std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() + " has VR " +
-             DcmVR(e->ident()).getVRName() + " and " + std::to_string(e->getLength()) +
+             DcmVR(e->ident()).getVRName() + " and " + std::to_string(e->getLengthField()) +
              " bytes: expected one US value";
   }
   DcmStack stack;
@@ -369,7 +371,7 @@ std::string binary_value_problem(DcmDataset& ds) {
       default:
         break;
     }
-    const Uint32 length = o->getLength();
+    const Uint32 length = o->getLengthField();
     if (unit > 0 && length != DCM_UndefinedLength && length % unit != 0)
       return "element " + std::string(o->getTag().toString().c_str()) + " has VR " +
              DcmVR(o->ident()).getVRName() + " and " + std::to_string(length) +
