@@ -158,7 +158,12 @@ DataLocation locate_meta_data(const fs::path& path) {
     ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const auto eq = line.find('=');
-    if (eq == std::string::npos) continue;
+    if (trim(line).empty()) continue;
+    // MetaIO reads a key up to the next '=' (across lines) into fixed buffers: a line without
+    // one, or a key longer than a field name, overflowed them.
+    if (eq == std::string::npos || eq > 64)
+      throw Error("'" + path.string() + "': line " + std::to_string(line_number) +
+                  " is not 'Key = value' with a key of at most 64 characters");
     const std::string key = lower(trim(line.substr(0, eq)));
     const std::string value = trim(line.substr(eq + 1));
     if (key == "compresseddata") loc.compressed = loc.deflate = lower(value) == "true";
@@ -192,7 +197,9 @@ DataLocation locate_meta_data(const fs::path& path) {
 }
 
 /// The NIfTI-1 header fields that place and scale the volume (those its qform_code and
-/// sform_code put in use), as text for check_geometry_fields. NIfTI-2 headers are left to ITK.
+/// sform_code put in use), as text for check_geometry_fields. NIfTI-2 headers (540 bytes) are
+/// left to ITK; a header of any other size is refused (ITK's reader took one for NIfTI and
+/// aborted in vnl on its garbage).
 std::vector<HeaderField> nifti_geometry_fields(const fs::path& path, bool gzipped) {
   unsigned char h[348] = {};
   int n = 0;
@@ -206,11 +213,17 @@ std::vector<HeaderField> nifti_geometry_fields(const fs::path& path, bool gzippe
     in.read(reinterpret_cast<char*>(h), sizeof h);
     n = static_cast<int>(in.gcount());
   }
-  if (n != static_cast<int>(sizeof h)) return {};
+  if (n != static_cast<int>(sizeof h))
+    throw Error("'" + path.string() + "': shorter than a NIfTI header (348 bytes)");
   std::int32_t size = 0;
   std::memcpy(&size, h, 4);
+  const auto swapped_size =
+      static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(size)));
+  if (size == 540 || swapped_size == 540) return {};
+  if (size != 348 && swapped_size != 348)
+    throw Error("'" + path.string() + "': sizeof_hdr is " + std::to_string(size) +
+                ": expected 348 (NIfTI-1) or 540 (NIfTI-2)");
   const bool swapped = size != 348;
-  if (swapped && __builtin_bswap32(static_cast<std::uint32_t>(size)) != 348) return {};
   auto i16 = [&](int at) {
     std::uint16_t v = 0;
     std::memcpy(&v, h + at, 2);
@@ -354,6 +367,8 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
     io->ReadImageInformation();
   } catch (const itk::ExceptionObject& e) {
     throw Error("cannot read the header of '" + path.string() + "': " + e.GetDescription());
+  } catch (const std::exception& e) {  // the readers' own parsing (std::stod, std::vector, ...)
+    throw Error("cannot read the header of '" + path.string() + "': " + e.what());
   }
   const unsigned nd = io->GetNumberOfDimensions();
   if (nd < 2 || nd > 4 || (nd == 4 && io->GetDimensions(3) != 1))
@@ -450,6 +465,8 @@ HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& opt
   } catch (const std::bad_alloc&) {
     throw Error("not enough memory to read '" + path.string() + "' (" +
                 std::to_string(h.dims.volume()) + " voxels)");
+  } catch (const std::exception& e) {  // the readers' own parsing (std::stod, std::vector, ...)
+    throw Error("cannot read '" + path.string() + "': " + e.what());
   }
   HuImage::Pointer image = reader->GetOutput();
   image->DisconnectPipeline();
