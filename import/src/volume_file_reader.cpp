@@ -108,6 +108,7 @@ DataLocation locate_nrrd_data(const fs::path& path) {
   while (header_bytes < kMaxHeaderText && std::getline(in, line)) {
     header_bytes += line.size() + 1;
     ++line_number;
+    line.resize(std::min(line.size(), line.find('\0')));  // teem reads lines as C strings
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) {
       ended = true;
@@ -175,6 +176,12 @@ DataLocation locate_meta_data(const fs::path& path) {
                           "transformmatrix", "rotation", "orientation"})
       if (key == g) loc.geometry.push_back({trim(line.substr(0, eq)), value, line_number});
     if (key == "elementdatafile") {
+      // A file list or a numbered pattern ("name%03d.raw first last step") is refused: MetaIO
+      // divides by the step and reads any file the list names.
+      if (lower(value) == "list" || value.find_first_of(" \t%") != std::string::npos)
+        throw Error("'" + path.string() + "': line " + std::to_string(line_number) +
+                    ", ElementDataFile is '" + value.substr(0, 64) +
+                    "': expected LOCAL or one data file name");
       data_file = value;
       header_bytes = consumed;
       break;
@@ -187,8 +194,7 @@ DataLocation locate_meta_data(const fs::path& path) {
     loc.known = true;
     loc.data_path = path;
     loc.data_offset = header_bytes;
-  } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
-             lower(data_file) != "list") {
+  } else {  // one data file (lists and patterns were refused above)
     loc.data_path = path.parent_path() / data_file;
     loc.available_bytes = file_size_or_zero(loc.data_path);
     loc.known = true;
