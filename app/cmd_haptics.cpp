@@ -60,6 +60,10 @@ using nlohmann::json;
 
 using Field = YamlField;
 
+/// Points of a trajectory file (stylus path, target centre) lie within 100 m of the scene's
+/// origin: farther, a haptic window's voxel indices would not fit (frame_capture.h).
+constexpr double kMaxCoordinateMm = 1e5;
+
 // ---- the trajectory file -------------------------------------------------------------------
 
 struct RigidTarget {
@@ -80,15 +84,7 @@ struct HapticRunFile {
 HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
   HapticRunFile run;
   run.file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(run.file);
-  } catch (const YAML::BadFile&) {
-    throw Error(run.file + ": cannot open the trajectory file");
-  } catch (const YAML::Exception& e) {
-    throw Error(run.file + ": not valid YAML: " + e.what());
-  }
-  const Field top(root, "", run.file);
+  const Field top(load_yaml_file(run.file), "", run.file);
   if (!top.defined()) top.fail("the trajectory file is empty");
   top.expect_keys({"stylus", "force_law", "lattice_gain", "loop", "target", "path"});
   const Field st = top["stylus"];
@@ -129,7 +125,7 @@ HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
     t.voxel_mm = target["voxel"].number(0.5, 0.01, 10.0);
     if (2.0 * t.size_mm / t.voxel_mm > 1024)
       target["voxel"].fail("the target would need more than 1024 voxels across");
-    t.centre_mm = target["centre"].vec3();
+    t.centre_mm = target["centre"].vec3_within(kMaxCoordinateMm);
     run.target = t;
   }
 
@@ -144,18 +140,21 @@ HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
   try {
     if (run.kind == "straight") {
       p.expect_keys({"kind", "mode", "from", "to", "speed"});
-      run.trajectory = haptics::straight_pass(p["from"].vec3(), p["to"].vec3(),
+      run.trajectory = haptics::straight_pass(p["from"].vec3_within(kMaxCoordinateMm),
+                                              p["to"].vec3_within(kMaxCoordinateMm),
                                               p["speed"].required_number(0, 1e4, true), mode);
     } else if (run.kind == "press-and-hold") {
       p.expect_keys({"kind", "mode", "point", "normal", "depth", "approach", "speed", "hold"});
       run.trajectory = haptics::press_and_hold(
-          p["point"].vec3(), p["normal"].vec3(), run.model.stylus_radius_mm,
-          p["depth"].required_number(0, 1e3, true), p["approach"].number(2.0, 0, 1e3),
-          p["speed"].required_number(0, 1e4, true), p["hold"].number(0.5, 0, 1e3), mode);
+          p["point"].vec3_within(kMaxCoordinateMm), p["normal"].vec3_within(kMaxCoordinateMm),
+          run.model.stylus_radius_mm, p["depth"].required_number(0, 1e3, true),
+          p["approach"].number(2.0, 0, 1e3), p["speed"].required_number(0, 1e4, true),
+          p["hold"].number(0.5, 0, 1e3), mode);
     } else if (run.kind == "sweep") {
       p.expect_keys({"kind", "mode", "start", "end", "normal", "depth", "approach", "speed"});
       run.trajectory = haptics::surface_sweep(
-          p["start"].vec3(), p["end"].vec3(), p["normal"].vec3(), run.model.stylus_radius_mm,
+          p["start"].vec3_within(kMaxCoordinateMm), p["end"].vec3_within(kMaxCoordinateMm),
+          p["normal"].vec3_within(kMaxCoordinateMm), run.model.stylus_radius_mm,
           p["depth"].required_number(0, 1e3, true), p["approach"].number(2.0, 0, 1e3),
           p["speed"].required_number(0, 1e4, true), mode);
     } else if (run.kind == "keyframes") {
@@ -167,7 +166,7 @@ HapticRunFile read_trajectory_file(const std::filesystem::path& path) {
         k.expect_keys({"time", "position"});
         interaction::Keyframe f;
         f.time_s = k["time"].required_number(0, 1e5);
-        f.pose.position = k["position"].vec3();
+        f.pose.position = k["position"].vec3_within(kMaxCoordinateMm);
         f.mode = mode;
         if (!keys.empty() && !(f.time_s > keys.back().time_s))
           k["time"].fail("expected times to increase strictly");
@@ -357,6 +356,12 @@ void run_haptics(const HapticsArguments& args) {
   if (args.rate) {
     run.playback.haptic_rate_hz = *args.rate;
     if (run.playback.sim_rate_hz > *args.rate) run.playback.sim_rate_hz = *args.rate;
+  }
+  try {
+    haptics::playback_ticks(run.trajectory, run.playback);
+  } catch (const Error& e) {
+    throw Error(run.file + ": path.speed, loop.rate: " + e.what() +
+                " (raise path.speed or shorten the path)");
   }
   const Scene scene = read_scene(args.scene);
   check_scene_for_command(scene, SceneCommand::kHaptics);

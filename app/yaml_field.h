@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -139,6 +140,17 @@ class YamlField {
     for (int a = 0; a < 3; ++a) v[a] = at(static_cast<std::size_t>(a)).number();
     return v;
   }
+  /// A required list of 3 numbers, each in [-limit, limit].
+  Vec3d vec3_within(double limit) const {
+    const Vec3d v = vec3();
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(v[a]) <= limit)) {
+        std::ostringstream s;
+        s << "expected a list of 3 numbers in [" << -limit << ", " << limit << "], got " << v[a];
+        fail(s.str());
+      }
+    return v;
+  }
   /// The scalar `auto` (a value the program derives).
   bool is_auto() const { return defined() && node_.IsScalar() && node_.Scalar() == "auto"; }
   std::size_t size() const {
@@ -155,16 +167,56 @@ class YamlField {
   std::string file_;
 };
 
-/// Loads a YAML file; a missing file or a syntax error names the file (and line).
+/// Checks the shape of a loaded YAML file before any reader looks at it (load_yaml_file):
+/// - a key written twice in one mapping is refused naming the key path and both lines (yaml-cpp
+///   keeps both and node[key] answers the first, so the second would be ignored silently);
+/// - a key that is not plain text (a list or a mapping used as a key) is refused;
+/// - nesting deeper than 256 levels (a recursive alias nests without end) and more than 10^6
+///   nodes in all (aliases can multiply a small file many times over) are refused.
+inline void check_yaml_shape(const YAML::Node& node, const std::string& path,
+                             const std::string& file, int depth, std::size_t& nodes) {
+  const auto short_path = [&] { return path.size() > 80 ? path.substr(0, 80) + "..." : path; };
+  if (depth > 256) YamlField(node, short_path(), file).fail("nested more than 256 levels deep");
+  if (++nodes > 1000000)
+    YamlField(node, short_path(), file).fail("the file holds more than 10^6 values (aliases?)");
+  if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i)
+      check_yaml_shape(node[i], path + "[" + std::to_string(i) + "]", file, depth + 1, nodes);
+    return;
+  }
+  if (!node.IsMap()) return;
+  std::map<std::string, int> seen;  // key -> line (1-based)
+  for (const auto& kv : node) {
+    if (!kv.first.IsScalar())
+      YamlField(kv.first, short_path(), file).fail("expected a plain key, not a list or mapping");
+    const std::string key = kv.first.Scalar();
+    const std::string child = path.empty() ? key : path + "." + key;
+    const auto [at, inserted] = seen.emplace(key, kv.first.Mark().line + 1);
+    if (!inserted)
+      YamlField(kv.first, child, file)
+          .fail("the key is given twice, first at line " + std::to_string(at->second) +
+                ": expected each key once");
+    check_yaml_shape(kv.second, child, file, depth + 1, nodes);
+  }
+}
+
+/// Loads a YAML file (every human-edited file of the app is read here); a missing file, a syntax
+/// error or a duplicated key names the file (and line).
 inline YAML::Node load_yaml_file(const std::string& file) {
+  YAML::Node root;
   try {
-    return YAML::LoadFile(file);
+    root = YAML::LoadFile(file);
   } catch (const YAML::BadFile&) {
     throw Error(file + ": cannot read the file");
   } catch (const YAML::ParserException& e) {
     throw Error(file + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) + ": " +
                 e.msg);
+  } catch (const YAML::Exception& e) {
+    throw Error(file + ": not valid YAML: " + e.what());
   }
+  std::size_t nodes = 0;
+  check_yaml_shape(root, "", file, 0, nodes);
+  return root;
 }
 
 }  // namespace tsf::app

@@ -19,6 +19,16 @@ if(TSF_SANITIZE)
   target_link_options(tsf_sanitize INTERFACE ${_san})
 endif()
 
+# Fuzzing (fuzz/): every tsf target gets libFuzzer's coverage instrumentation; only the harness
+# executables link libFuzzer itself (-fsanitize=fuzzer, fuzz/CMakeLists.txt).
+if(TSF_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "TSF_FUZZ needs clang (-DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang)")
+  endif()
+  target_compile_options(tsf_sanitize INTERFACE
+                         $<$<COMPILE_LANGUAGE:CXX>:-fsanitize=fuzzer-no-link>)
+endif()
+
 # Every tsf target: warnings + sanitizer flags.
 function(tsf_target_defaults target)
   target_link_libraries(${target} PRIVATE tsf_warnings tsf_sanitize)

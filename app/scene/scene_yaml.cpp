@@ -683,15 +683,7 @@ std::string Scene::instance_prefix(std::size_t index) const {
 
 Scene read_scene(const std::filesystem::path& file) {
   const std::string name = file.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(name);
-  } catch (const YAML::BadFile&) {
-    throw Error(name + ": cannot open the scene file");
-  } catch (const YAML::Exception& e) {
-    throw Error(name + ": not valid YAML: " + e.what());
-  }
-  const Field top(root, "", name);
+  const Field top(load_yaml_file(name), "", name);
   if (!top.defined()) top.fail("the scene is empty");
   top.expect_keys({"name", "lattice", "material", "solver", "gravity", "stability", "anchors",
                    "loads", "initial", "effects", "tissue", "tools", "script", "outputs",

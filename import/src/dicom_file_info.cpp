@@ -7,6 +7,7 @@
 #include <dcmtk/dcmdata/dcpixseq.h>
 #include <dcmtk/dcmdata/dcpxitem.h>
 #include <dcmtk/dcmdata/dcsequen.h>
+#include <dcmtk/dcmdata/dcstack.h>
 #include <dcmtk/dcmdata/dcuid.h>
 #include <dcmtk/dcmdata/dcxfer.h>
 
@@ -15,7 +16,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
+#include <vector>
 
+#include "compressed_frame_header.h"
+#include "dicom_nesting.h"
+#include "geometry_limits.h"
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
 
@@ -37,13 +43,25 @@ std::string trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
+/// Whether `tag` is in `item` with a value short enough to be a header attribute. DCMTK leaves
+/// longer values on disk and reads them when asked, allocating the declared length: a damaged
+/// file declaring 4 GB for a UID would cost 4 GB (import.md, "Limits and safety"). The length
+/// field as read is compared: getLength() of a string element loads the value to measure it.
+bool has_header_value(DcmItem& item, const DcmTagKey& tag) {
+  DcmElement* element = nullptr;
+  return item.findAndGetElement(tag, element).good() && element &&
+         element->getLengthField() <= kMaxHeaderValueLength;
+}
+
 std::string get_string(DcmItem& item, const DcmTagKey& tag) {
   OFString value;
-  if (item.findAndGetOFStringArray(tag, value).good()) return trim(value.c_str());
+  if (has_header_value(item, tag) && item.findAndGetOFStringArray(tag, value).good())
+    return trim(value.c_str());
   return {};
 }
 
 bool get_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long pos = 0) {
+  if (!has_header_value(item, tag)) return false;
   Float64 f = 0;
   if (item.findAndGetFloat64(tag, f, pos).good() && std::isfinite(f)) {
     out = f;
@@ -62,7 +80,65 @@ bool get_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long 
   return false;
 }
 
+/// A value that is present but cannot be used: its tag, its text and what was expected. Thrown by
+/// get_checked_double, caught per file (the file is then damaged; import.md, "What is skipped,
+/// refused and repaired").
+struct InvalidValue : Error {
+  using Error::Error;
+};
+
+/// The accepted values of an attribute used for geometry or rescale.
+struct ValueRange {
+  double lo = -HUGE_VAL, hi = HUGE_VAL;
+  bool lo_open = false;
+  const char* unit = "";
+};
+constexpr ValueRange kAnyFinite{};
+constexpr ValueRange kPositionMm{-kMaxCoordinateMm, kMaxCoordinateMm, false, " mm"};
+constexpr ValueRange kPixelSpacingMm{0, kMaxSpacingMm, true, " mm"};
+
+/// Value `pos` of `tag` (DS, IS or FD) used for geometry or rescale: false when the attribute
+/// is absent; InvalidValue when it is present but empty, short of values, not a number, not
+/// finite or outside `range` (one unparsable RescaleIntercept must not become 0).
+bool get_checked_double(DcmItem& item, const DcmTagKey& tag, double& out, unsigned long pos,
+                        const ValueRange& range) {
+  DcmElement* element = nullptr;
+  if (item.findAndGetElement(tag, element).bad() || !element) return false;
+  const std::string name = std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() +
+                           (pos > 0 || element->getVM() > 1 ? "[" + std::to_string(pos) + "]" : "");
+  if (element->getLengthField() > kMaxHeaderValueLength)
+    throw InvalidValue(name + " declares " + std::to_string(element->getLengthField()) +
+                       " bytes: expected a decimal number");
+  OFString text;
+  const std::string t = element->getOFString(text, pos).good() ? trim(text.c_str()) : "";
+  std::ostringstream expected;
+  if (std::isinf(range.lo) && std::isinf(range.hi))
+    expected << "expected a finite decimal number";
+  else
+    expected << "expected a number in " << (range.lo_open ? "(" : "[") << range.lo << ", "
+             << range.hi << "]" << range.unit;
+  if (t.empty())
+    throw InvalidValue(name + " is empty or missing (" + std::to_string(element->getVM()) +
+                       " values): " + expected.str());
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  const bool in_range = (range.lo_open ? v > range.lo : v >= range.lo) && v <= range.hi;
+  if (!end || *end != '\0' || !std::isfinite(v) || !in_range)
+    throw InvalidValue(name + " is '" + t + "': " + expected.str());
+  out = v;
+  return true;
+}
+
+bool get_checked_vec3(DcmItem& item, const DcmTagKey& tag, Vec3d& out, unsigned long first,
+                      const ValueRange& range) {
+  for (int a = 0; a < 3; ++a)
+    if (!get_checked_double(item, tag, out[a], first + static_cast<unsigned long>(a), range))
+      return false;
+  return true;
+}
+
 bool get_long(DcmItem& item, const DcmTagKey& tag, long& out) {
+  if (!has_header_value(item, tag)) return false;
   long v = 0;
   if (item.findAndGetLongInt(tag, v).good()) {
     out = v;
@@ -74,12 +150,6 @@ bool get_long(DcmItem& item, const DcmTagKey& tag, long& out) {
     return true;
   }
   return false;
-}
-
-bool get_vec3(DcmItem& item, const DcmTagKey& tag, Vec3d& out, unsigned long first = 0) {
-  for (int a = 0; a < 3; ++a)
-    if (!get_double(item, tag, out[a], first + static_cast<unsigned long>(a))) return false;
-  return true;
 }
 
 DcmItem* sequence_item(DcmItem* item, const DcmTagKey& sequence) {
@@ -97,14 +167,19 @@ DcmItem* functional_group(DcmItem* per_frame, DcmItem* shared, const DcmTagKey& 
 
 void read_plane_attributes(DcmItem& position_item, DcmItem& orientation_item, DcmItem& spacing_item,
                            DcmItem& rescale_item, DicomFrameInfo& f) {
-  f.has_position = get_vec3(position_item, DCM_ImagePositionPatient, f.position);
-  f.has_orientation = get_vec3(orientation_item, DCM_ImageOrientationPatient, f.row, 0) &&
-                      get_vec3(orientation_item, DCM_ImageOrientationPatient, f.column, 3);
-  f.has_pixel_spacing = get_double(spacing_item, DCM_PixelSpacing, f.spacing_between_rows, 0) &&
-                        get_double(spacing_item, DCM_PixelSpacing, f.spacing_between_columns, 1);
+  f.has_position =
+      get_checked_vec3(position_item, DCM_ImagePositionPatient, f.position, 0, kPositionMm);
+  f.has_orientation =
+      get_checked_vec3(orientation_item, DCM_ImageOrientationPatient, f.row, 0, kAnyFinite) &&
+      get_checked_vec3(orientation_item, DCM_ImageOrientationPatient, f.column, 3, kAnyFinite);
+  f.has_pixel_spacing = get_checked_double(spacing_item, DCM_PixelSpacing, f.spacing_between_rows,
+                                           0, kPixelSpacingMm) &&
+                        get_checked_double(spacing_item, DCM_PixelSpacing,
+                                           f.spacing_between_columns, 1, kPixelSpacingMm);
   double slope = 1, intercept = 0;
-  const bool has_slope = get_double(rescale_item, DCM_RescaleSlope, slope);
-  const bool has_intercept = get_double(rescale_item, DCM_RescaleIntercept, intercept);
+  const bool has_slope = get_checked_double(rescale_item, DCM_RescaleSlope, slope, 0, kAnyFinite);
+  const bool has_intercept =
+      get_checked_double(rescale_item, DCM_RescaleIntercept, intercept, 0, kAnyFinite);
   f.has_rescale = has_slope || has_intercept;
   f.rescale_slope = has_slope ? slope : 1.0;
   f.rescale_intercept = has_intercept ? intercept : 0.0;
@@ -213,7 +288,11 @@ void read_frames(DcmDataset& ds, DicomFileInfo& info) {
     DcmItem* val = functional_group(pf, shared, DCM_PixelValueTransformationSequence);
     DicomFrameInfo fi = top;  // top-level values are the fallback for absent groups
     DicomFrameInfo g;
-    read_plane_attributes(pos ? *pos : ds, ori ? *ori : ds, mea ? *mea : ds, val ? *val : ds, g);
+    try {
+      read_plane_attributes(pos ? *pos : ds, ori ? *ori : ds, mea ? *mea : ds, val ? *val : ds, g);
+    } catch (const InvalidValue& e) {
+      throw InvalidValue("frame " + std::to_string(f + 1) + ": " + e.what());
+    }
     if (pos) fi.has_position = g.has_position, fi.position = g.position;
     if (ori) fi.has_orientation = g.has_orientation, fi.row = g.row, fi.column = g.column;
     if (mea && g.has_pixel_spacing)
@@ -253,6 +332,154 @@ bool pixel_data_is_complete(DcmElement& pixel_data, const DcmXfer& xfer) {
   unsigned char tail[2];
   const Uint32 n = length >= 2 ? 2 : 1;
   return last->getPartialValue(tail, length - n, n).good();
+}
+
+/// The first element whose binary value cannot be what its VR says (a length that is not a whole
+/// number of US, SS, UL, SL, FL, FD or AT values), or an Image Pixel attribute GDCM reads as US
+/// that is not one US: GDCM asserts on both and kills the process, so they are refused first
+/// (import.md, "Limits and safety"). "" when there is none.
+std::string binary_value_problem(DcmDataset& ds) {
+  for (const DcmTagKey& tag :
+       {DCM_SamplesPerPixel, DCM_Rows, DCM_Columns, DCM_BitsAllocated, DCM_BitsStored, DCM_HighBit,
+        DCM_PixelRepresentation, DCM_PlanarConfiguration}) {
+    DcmElement* e = nullptr;
+    if (ds.findAndGetElement(tag, e).good() && e &&
+        (e->ident() != EVR_US || e->getLengthField() != 2))
+      return std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() + " has VR " +
+             DcmVR(e->ident()).getVRName() + " and " + std::to_string(e->getLengthField()) +
+             " bytes: expected one US value";
+  }
+  DcmStack stack;
+  while (ds.nextObject(stack, OFTrue).good()) {
+    DcmObject* o = stack.top();
+    if (!o || !o->isLeaf()) continue;
+    Uint32 unit = 0;
+    switch (o->ident()) {
+      case EVR_US:
+      case EVR_SS:
+        unit = 2;
+        break;
+      case EVR_UL:
+      case EVR_SL:
+      case EVR_FL:
+      case EVR_AT:
+        unit = 4;
+        break;
+      case EVR_FD:
+        unit = 8;
+        break;
+      default:
+        break;
+    }
+    const Uint32 length = o->getLengthField();
+    if (unit > 0 && length != DCM_UndefinedLength && length % unit != 0)
+      return "element " + std::string(o->getTag().toString().c_str()) + " has VR " +
+             DcmVR(o->ident()).getVRName() + " and " + std::to_string(length) +
+             " bytes: not a whole number of values";
+  }
+  return "";
+}
+
+/// The fragment (item index in the pixel sequence) where each frame starts: one fragment per
+/// frame, or the Basic Offset Table's byte offsets; only frame 1 when neither says. An empty
+/// result with `problem` set when the frames cannot all have a fragment.
+std::vector<unsigned long> frame_fragments(DcmPixelSequence& sequence, int frames,
+                                           std::string& problem) {
+  const unsigned long fragments = sequence.card() > 0 ? sequence.card() - 1 : 0;
+  if (fragments < static_cast<unsigned long>(frames)) {
+    problem = "the pixel data hold " + std::to_string(fragments) +
+              " fragments, fewer than the NumberOfFrames " + std::to_string(frames);
+    return {};
+  }
+  std::vector<unsigned long> first(1, 1);
+  if (fragments == static_cast<unsigned long>(frames)) {
+    for (int f = 1; f < frames; ++f) first.push_back(static_cast<unsigned long>(f) + 1);
+    return first;
+  }
+  DcmPixelItem* table = nullptr;
+  if (frames < 2 || sequence.getItem(table, 0).bad() || !table ||
+      table->getLength() != 4u * static_cast<Uint32>(frames))
+    return first;
+  std::vector<Uint8> bytes(table->getLength());
+  if (table->getPartialValue(bytes.data(), 0, table->getLength()).bad()) return first;
+  // Offsets count bytes from the first fragment's item tag (8 bytes of tag and length each).
+  std::uint64_t position = 0;
+  unsigned long item = 1;
+  for (int f = 1; f < frames; ++f) {
+    const std::uint64_t offset =
+        std::uint64_t{bytes[4 * f]} | (std::uint64_t{bytes[4 * f + 1]} << 8) |
+        (std::uint64_t{bytes[4 * f + 2]} << 16) | (std::uint64_t{bytes[4 * f + 3]} << 24);
+    while (position < offset && item <= fragments) {
+      DcmPixelItem* fragment = nullptr;
+      if (sequence.getItem(fragment, item).bad() || !fragment) return {first.front()};
+      position += 8 + std::uint64_t{fragment->getLength()};
+      ++item;
+    }
+    if (position != offset || item > fragments) {
+      problem = "the Basic Offset Table's offset " + std::to_string(offset) + " of frame " +
+                std::to_string(f + 1) + " is not the start of a fragment";
+      return {};
+    }
+    first.push_back(item);
+  }
+  return first;
+}
+
+/// Compares the codestream header of every frame with the DICOM header (compressed_frame_header.h);
+/// "" when all agree, else the first disagreement with its frame.
+std::string check_compressed_frames(DcmElement& pixel_data, const DcmXfer& xfer,
+                                    const DicomFileInfo& info) {
+  if (!has_checked_frame_header(info.transfer_syntax_uid)) return "";
+  auto* pixel = dynamic_cast<DcmPixelData*>(&pixel_data);
+  DcmPixelSequence* sequence = nullptr;
+  if (!pixel || pixel->getEncapsulatedRepresentation(xfer.getXfer(), nullptr, sequence).bad() ||
+      !sequence)
+    return "the compressed pixel data have no fragments";
+  const unsigned long fragments = sequence->card() > 0 ? sequence->card() - 1 : 0;
+  if (one_fragment_per_frame(info.transfer_syntax_uid) &&
+      fragments != static_cast<unsigned long>(info.number_of_frames))
+    return dicom_uid_name(info.transfer_syntax_uid) +
+           " puts each frame in one fragment: the pixel "
+           "data hold " +
+           std::to_string(fragments) + " fragments for NumberOfFrames " +
+           std::to_string(info.number_of_frames);
+  std::string problem;
+  const std::vector<unsigned long> first =
+      frame_fragments(*sequence, info.number_of_frames, problem);
+  if (!problem.empty()) return problem;
+  const double per_byte = max_samples_per_compressed_byte(info.transfer_syntax_uid);
+  if (per_byte > 0) {
+    std::uint64_t bytes = 0;
+    for (unsigned long i = 1; i < sequence->card(); ++i) {
+      DcmPixelItem* fragment = nullptr;
+      if (sequence->getItem(fragment, i).good() && fragment) bytes += fragment->getLength();
+    }
+    const double samples =
+        static_cast<double>(info.decoded_bytes()) / std::max(1, (info.bits_allocated + 7) / 8);
+    if (samples > per_byte * static_cast<double>(bytes))
+      return "the compressed pixel data hold " + std::to_string(bytes) +
+             " bytes, too few for the " + std::to_string(info.columns) + "×" +
+             std::to_string(info.rows) + "×" + std::to_string(info.number_of_frames) +
+             " pixels of the DICOM header (at most " + std::to_string(static_cast<int>(per_byte)) +
+             " samples per byte in " + dicom_uid_name(info.transfer_syntax_uid) + ")";
+  }
+  const ExpectedFrame expected{info.rows, info.columns, info.samples_per_pixel, info.bits_allocated,
+                               info.bits_stored};
+  constexpr Uint32 kHeaderBytes = 16384;  // markers before the frame header fit well within
+  std::vector<std::uint8_t> head(kHeaderBytes);
+  for (std::size_t f = 0; f < first.size(); ++f) {
+    DcmPixelItem* fragment = nullptr;
+    if (sequence->getItem(fragment, first[f]).bad() || !fragment)
+      return "frame " + std::to_string(f + 1) + " has no fragment";
+    const Uint32 length = fragment->getLength();
+    const Uint32 n = std::min(length, kHeaderBytes);
+    if (n > 0 && fragment->getPartialValue(head.data(), 0, n).bad())
+      return "frame " + std::to_string(f + 1) + " cannot be read";
+    const std::string d =
+        compare_frame_header(info.transfer_syntax_uid, head.data(), n, length, expected);
+    if (!d.empty()) return "frame " + std::to_string(f + 1) + ": " + d;
+  }
+  return "";
 }
 
 }  // namespace
@@ -312,6 +539,15 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
   if (!looks_like_dicom(path)) {
     info.kind = DicomObjectKind::not_dicom;
     info.skip_reason = "not DICOM";
+    return info;
+  }
+  // DCMTK parses nested sequences recursively: a hostile depth is refused before it recurses.
+  const DicomNesting nesting = dicom_nesting(path, kMaxSequenceDepth);
+  if (nesting.depth > kMaxSequenceDepth) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "sequences nested more than " + std::to_string(kMaxSequenceDepth) +
+                       " deep: refused before parsing";
+    info.series_instance_uid = nesting.series_instance_uid;
     return info;
   }
   DcmFileFormat file;
@@ -384,10 +620,30 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
     return info;
   }
 
+  const std::string binary = binary_value_problem(ds);
+  if (!binary.empty()) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "damaged header: " + binary;
+    return info;
+  }
   classify_image(ds, info);
   if (info.kind != DicomObjectKind::image && info.kind != DicomObjectKind::localizer) return info;
+  if (info.pixel_data_encapsulated) {
+    const std::string disagreement = check_compressed_frames(*pixel_data, xfer, info);
+    if (!disagreement.empty()) {
+      info.kind = DicomObjectKind::unreadable;
+      info.skip_reason = "compressed pixel data disagree with the header: " + disagreement;
+      return info;
+    }
+  }
   const DicomObjectKind kind_before_frames = info.kind;
-  read_frames(ds, info);
+  try {
+    read_frames(ds, info);
+  } catch (const InvalidValue& e) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = e.what();
+    return info;
+  }
   if (kind_before_frames == DicomObjectKind::localizer && info.kind == DicomObjectKind::image)
     info.kind = DicomObjectKind::localizer;
   return info;
@@ -395,6 +651,9 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
 
 DicomDirContents read_dicomdir(const fs::path& dicomdir) {
   setup_imaging_libraries();
+  if (dicom_nesting(dicomdir, kMaxSequenceDepth).depth > kMaxSequenceDepth)
+    throw Error("DICOMDIR '" + dicomdir.string() + "' nests sequences more than " +
+                std::to_string(kMaxSequenceDepth) + " deep: refused before parsing");
   DcmFileFormat file;
   const OFCondition status = file.loadFile(dicomdir.c_str(), EXS_Unknown, EGL_noChange,
                                            kMaxHeaderValueLength, ERM_autoDetect);
@@ -410,24 +669,39 @@ DicomDirContents read_dicomdir(const fs::path& dicomdir) {
     DcmItem* record = records->getItem(r);
     if (!record) continue;
     OFString id;
-    if (record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty()) continue;
+    if (!has_header_value(*record, DCM_ReferencedFileID) ||
+        record->findAndGetOFStringArray(DCM_ReferencedFileID, id).bad() || id.empty())
+      continue;
+    // A File ID is a relative path of '\\'-separated components (PS3.10 8.5): a component that
+    // climbs ("..") or carries a path of its own ('/', ':') would reach files outside the
+    // file-set, so the DICOMDIR is refused naming the record and the ID.
     fs::path relative;
     std::string component;
     for (const char c : std::string(id.c_str()) + "\\") {
-      if (c == '\\') {
-        component = trim(component);
-        if (!component.empty() && component != "." && component != "..") relative /= component;
-        component.clear();
-      } else {
+      if (c != '\\') {
         component += c;
+        continue;
       }
+      component = trim(component);
+      if (component == ".." || component.find_first_of("/:") != std::string::npos)
+        throw Error("DICOMDIR '" + dicomdir.string() + "': directory record " +
+                    std::to_string(r + 1) + ": ReferencedFileID (0004,1500) '" + id.c_str() +
+                    "' leaves the file-set (component '" + component +
+                    "'): expected a relative path of '\\'-separated names");
+      if (!component.empty() && component != ".") relative /= component;
+      component.clear();
     }
     if (relative.empty()) continue;
     fs::path found;
     fs::path dir = base;
     for (int level = 0; level < 4 && found.empty(); ++level) {
-      std::error_code ec;
-      if (fs::is_regular_file(dir / relative, ec)) found = dir / relative;
+      std::error_code ec, ec_dir;
+      // Found only where it is a regular file inside `dir` once links are resolved.
+      const fs::path real = fs::weakly_canonical(dir / relative, ec);
+      const fs::path real_dir = fs::weakly_canonical(dir, ec_dir);
+      const auto inside = std::mismatch(real_dir.begin(), real_dir.end(), real.begin(), real.end());
+      if (!ec && !ec_dir && inside.first == real_dir.end() && fs::is_regular_file(real, ec))
+        found = dir / relative;
       if (!dir.has_parent_path() || dir.parent_path() == dir) break;
       dir = dir.parent_path();
     }

@@ -4,9 +4,6 @@
 #include <dcmtk/dcmdata/dcfilefo.h>
 #include <itkGDCMImageIO.h>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -28,29 +25,31 @@ void convert(const void* src, std::size_t n, float* out) {
   for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(s[i]);
 }
 
-/// While alive, the process's stderr (fd 2) goes to /dev/null. GDCM tries JPEG data with its
+/// While alive, C stdio's `stderr` stream points at /dev/null. GDCM tries JPEG data with its
 /// 8-bit libjpeg first; for 12-bit data that libjpeg prints "Unsupported JPEG data precision 12"
-/// to stderr before GDCM retries with the 12-bit one, which decodes correctly. The message
-/// would only confuse users. Reference counted across threads; used only around JPEG decoding.
+/// with fprintf(stderr, ...) before GDCM retries with the 12-bit one, which decodes correctly.
+/// The message would only confuse users. Only the `stderr` variable is swapped (glibc allows
+/// it), never file descriptor 2: sanitizer reports, std::cerr and the log sinks (which captured
+/// the stream earlier) still reach the terminal. Reference counted across threads; used only
+/// around JPEG decoding.
 class JpegStderrSilence {
  public:
   JpegStderrSilence() {
     std::lock_guard<std::mutex> lock(mutex());
     if (depth()++ > 0) return;
+    static FILE* const null_stream = std::fopen("/dev/null", "we");
+    if (!null_stream) return;
     std::fflush(stderr);
-    saved() = ::dup(STDERR_FILENO);
-    const int null_fd = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
-    if (saved() >= 0 && null_fd >= 0) ::dup2(null_fd, STDERR_FILENO);
-    if (null_fd >= 0) ::close(null_fd);
+    saved() = stderr;
+    stderr = null_stream;
   }
   ~JpegStderrSilence() {
     std::lock_guard<std::mutex> lock(mutex());
     if (--depth() > 0) return;
-    std::fflush(stderr);
-    if (saved() >= 0) {
-      ::dup2(saved(), STDERR_FILENO);
-      ::close(saved());
-      saved() = -1;
+    if (saved()) {
+      std::fflush(stderr);
+      stderr = saved();
+      saved() = nullptr;
     }
   }
   JpegStderrSilence(const JpegStderrSilence&) = delete;
@@ -65,9 +64,9 @@ class JpegStderrSilence {
     static int d = 0;
     return d;
   }
-  static int& saved() {
-    static int fd = -1;
-    return fd;
+  static FILE*& saved() {
+    static FILE* stream = nullptr;
+    return stream;
   }
 };
 
@@ -100,6 +99,13 @@ void apply_modality_lut(const DicomFileInfo& info, float* values, std::size_t n,
   const long first = info.pixel_representation == 1
                          ? static_cast<long>(static_cast<std::int16_t>(descriptor[1]))
                          : static_cast<long>(descriptor[1]);
+  // At most 65536 entries of 16 bits: a larger declared length would be allocated on reading.
+  DcmElement* lut_data = nullptr;
+  if (lut->findAndGetElement(DCM_LUTData, lut_data).bad() || !lut_data ||
+      lut_data->getLength() > 2u * 65536u)
+    throw Error(where(info) +
+                ": Modality LUT Data (0028,3006) is missing or longer than 65536 "
+                "entries");
   const Uint16* data = nullptr;
   unsigned long count = 0;
   if (lut->findAndGetUint16Array(DCM_LUTData, data, &count).bad() || !data ||

@@ -4,13 +4,20 @@
 #include <itkImageIOBase.h>
 #include <itkImageIOFactory.h>
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <new>
+#include <sstream>
+#include <vector>
 
+#include "geometry_limits.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/common/text_format.h"
@@ -50,6 +57,33 @@ std::uint64_t file_size_or_zero(const fs::path& p) {
   return ec ? 0 : static_cast<std::uint64_t>(n);
 }
 
+struct HeaderField {
+  std::string key, value;
+  int line = 0;
+};
+
+/// Every number of a geometry field is finite and within ±kMaxCoordinateMm ("none" stands for a
+/// non-spatial NRRD axis): ITK's readers turn NaN into 0 or 1, overflow a 1e300 spacing into a
+/// default, or abort in vnl on a non-finite NIfTI sform.
+void check_geometry_fields(const std::vector<HeaderField>& fields, const std::string& where) {
+  for (const HeaderField& f : fields) {
+    std::string text = f.value;
+    for (char& c : text)
+      if (c == '(' || c == ')' || c == ',') c = ' ';
+    std::istringstream tokens(text);
+    std::string t;
+    while (tokens >> t) {
+      if (t == "none") continue;
+      char* end = nullptr;
+      const double v = std::strtod(t.c_str(), &end);
+      if (!end || *end != '\0' || !std::isfinite(v) || !(std::abs(v) <= kMaxCoordinateMm))
+        throw Error(where + (f.line > 0 ? "line " + std::to_string(f.line) + ", " : "") + f.key +
+                    " is '" + f.value + "': '" + t + "' is not a finite number within ±" +
+                    format_text("%g", kMaxCoordinateMm) + " mm");
+    }
+  }
+}
+
 /// Where the voxel bytes of a volume file live, from its header text.
 struct DataLocation {
   bool known = false;  ///< false: a layout these checks do not model (lists, text encodings)
@@ -57,6 +91,10 @@ struct DataLocation {
   bool compressed = false;
   bool deflate = false;  ///< gzip/zlib: the compression-ratio bound applies
   bool has_space = false;
+  fs::path data_path;             ///< the file holding the voxel bytes
+  std::uint64_t data_offset = 0;  ///< where they start in it
+  /// Header fields that place or scale the volume: (key as written, value, line; 0 = binary).
+  std::vector<HeaderField> geometry;
 };
 
 DataLocation locate_nrrd_data(const fs::path& path) {
@@ -66,8 +104,11 @@ DataLocation locate_nrrd_data(const fs::path& path) {
   std::size_t header_bytes = 0;
   std::string encoding = "raw", data_file;
   bool ended = false;
+  int line_number = 0;
   while (header_bytes < kMaxHeaderText && std::getline(in, line)) {
     header_bytes += line.size() + 1;
+    ++line_number;
+    line.resize(std::min(line.size(), line.find('\0')));  // teem reads lines as C strings
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) {
       ended = true;
@@ -82,6 +123,8 @@ DataLocation locate_nrrd_data(const fs::path& path) {
     if (key == "encoding") encoding = lower(value);
     if (key == "data file" || key == "datafile") data_file = value;
     if (key == "space" || key == "space directions" || key == "space origin") loc.has_space = true;
+    if (key == "space directions" || key == "space origin" || key == "spacings")
+      loc.geometry.push_back({trim(line.substr(0, colon)), value, line_number});
   }
   loc.compressed =
       encoding == "gzip" || encoding == "gz" || encoding == "bzip2" || encoding == "bz2";
@@ -93,9 +136,12 @@ DataLocation locate_nrrd_data(const fs::path& path) {
     const std::uint64_t total = file_size_or_zero(path);
     loc.available_bytes = total > header_bytes ? total - header_bytes : 0;
     loc.known = true;
+    loc.data_path = path;
+    loc.data_offset = header_bytes;
   } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
              lower(data_file) != "list") {
-    loc.available_bytes = file_size_or_zero(path.parent_path() / data_file);
+    loc.data_path = path.parent_path() / data_file;
+    loc.available_bytes = file_size_or_zero(loc.data_path);
     loc.known = true;
   }
   return loc;
@@ -107,15 +153,35 @@ DataLocation locate_meta_data(const fs::path& path) {
   std::size_t consumed = 0;
   std::ifstream in(path, std::ios::binary);
   std::string line, data_file;
+  int line_number = 0;
   while (consumed < kMaxHeaderText && std::getline(in, line)) {
     consumed += line.size() + 1;
+    ++line_number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const auto eq = line.find('=');
-    if (eq == std::string::npos) continue;
+    if (trim(line).empty()) continue;
+    // MetaIO reads a key up to the next '=' (across lines) into fixed buffers: a line without
+    // one, or a key longer than a field name, overflowed them.
+    if (eq == std::string::npos || eq > 64)
+      throw Error("'" + path.string() + "': line " + std::to_string(line_number) +
+                  " is not 'Key = value' with a key of at most 64 characters");
     const std::string key = lower(trim(line.substr(0, eq)));
     const std::string value = trim(line.substr(eq + 1));
     if (key == "compresseddata") loc.compressed = loc.deflate = lower(value) == "true";
+    // MetaIO loops and sizes its arrays by NDims before anything else is checked.
+    if (key == "ndims" && value != "2" && value != "3" && value != "4")
+      throw Error("'" + path.string() + "': line " + std::to_string(line_number) + ", NDims is '" +
+                  value.substr(0, 32) + "': expected 2, 3 or 4");
+    for (const char* g : {"offset", "origin", "position", "elementspacing", "elementsize",
+                          "transformmatrix", "rotation", "orientation"})
+      if (key == g) loc.geometry.push_back({trim(line.substr(0, eq)), value, line_number});
     if (key == "elementdatafile") {
+      // A file list or a numbered pattern ("name%03d.raw first last step") is refused: MetaIO
+      // divides by the step and reads any file the list names.
+      if (lower(value) == "list" || value.find_first_of(" \t%") != std::string::npos)
+        throw Error("'" + path.string() + "': line " + std::to_string(line_number) +
+                    ", ElementDataFile is '" + value.substr(0, 64) +
+                    "': expected LOCAL or one data file name");
       data_file = value;
       header_bytes = consumed;
       break;
@@ -126,12 +192,72 @@ DataLocation locate_meta_data(const fs::path& path) {
     const std::uint64_t total = file_size_or_zero(path);
     loc.available_bytes = total > header_bytes ? total - header_bytes : 0;
     loc.known = true;
-  } else if (data_file.find(' ') == std::string::npos && data_file.find('%') == std::string::npos &&
-             lower(data_file) != "list") {
-    loc.available_bytes = file_size_or_zero(path.parent_path() / data_file);
+    loc.data_path = path;
+    loc.data_offset = header_bytes;
+  } else {  // one data file (lists and patterns were refused above)
+    loc.data_path = path.parent_path() / data_file;
+    loc.available_bytes = file_size_or_zero(loc.data_path);
     loc.known = true;
   }
   return loc;
+}
+
+/// The NIfTI-1 header fields that place and scale the volume (those its qform_code and
+/// sform_code put in use), as text for check_geometry_fields. NIfTI-2 headers (540 bytes) are
+/// left to ITK; a header of any other size is refused (ITK's reader took one for NIfTI and
+/// aborted in vnl on its garbage).
+std::vector<HeaderField> nifti_geometry_fields(const fs::path& path, bool gzipped) {
+  unsigned char h[348] = {};
+  int n = 0;
+  if (gzipped) {
+    gzFile gz = gzopen(path.c_str(), "rb");
+    if (!gz) return {};
+    n = gzread(gz, h, sizeof h);
+    gzclose(gz);
+  } else {
+    std::ifstream in(path, std::ios::binary);
+    in.read(reinterpret_cast<char*>(h), sizeof h);
+    n = static_cast<int>(in.gcount());
+  }
+  if (n != static_cast<int>(sizeof h))
+    throw Error("'" + path.string() + "': shorter than a NIfTI header (348 bytes)");
+  std::int32_t size = 0;
+  std::memcpy(&size, h, 4);
+  const auto swapped_size =
+      static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(size)));
+  if (size == 540 || swapped_size == 540) return {};
+  if (size != 348 && swapped_size != 348)
+    throw Error("'" + path.string() + "': sizeof_hdr is " + std::to_string(size) +
+                ": expected 348 (NIfTI-1) or 540 (NIfTI-2)");
+  const bool swapped = size != 348;
+  auto i16 = [&](int at) {
+    std::uint16_t v = 0;
+    std::memcpy(&v, h + at, 2);
+    return static_cast<std::int16_t>(swapped ? __builtin_bswap16(v) : v);
+  };
+  auto f32 = [&](int at) {
+    std::uint32_t v = 0;
+    std::memcpy(&v, h + at, 4);
+    if (swapped) v = __builtin_bswap32(v);
+    float f = 0;
+    std::memcpy(&f, &v, 4);
+    return f;
+  };
+  std::vector<HeaderField> fields;
+  auto add = [&](const std::string& key, int at) {
+    fields.push_back({key, format_text("%g", static_cast<double>(f32(at)))});
+  };
+  for (int i = 1; i <= 3; ++i) add("pixdim[" + std::to_string(i) + "]", 76 + 4 * i);
+  if (i16(252) > 0) {
+    const char* names[6] = {"quatern_b", "quatern_c", "quatern_d",
+                            "qoffset_x", "qoffset_y", "qoffset_z"};
+    for (int i = 0; i < 6; ++i) add(names[i], 256 + 4 * i);
+  }
+  if (i16(254) > 0)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        add(std::string("srow_") + "xyz"[r] + "[" + std::to_string(c) + "]", 280 + 16 * r + 4 * c);
+  return fields;
 }
 
 DataLocation locate_nifti_data(const fs::path& path) {
@@ -139,7 +265,78 @@ DataLocation locate_nifti_data(const fs::path& path) {
   loc.known = true;
   loc.available_bytes = file_size_or_zero(path);
   loc.compressed = loc.deflate = ends_with(lower(path.filename().string()), ".gz");
+  loc.data_path = path;
+  loc.geometry = nifti_geometry_fields(path, loc.compressed);
   return loc;
+}
+
+/// Inflates the compressed voxel data of `loc` to nowhere, so that zlib checks every gzip
+/// member's CRC-32 and length (or a zlib stream's Adler-32): ITK's readers stop once they have
+/// the voxels, before the trailer, so flipped bits in a gzip NRRD decoded as valid voxels. The
+/// data must end with a complete stream and decompress to at least `min_bytes` and at most
+/// 2·min_bytes + 1 MiB (a gzip bomb is cut off, not inflated for ages).
+void check_deflate_stream(const DataLocation& loc, std::uint64_t min_bytes,
+                          const std::string& where) {
+  std::ifstream in(loc.data_path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(loc.data_offset));
+  z_stream z{};
+  if (!in || inflateInit2(&z, 15 + 32) != Z_OK)  // 15 + 32: gzip or zlib, detected
+    throw Error(where + "cannot read its compressed data");
+  std::vector<unsigned char> input(1 << 16), output(1 << 18);
+  const std::uint64_t max_bytes = 2 * min_bytes + (1u << 20);
+  std::uint64_t total = 0;
+  bool ended = false;
+  std::string problem;
+  while (problem.empty()) {
+    if (z.avail_in == 0) {
+      in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
+      z.next_in = input.data();
+      z.avail_in = static_cast<uInt>(in.gcount());
+      if (z.avail_in == 0) break;
+    }
+    if (ended) {  // after a complete member only another gzip member may follow
+      if (z.avail_in < 2 || z.next_in[0] != 0x1f || z.next_in[1] != 0x8b) {
+        problem = "bytes follow the end of the compressed stream";
+        break;
+      }
+      inflateReset(&z);
+      ended = false;
+    }
+    z.next_out = output.data();
+    z.avail_out = static_cast<uInt>(output.size());
+    const int r = inflate(&z, Z_NO_FLUSH);
+    total += output.size() - z.avail_out;
+    if (r == Z_STREAM_END)
+      ended = true;
+    else if (r != Z_OK && r != Z_BUF_ERROR)
+      problem = z.msg ? z.msg : "corrupt compressed data";
+    if (total > max_bytes)
+      problem = "it decompresses to more than " + std::to_string(max_bytes) + " bytes";
+  }
+  inflateEnd(&z);
+  if (problem.empty() && !ended) problem = "the compressed stream is cut short (no trailer)";
+  if (problem.empty() && total < min_bytes)
+    problem = "it decompresses to " + std::to_string(total) + " bytes, fewer than the " +
+              std::to_string(min_bytes) + " the header declares";
+  if (!problem.empty())
+    throw Error(where + "the compressed voxel data fail their check: " + problem + " (" +
+                loc.data_path.string() + ")");
+}
+
+/// Where the voxel bytes of the volume file `path` live; `format` is set to nrrd, metaimage or
+/// nifti.
+DataLocation locate_data(const fs::path& path, std::string& format) {
+  const std::string name = lower(path.filename().string());
+  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) {
+    format = "nrrd";
+    return locate_nrrd_data(path);
+  }
+  if (ends_with(name, ".mha") || ends_with(name, ".mhd")) {
+    format = "metaimage";
+    return locate_meta_data(path);
+  }
+  format = "nifti";
+  return locate_nifti_data(path);
 }
 
 itk::ImageIOBase::Pointer create_io(const fs::path& path) {
@@ -165,29 +362,21 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw Error("'" + path.string() + "' is not a file");
   VolumeFileHeader h;
-  const std::string name = lower(path.filename().string());
-  DataLocation loc;
-  if (ends_with(name, ".nrrd") || ends_with(name, ".nhdr")) {
-    h.format = "nrrd";
-    loc = locate_nrrd_data(path);
-    h.has_patient_orientation = loc.has_space;
-  } else if (ends_with(name, ".mha") || ends_with(name, ".mhd")) {
-    h.format = "metaimage";
-    loc = locate_meta_data(path);
-  } else {
-    h.format = "nifti";
-    loc = locate_nifti_data(path);
-  }
+  const DataLocation loc = locate_data(path, h.format);
+  h.has_patient_orientation = h.format != "nrrd" || loc.has_space;
 
+  const std::string where = "'" + path.string() + "': ";
+  check_geometry_fields(loc.geometry, where);
   auto io = create_io(path);
   io->SetFileName(path.string());
   try {
     io->ReadImageInformation();
   } catch (const itk::ExceptionObject& e) {
     throw Error("cannot read the header of '" + path.string() + "': " + e.GetDescription());
+  } catch (const std::exception& e) {  // the readers' own parsing (std::stod, std::vector, ...)
+    throw Error("cannot read the header of '" + path.string() + "': " + e.what());
   }
   const unsigned nd = io->GetNumberOfDimensions();
-  const std::string where = "'" + path.string() + "': ";
   if (nd < 2 || nd > 4 || (nd == 4 && io->GetDimensions(3) != 1))
     throw Error(where + std::to_string(nd) + "-D image, expected a 3-D volume");
   if (io->GetNumberOfComponents() != 1)
@@ -217,6 +406,9 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
                 std::to_string(h.dims.x) + "×" + std::to_string(h.dims.y) + "×" +
                 std::to_string(h.dims.z) + "), more than the limit of " +
                 std::to_string(max_voxels) + ": refused before allocating");
+  // GetComponentSize throws for a type ITK could not name (an unknown MetaImage ElementType).
+  if (io->GetComponentType() == itk::CommonEnums::IOComponent::UNKNOWNCOMPONENTTYPE)
+    throw Error(where + "the voxel type is not one ITK reads (expected an integer or float type)");
   h.component_type = itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType());
   h.voxel_bytes = static_cast<std::uint64_t>(voxels) * io->GetComponentSize();
   h.available_bytes = loc.available_bytes;
@@ -237,10 +429,13 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
                 std::to_string(h.dims.y) + "), expected a volume of at least 2 slices");
 
   for (int a = 0; a < 3; ++a) {
-    if (!(h.spacing[a] > 0) || !std::isfinite(h.spacing[a]))
+    if (!(h.spacing[a] > 0 && h.spacing[a] <= kMaxSpacingMm))
       throw Error(where + "spacing " + format_text("%g", h.spacing[a]) + " along axis " +
-                  std::to_string(a) + " (expected a positive number of mm)");
-    if (!std::isfinite(h.origin[a])) throw Error(where + "the origin is not finite");
+                  std::to_string(a) + " (expected a number of mm in (0, " +
+                  format_text("%g", kMaxSpacingMm) + "])");
+    if (!(std::abs(h.origin[a]) <= kMaxCoordinateMm))
+      throw Error(where + "origin " + format_text("%g", h.origin[a]) + " along axis " + std::to_string(a) +
+                  " (expected a finite number of mm within ±" + format_text("%g", kMaxCoordinateMm) + ")");
   }
   for (int a = 0; a < 3; ++a)
     for (int b = a; b < 3; ++b) {
@@ -259,6 +454,12 @@ HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& opt
                                   ImportReport& report) {
   Stopwatch clock;
   const VolumeFileHeader h = inspect_volume_file(path, options.max_voxels);
+  // Compressed voxel data are checked (CRC, length) before ITK decompresses them for the image:
+  // ITK's reader would stop short of the trailer, and its error paths for a damaged stream leak.
+  std::string format;
+  const DataLocation loc = locate_data(path, format);
+  if (loc.known && loc.deflate && !loc.data_path.empty())
+    check_deflate_stream(loc, h.voxel_bytes, "'" + path.string() + "': ");
   auto io = create_io(path);
   auto reader = itk::ImageFileReader<HuImage>::New();
   reader->SetImageIO(io);
@@ -270,6 +471,8 @@ HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& opt
   } catch (const std::bad_alloc&) {
     throw Error("not enough memory to read '" + path.string() + "' (" +
                 std::to_string(h.dims.volume()) + " voxels)");
+  } catch (const std::exception& e) {  // the readers' own parsing (std::stod, std::vector, ...)
+    throw Error("cannot read '" + path.string() + "': " + e.what());
   }
   HuImage::Pointer image = reader->GetOutput();
   image->DisconnectPipeline();

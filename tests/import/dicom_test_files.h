@@ -1,6 +1,7 @@
 // Crafting DICOM test files: copies of real files with attributes changed through DCMTK.
 #pragma once
 
+#include <dcmtk/dcmdata/dcddirif.h>
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
 #include <dcmtk/dcmdata/dcuid.h>
@@ -32,6 +33,22 @@ inline void copy_with_changes(const std::filesystem::path& source,
 inline void new_instance_uid(DcmDataset& ds) {
   char uid[100];
   ds.putAndInsertString(DCM_SOPInstanceUID, dcmGenerateUniqueIdentifier(uid));
+}
+
+/// Writes root/DICOMDIR (a General Purpose CD-R file-set, DCMTK's DicomDirInterface) referencing
+/// `ids`: files under `root`, '/'-separated.
+inline void write_dicomdir(const std::filesystem::path& root, const std::vector<std::string>& ids) {
+  // DicomDirInterface takes file IDs relative to the working folder; restored on any exit.
+  struct WorkingFolder {
+    std::filesystem::path saved = std::filesystem::current_path();
+    ~WorkingFolder() { std::filesystem::current_path(saved); }
+  } restore;
+  std::filesystem::current_path(root);
+  DicomDirInterface dicomdir;
+  dicomdir.enableInventMode(OFTrue);  // the anonymised sample lacks some record keys
+  ASSERT_TRUE(dicomdir.createNewDicomDir(DicomDirInterface::AP_GeneralPurpose, "DICOMDIR").good());
+  for (const std::string& id : ids) EXPECT_TRUE(dicomdir.addDicomFile(id.c_str()).good()) << id;
+  ASSERT_TRUE(dicomdir.writeDicomDir().good());
 }
 
 /// The raw bytes of a file.

@@ -1,6 +1,5 @@
 // DICOM discovery and series checks: what is skipped and why, what is refused as "not one
 // volume" and why, DICOMDIR, enhanced multi-frame CT, rescale, series selection.
-#include <dcmtk/dcmdata/dcddirif.h>
 #include <dcmtk/dcmdata/dcsequen.h>
 #include <gtest/gtest.h>
 
@@ -135,24 +134,13 @@ TEST(DicomSeries, AStandardDicomdirWrittenByDcmtkIsFollowed) {
     std::snprintf(dst, sizeof dst, "IM%06d", k);
     fs::copy_file(ge / src, root / "DICOM" / dst);
   }
-  {
-    // DicomDirInterface takes file IDs relative to the working folder; restored on any exit.
-    struct WorkingFolder {
-      fs::path saved = fs::current_path();
-      ~WorkingFolder() { fs::current_path(saved); }
-    } restore;
-    fs::current_path(root);
-    DicomDirInterface dicomdir;
-    dicomdir.enableInventMode(OFTrue);  // the anonymised sample lacks some record keys
-    ASSERT_TRUE(
-        dicomdir.createNewDicomDir(DicomDirInterface::AP_GeneralPurpose, "DICOMDIR").good());
-    for (int k = 1; k <= 6; ++k) {
-      char id[32];
-      std::snprintf(id, sizeof id, "DICOM/IM%06d", k);
-      EXPECT_TRUE(dicomdir.addDicomFile(id).good()) << id;
-    }
-    ASSERT_TRUE(dicomdir.writeDicomDir().good());
+  std::vector<std::string> ids;
+  for (int k = 1; k <= 6; ++k) {
+    char id[32];
+    std::snprintf(id, sizeof id, "DICOM/IM%06d", k);
+    ids.push_back(id);
   }
+  test_files::write_dicomdir(root, ids);
   fs::create_directories(root / "elsewhere");
   fs::copy_file(ge / "07.dcm", root / "elsewhere" / "07.dcm");  // not referenced: not read
 

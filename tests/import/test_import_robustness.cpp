@@ -12,6 +12,7 @@
 #include <string>
 
 #include "dicom_test_files.h"
+#include "support/crafted_bytes.h"
 #include "support/test_data.h"
 #include "tsf/common/error.h"
 #include "tsf/import/dicom_file_info.h"
@@ -150,19 +151,8 @@ std::string expect_refused(const fs::path& p, const std::string& expected_words)
 
 /// A NIfTI-1 header (348 bytes + 4 extension bytes) declaring dims nx×ny×nz of int16.
 std::string nifti_header(std::int16_t nx, std::int16_t ny, std::int16_t nz) {
-  std::string h(352, '\0');
-  auto put32 = [&](std::size_t at, std::int32_t v) { std::memcpy(&h[at], &v, 4); };
-  auto put16 = [&](std::size_t at, std::int16_t v) { std::memcpy(&h[at], &v, 2); };
-  auto putf = [&](std::size_t at, float v) { std::memcpy(&h[at], &v, 4); };
-  put32(0, 348);
-  const std::int16_t dim[8] = {3, nx, ny, nz, 1, 1, 1, 1};
-  for (int i = 0; i < 8; ++i) put16(40 + 2 * i, dim[i]);
-  put16(70, 4);   // datatype: int16
-  put16(72, 16);  // bitpix
-  for (int i = 0; i < 8; ++i) putf(76 + 4 * i, 1.0f);
-  putf(108, 352.0f);  // vox_offset
-  std::memcpy(&h[344], "n+1\0", 4);
-  return h;
+  const float pixdim[3] = {1, 1, 1}, none[4] = {0, 0, 0, 0};
+  return test::nifti1_header(nx, ny, nz, pixdim, 0, none, 0, none);
 }
 
 TEST(ImportRobustness, HugeHeaderClaimsAreRefusedBeforeAllocating) {

@@ -36,6 +36,28 @@ inline imt::SurfaceMesh labelled_sphere(const VolumeGeometry& g, double radius) 
   return mesh;
 }
 
+/// A tetrahedron at rest, one pose, one re-mesh to a single triangle (a few hundred bytes).
+inline MeshSequence tiny_sequence() {
+  MeshSequence s;
+  s.geometry = oblique_geometry();
+  s.rest.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  s.rest.normals = {{-0.577f, -0.577f, -0.577f}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  s.rest.labels = {1, 1, 2, 3};
+  s.rest.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  MeshFrame pose;
+  pose.time_s = 0.1;
+  pose.positions = {{0, 0, 0}, {1.1f, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  s.frames.push_back(pose);
+  MeshFrame cut;
+  cut.time_s = 0.2;
+  cut.topology_changed = true;
+  cut.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  cut.labels = {1, 1, 1};
+  cut.triangles = {{0, 1, 2}};
+  s.frames.push_back(cut);
+  return s;
+}
+
 /// rest, three poses (scaled about the first vertex), one cut (smaller sphere), one more pose.
 inline MeshSequence small_sequence() {
   MeshSequence s;

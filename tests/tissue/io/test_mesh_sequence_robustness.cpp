@@ -20,23 +20,7 @@ using test::write_bytes;
 
 /// A tiny valid file: one tetrahedron at rest, one pose, one re-mesh.
 std::string tiny_file(const fs::path& dir) {
-  MeshSequence s;
-  s.geometry = test::oblique_geometry();
-  s.rest.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  s.rest.normals = {{-0.577f, -0.577f, -0.577f}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  s.rest.labels = {1, 1, 2, 3};
-  s.rest.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
-  MeshFrame pose;
-  pose.time_s = 0.1;
-  pose.positions = {{0, 0, 0}, {1.1f, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  s.frames.push_back(pose);
-  MeshFrame cut;
-  cut.time_s = 0.2;
-  cut.topology_changed = true;
-  cut.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  cut.labels = {1, 1, 1};
-  cut.triangles = {{0, 1, 2}};
-  s.frames.push_back(cut);
+  const MeshSequence s = test::tiny_sequence();
   const fs::path file = dir / "tiny.tsfmesh";
   write_mesh_sequence(file, s);
   return read_bytes(file);

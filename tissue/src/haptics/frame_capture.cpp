@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "tsf/common/error.h"
 #include "tsf/haptics/local_warp.h"
@@ -9,11 +10,24 @@
 namespace tsf::haptics {
 namespace {
 
-/// Index range [lo, hi] of grid points origin + i·h (i in [0, n)) within [c − e, c + e].
-void grid_range(double origin, double h, int n, double c, double e, int& lo, int& hi) {
-  lo = std::max(0, static_cast<int>(std::floor((c - e - origin) / h)));
-  hi = std::min(n - 1, static_cast<int>(std::ceil((c + e - origin) / h)));
+/// `v` clamped to [lo, hi] while still a double (a point far from the grid, or NaN, would
+/// overflow the conversion to int).
+int clamped_index(double v, int lo, int hi) {
+  if (!(v >= lo)) return lo;
+  return v > hi ? hi : static_cast<int>(v);
 }
+
+/// Index range [lo, hi] of grid points origin + i·h (i in [0, n)) within [c − e, c + e]; empty
+/// (hi < lo) when the box misses the grid.
+void grid_range(double origin, double h, int n, double c, double e, int& lo, int& hi) {
+  lo = clamped_index(std::floor((c - e - origin) / h), 0, n);
+  hi = clamped_index(std::ceil((c + e - origin) / h), -1, n - 1);
+}
+
+/// Bounds of a density window (capture_density): its corner lies within this many voxels of the
+/// volume, and it holds at most this many voxels.
+constexpr double kMaxWindowOffsetVoxels = 1 << 24;
+constexpr double kMaxWindowVoxels = 1 << 26;
 
 }  // namespace
 
@@ -22,14 +36,31 @@ void capture_density(const VoxelVolume& volume, const Vec3d& centre, double half
   // The window is the whole requested box, one voxel beyond it on each side, whether or not the
   // volume reaches that far (outside it the density is 0): a stylus within the reach then always
   // lies strictly inside the window and takes the sampler without bounds tests.
+  // The index range is checked while still in doubles: a stylus far from the volume or a window
+  // too large to hold is an error, never an integer overflow or a huge allocation.
   const VolumeGeometry& g = volume.geometry();
   int lo[3], n[3];
+  double voxels = 1;
   for (int a = 0; a < 3; ++a) {
-    lo[a] =
-        static_cast<int>(std::floor((centre[a] - half_extent_mm - g.origin[a]) / g.spacing[a])) - 1;
-    const int hi =
-        static_cast<int>(std::ceil((centre[a] + half_extent_mm - g.origin[a]) / g.spacing[a])) + 1;
-    n[a] = hi - lo[a] + 1;
+    const double l = std::floor((centre[a] - half_extent_mm - g.origin[a]) / g.spacing[a]) - 1;
+    const double h = std::ceil((centre[a] + half_extent_mm - g.origin[a]) / g.spacing[a]) + 1;
+    if (!(l >= -kMaxWindowOffsetVoxels && h <= g.dims[a] + kMaxWindowOffsetVoxels)) {
+      std::ostringstream s;
+      s << "haptic frame: the stylus at (" << centre.x << ", " << centre.y << ", " << centre.z
+        << ") mm is more than " << kMaxWindowOffsetVoxels << " voxels outside the tissue volume";
+      throw Error(s.str());
+    }
+    lo[a] = static_cast<int>(l);
+    n[a] = static_cast<int>(h - l) + 1;
+    voxels *= n[a];
+  }
+  if (voxels > kMaxWindowVoxels) {
+    std::ostringstream s;
+    s << "haptic frame: a window reaching " << half_extent_mm << " mm at "
+      << std::min({g.spacing.x, g.spacing.y, g.spacing.z}) << " mm voxels holds " << voxels
+      << " voxels; expected at most " << kMaxWindowVoxels << " (a stylus radius too large for the"
+      << " voxel size)";
+    throw Error(s.str());
   }
   const Int3 dims{n[0], n[1], n[2]};
   frame.density.assign(static_cast<std::size_t>(dims.volume()), 0.0f);

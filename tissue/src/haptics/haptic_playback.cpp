@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "tsf/common/error.h"
@@ -20,15 +21,28 @@ void PlaybackOptions::validate() const {
           "max force: expected a finite number ≥ 0 µN, got " + std::to_string(max_force_un));
 }
 
+std::int64_t playback_ticks(const interaction::Trajectory& trajectory,
+                            const PlaybackOptions& options) {
+  options.validate();
+  require(!trajectory.empty(), "haptic playback: the trajectory has no keyframes");
+  const double duration = trajectory.end_time() - trajectory.start_time();
+  const double ticks = std::floor(duration / (1.0 / options.haptic_rate_hz) + 1e-9) + 1;
+  if (!(ticks >= 1 && ticks <= static_cast<double>(kMaxPlaybackTicks))) {
+    std::ostringstream s;
+    s << "haptic playback: the trajectory lasts " << duration << " s, " << ticks << " ticks at "
+      << options.haptic_rate_hz << " Hz; expected at most " << kMaxPlaybackTicks << " ticks";
+    throw Error(s.str());
+  }
+  return static_cast<std::int64_t>(ticks);
+}
+
 std::vector<HapticSample> play_trajectory(const interaction::Trajectory& trajectory,
                                           FrameSource& source, const ForceModel& model,
                                           const PlaybackOptions& options,
                                           const std::function<void(double)>& progress) {
-  options.validate();
-  require(!trajectory.empty(), "haptic playback: the trajectory has no keyframes");
+  const std::int64_t ticks = playback_ticks(trajectory, options);
   const double tick = 1.0 / options.haptic_rate_hz, sim_dt = 1.0 / options.sim_rate_hz;
-  const double t0 = trajectory.start_time(), t1 = trajectory.end_time();
-  const auto ticks = static_cast<std::int64_t>(std::floor((t1 - t0) / tick + 1e-9)) + 1;
+  const double t0 = trajectory.start_time();
   std::vector<HapticSample> out;
   out.reserve(static_cast<std::size_t>(ticks));
   MovingAverageFilter filter(options.filter_window);

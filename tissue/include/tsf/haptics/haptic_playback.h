@@ -4,6 +4,7 @@
 // frame), but on one thread and without wall-clock noise, so two runs give the same samples.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -22,6 +23,15 @@ struct PlaybackOptions {
 
   void validate() const;
 };
+
+/// The most haptic ticks one playback records (an hour at 1 kHz, ~370 MB of samples).
+constexpr std::int64_t kMaxPlaybackTicks = 3'600'000;
+
+/// The number of haptic ticks that play `trajectory` at `options.haptic_rate_hz`, checked in
+/// [1, kMaxPlaybackTicks] before anything is sized from it (an Error naming the duration and
+/// rate otherwise: a very slow path speed makes a trajectory last for ages).
+std::int64_t playback_ticks(const interaction::Trajectory& trajectory,
+                            const PlaybackOptions& options);
 
 /// Plays `trajectory` from its first keyframe to its last: press-mode keyframes press the tissue,
 /// others only probe it. `progress(fraction)` is called now and then when given.

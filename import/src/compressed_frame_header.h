@@ -1,0 +1,43 @@
+// The header each compressed DICOM frame carries in its own codestream (JPEG SOF, JPEG-LS SOF55,
+// JPEG 2000 SIZ, the RLE segment table), read and compared with the DICOM header before any
+// decoder sees the frame: a disagreement is refused naming both values, because GDCM's decoders
+// either write past their buffer or return the real image re-read at the header's size
+// (import.md, "Limits and safety").
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace tsf::import {
+
+struct DicomFileInfo;
+
+/// What the DICOM header says a frame holds.
+struct ExpectedFrame {
+  int rows = 0, columns = 0, samples_per_pixel = 1, bits_allocated = 0, bits_stored = 0;
+};
+
+/// Whether frames of `transfer_syntax_uid` carry a header compare_frame_header reads.
+bool has_checked_frame_header(const std::string& transfer_syntax_uid);
+
+/// The most samples one byte of compressed data can hold in `transfer_syntax_uid`, so that a
+/// header claiming more pixels than the file can encode is refused before the decoder allocates
+/// for them: 8 for lossless JPEG (processes 14 and SV1: a Huffman code per sample, at least one
+/// bit), 256 for sequential DCT JPEG (baseline, extended: at least a DC and an end-of-block code
+/// per 8×8 block). 0 where no bound exists: JPEG-LS run mode, JPEG 2000 and progressive JPEG
+/// compress a blank image without limit (the voxel limit bounds those); RLE is bounded per
+/// segment by compare_frame_header.
+double max_samples_per_compressed_byte(const std::string& transfer_syntax_uid);
+
+/// Whether `transfer_syntax_uid` puts each frame in exactly one fragment (RLE, PS3.5 A.4.2).
+bool one_fragment_per_frame(const std::string& transfer_syntax_uid);
+
+/// Compares the codestream header at the start of one frame (`data`, the first `n` bytes of its
+/// first fragment of `fragment_length` bytes) with `expected`. Returns "" when they agree, else
+/// what disagrees, e.g. "the JPEG 2000 SIZ says 22000×22000 pixels, the header 512×512".
+std::string compare_frame_header(const std::string& transfer_syntax_uid, const std::uint8_t* data,
+                                 std::size_t n, std::uint64_t fragment_length,
+                                 const ExpectedFrame& expected);
+
+}  // namespace tsf::import
