@@ -56,23 +56,28 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
     edits_seen_ = solver.edits();
     return report;
   }
+  const bool measure_v = calls_++ % std::max(1, thresholds_.velocity_every) == 0;
   // The call's last step alone: the velocities on both sides of it give the period-2 score.
-  if (n > 1) report = solver.step(n - 1, dt);
-  std::vector<Vec3f> v0;
-  if (!report.instability) {
-    v0 = solver.velocities();
-    const StepReport last = solver.step(1, dt);
-    report.steps_run += last.steps_run;
-    report.instability = last.instability;
+  std::vector<Vec3f> v0, v1;
+  if (!measure_v) {
+    report = solver.step(n, dt);
+  } else {
+    if (n > 1) report = solver.step(n - 1, dt);
+    if (!report.instability) {
+      v0 = solver.velocities();
+      const StepReport last = solver.step(1, dt);
+      report.steps_run += last.steps_run;
+      report.instability = last.instability;
+    }
   }
   const EnergyReport after = solver.energy();
-  const std::vector<Vec3f> v1 = solver.velocities();
+  if (measure_v) v1 = solver.velocities();
   const Lattice& lattice = solver.lattice();
   velocity_limit_ = solver.velocity_limit_mm_s(dt);
   const double k_sys = solver.config().stability.kinetic_damping;
   VelocitySums sums;
   double vv = 0, v00 = 0, v11 = 0;
-  for (std::int64_t i = 0; i < lattice.node_count(); ++i) {
+  for (std::int64_t i = 0; measure_v && i < lattice.node_count(); ++i) {
     if (!lattice.alive(i) || lattice.fixed(i)) continue;
     const double m = lattice.mass(i);
     const Vec3d b = to_double(v1[i]);
@@ -95,10 +100,18 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
   s.work_nj = work_;
   elastic_drift_ += after.elastic_nj - before.elastic_nj;
   s.elastic_drift_nj = elastic_drift_;
-  s.limit_fraction = sums.moving > 0 ? sums.at_limit / sums.moving : 0.0;
-  // Kinetic energy too small to carry a mode (round-off motion) gives no score.
-  const double kinetic_floor = 1e-12 * std::max(scale_, 1e-30);
-  if (v00 > kinetic_floor && v11 > kinetic_floor) s.period2 = -vv / std::sqrt(v00 * v11);
+  s.velocities_measured = measure_v;
+  if (measure_v) {
+    s.limit_fraction = sums.moving > 0 ? sums.at_limit / sums.moving : 0.0;
+    // Kinetic energy too small to carry a mode (round-off motion) gives no score.
+    const double kinetic_floor = 1e-12 * std::max(scale_, 1e-30);
+    if (v00 > kinetic_floor && v11 > kinetic_floor) s.period2 = -vv / std::sqrt(v00 * v11);
+    limit_fraction_last_ = s.limit_fraction;
+    period2_last_ = s.period2;
+  } else {  // between velocity samples: the last measured state stands
+    s.limit_fraction = limit_fraction_last_;
+    s.period2 = period2_last_;
+  }
   samples_.push_back(s);
   if (samples_.size() >= kMaxSamples) {  // long sessions: keep every other sample, in order
     std::size_t kept = 0;
@@ -106,9 +119,14 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
     samples_.resize(kept);
   }
 
-  const double run_s = static_cast<double>(report.steps_run) * dt;
-  drag_nj_ += 0.5 * (drag_power_last_ + sums.drag_power) * run_s;
-  drag_power_last_ = sums.drag_power;
+  // The drag's power is measured at velocity samples; between them it is taken as the mean of
+  // the two ends (trapezoid rule over the simulated time).
+  drag_time_s_ += static_cast<double>(report.steps_run) * dt;
+  if (measure_v) {
+    drag_nj_ += 0.5 * (drag_power_last_ + sums.drag_power) * drag_time_s_;
+    drag_power_last_ = sums.drag_power;
+    drag_time_s_ = 0;
+  }
   scale_ = std::max(scale_, magnitude(after));
   max_gain_ = std::max(max_gain_, after.total_nj() - energy_start_ - work_);
   energy_last_ = after.total_nj();
@@ -118,12 +136,16 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
   if (solver.stable_dt() > 0) dt_ratio_max_ = std::max(dt_ratio_max_, dt / solver.stable_dt());
   max_limit_fraction_ = std::max(max_limit_fraction_, s.limit_fraction);
   max_period2_ = std::max(max_period2_, s.period2);
-  const bool held = s.limit_fraction > thresholds_.limit_fraction;
+  // Held at the limit: measured at velocity samples, assumed to last until the next one.
+  const bool held = measure_v ? s.limit_fraction > thresholds_.limit_fraction : held_last_;
+  held_last_ = held;
   run_at_limit_ = held ? run_at_limit_ + report.steps_run : 0;
   steps_at_limit_ += held ? report.steps_run : 0;
   longest_at_limit_ = std::max(longest_at_limit_, run_at_limit_);
-  run_held_flipping_ = held && s.period2 > thresholds_.period2 ? run_held_flipping_ + 1 : 0;
-  longest_held_flipping_ = std::max(longest_held_flipping_, run_held_flipping_);
+  if (measure_v) {  // consecutive velocity samples held at the limit while flipping
+    run_held_flipping_ = held && s.period2 > thresholds_.period2 ? run_held_flipping_ + 1 : 0;
+    longest_held_flipping_ = std::max(longest_held_flipping_, run_held_flipping_);
+  }
   if (report.instability && !non_finite_) non_finite_ = report.instability->describe();
   return report;
 }

@@ -58,6 +58,10 @@ struct StabilityThresholds {
   /// deforming), over the last quarter of the samples, as a fraction of the scale, above which a
   /// stable run is still "settling".
   double settling_change = 0.02;
+  /// The velocity signals (limit, period 2, drag) are measured on every this-many-th call (the
+  /// first included): each costs two velocity read-backs and a separately launched last step, which
+  /// on a GPU cost more than the steps of a frame. The energy balance is sampled on every call.
+  int velocity_every = 4;
 };
 
 /// One monitored step call.
@@ -69,6 +73,7 @@ struct StabilitySample {
   double elastic_drift_nj = 0;  ///< Σ of the elastic energy's changes inside the calls so far
   double limit_fraction = 0;
   double period2 = 0;  ///< −correlation of v over the call's last step (0: not measured)
+  bool velocities_measured = false;  ///< the call measured the velocity signals (velocity_every)
 };
 
 struct StabilitySummary {
@@ -127,6 +132,10 @@ class StabilityMonitor {
   double scale_ = 0;
   double max_gain_ = 0;
   double drag_nj_ = 0, drag_power_last_ = 0;
+  double drag_time_s_ = 0;     // simulated time since the last velocity sample
+  std::int64_t calls_ = 0;     // monitored calls that stepped
+  bool held_last_ = false;     // the last velocity sample was held at the limit
+  double limit_fraction_last_ = 0, period2_last_ = 0;  // of the last velocity sample
   double elastic_drift_ = 0;
   double velocity_limit_ = 0;
   std::int64_t steps_ = 0, steps_at_limit_ = 0, run_at_limit_ = 0, longest_at_limit_ = 0;
