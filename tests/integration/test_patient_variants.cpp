@@ -80,6 +80,32 @@ struct Variant {
   std::array<double, 3> shift{0, 0, 0};  ///< LPS translation of the head (mapped back)
 };
 
+/// `canon` with its voxel order reversed along the axes in `flip`, its direction cosines and
+/// origin changed to match: the same head in patient coordinates.
+Variant reversed(const HuImage::Pointer& canon, const std::string& name,
+                 const std::array<bool, 3>& flip) {
+  const auto size = canon->GetLargestPossibleRegion().GetSize();
+  HuImage::DirectionType d = canon->GetDirection();
+  HuImage::IndexType far{};
+  for (unsigned a = 0; a < 3; ++a) {
+    if (!flip[a]) continue;
+    for (unsigned r = 0; r < 3; ++r) d[r][a] = -d[r][a];
+    far[a] = static_cast<long>(size[a]) - 1;
+  }
+  HuImage::PointType o;
+  canon->TransformIndexToPhysicalPoint(far, o);
+  Variant v{name, make_image(size, canon->GetSpacing(), o, d)};
+  for (long k = 0; k < long(size[2]); ++k)
+    for (long j = 0; j < long(size[1]); ++j)
+      for (long i = 0; i < long(size[0]); ++i) {
+        HuImage::IndexType from{{i, j, k}};
+        for (unsigned a = 0; a < 3; ++a)
+          if (flip[a]) from[a] = static_cast<long>(size[a]) - 1 - from[a];
+        v.image->SetPixel({{i, j, k}}, canon->GetPixel(from));
+      }
+  return v;
+}
+
 std::vector<Variant> make_variants(const HuImage::Pointer& canon) {
   const auto size = canon->GetLargestPossibleRegion().GetSize();
   const auto spacing = canon->GetSpacing();
@@ -96,39 +122,10 @@ std::vector<Variant> make_variants(const HuImage::Pointer& canon) {
               v.image->GetBufferPointer());
     out.push_back(v);
   }
-  {  // voxel order reversed along i and j, the direction cosines saying so
-    HuImage::DirectionType d = direction;
-    for (unsigned r = 0; r < 3; ++r) {
-      d[r][0] = -direction[r][0];
-      d[r][1] = -direction[r][1];
-    }
-    HuImage::IndexType last{};
-    last[0] = static_cast<long>(size[0]) - 1;
-    last[1] = static_cast<long>(size[1]) - 1;
-    HuImage::PointType o;
-    canon->TransformIndexToPhysicalPoint(last, o);
-    Variant v{"flipped", make_image(size, spacing, o, d)};
-    for (long k = 0; k < long(size[2]); ++k)
-      for (long j = 0; j < long(size[1]); ++j)
-        for (long i = 0; i < long(size[0]); ++i)
-          v.image->SetPixel({{i, j, k}},
-                            canon->GetPixel({{long(size[0]) - 1 - i, long(size[1]) - 1 - j, k}}));
-    out.push_back(v);
-  }
-  {  // slices stored from the top down (k reversed): the voxel axes mirror the patient's
-    HuImage::DirectionType d = direction;
-    for (unsigned r = 0; r < 3; ++r) d[r][2] = -direction[r][2];
-    HuImage::IndexType top{};
-    top[2] = static_cast<long>(size[2]) - 1;
-    HuImage::PointType o;
-    canon->TransformIndexToPhysicalPoint(top, o);
-    Variant v{"slices-top-down", make_image(size, spacing, o, d)};
-    for (long k = 0; k < long(size[2]); ++k)
-      for (long j = 0; j < long(size[1]); ++j)
-        for (long i = 0; i < long(size[0]); ++i)
-          v.image->SetPixel({{i, j, k}}, canon->GetPixel({{i, j, long(size[2]) - 1 - k}}));
-    out.push_back(v);
-  }
+  // Voxel order reversed along i and j (the direction cosines saying so, as an RAS-ordered file),
+  // and slices stored from the top down (k reversed: the voxel axes mirror the patient's).
+  out.push_back(reversed(canon, "flipped", {true, true, false}));
+  out.push_back(reversed(canon, "slices-top-down", {false, false, true}));
   {  // half the in-plane resolution: 2 × 2 voxels averaged
     HuImage::SizeType s = size;
     s[0] /= 2;
