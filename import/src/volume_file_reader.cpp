@@ -434,8 +434,9 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
                   std::to_string(a) + " (expected a number of mm in (0, " +
                   format_text("%g", kMaxSpacingMm) + "])");
     if (!(std::abs(h.origin[a]) <= kMaxCoordinateMm))
-      throw Error(where + "origin " + format_text("%g", h.origin[a]) + " along axis " + std::to_string(a) +
-                  " (expected a finite number of mm within ±" + format_text("%g", kMaxCoordinateMm) + ")");
+      throw Error(where + "origin " + format_text("%g", h.origin[a]) + " along axis " +
+                  std::to_string(a) + " (expected a finite number of mm within ±" +
+                  format_text("%g", kMaxCoordinateMm) + ")");
   }
   for (int a = 0; a < 3; ++a)
     for (int b = a; b < 3; ++b) {

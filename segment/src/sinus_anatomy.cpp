@@ -253,36 +253,26 @@ SinusAnatomy find_sinus_anatomy(const SegmentationImages& images,
     };
     double best_theta = 0.0, best_d = 0.0, best_overlap = -1.0;
     const double d_step = std::max(1.0, g.s);
-    for (double theta = -30.0; theta <= 30.0 + 1e-9; theta += 3.0)
-      for (double d = -15.0; d <= 15.0 + 1e-9; d += d_step) {
-        const double o = overlap(theta, d);
-        if (o > best_overlap + 1e-6) {
-          best_overlap = o;
-          best_theta = theta;
-          best_d = d;
+    // The best (θ, d) of a grid of yaw angles and offsets, starting from the best so far.
+    auto search = [&](double theta0, double theta1, double theta_step, double d0, double d1,
+                      double d_step_here) {
+      for (double theta = theta0; theta <= theta1 + 1e-9; theta += theta_step)
+        for (double d = d0; d <= d1 + 1e-9; d += d_step_here) {
+          const double o = overlap(theta, d);
+          if (o > best_overlap + 1e-6) {
+            best_overlap = o;
+            best_theta = theta;
+            best_d = d;
+          }
         }
-      }
+    };
+    search(-30.0, 30.0, 3.0, -15.0, 15.0, d_step);
     const double coarse_theta = best_theta, coarse_d = best_d;
-    for (double theta = coarse_theta - 2.0; theta <= coarse_theta + 2.0 + 1e-9; theta += 1.0)
-      for (double d = coarse_d - d_step; d <= coarse_d + d_step + 1e-9; d += 0.25 * d_step) {
-        const double o = overlap(theta, d);
-        if (o > best_overlap + 1e-6) {
-          best_overlap = o;
-          best_theta = theta;
-          best_d = d;
-        }
-      }
+    search(coarse_theta - 2.0, coarse_theta + 2.0, 1.0, coarse_d - d_step, coarse_d + d_step,
+           0.25 * d_step);
     const double fine_theta = best_theta, fine_d = best_d;
-    for (double theta = fine_theta - 0.75; theta <= fine_theta + 0.75 + 1e-9; theta += 0.25)
-      for (double d = fine_d - 0.5 * d_step; d <= fine_d + 0.5 * d_step + 1e-9;
-           d += 0.25 * d_step) {
-        const double o = overlap(theta, d);
-        if (o > best_overlap + 1e-6) {
-          best_overlap = o;
-          best_theta = theta;
-          best_d = d;
-        }
-      }
+    search(fine_theta - 0.75, fine_theta + 0.75, 0.25, fine_d - 0.5 * d_step, fine_d + 0.5 * d_step,
+           0.25 * d_step);
     g.plane_n = normal_at(best_theta);
     g.plane_p = c + g.plane_n * best_d;
     const Vec3d ant0 = ap - g.plane_n * dot(ap, g.plane_n);

@@ -132,9 +132,9 @@ class StabilityMonitor {
   double scale_ = 0;
   double max_gain_ = 0;
   double drag_nj_ = 0, drag_power_last_ = 0;
-  double drag_time_s_ = 0;     // simulated time since the last velocity sample
-  std::int64_t calls_ = 0;     // monitored calls that stepped
-  bool held_last_ = false;     // the last velocity sample was held at the limit
+  double drag_time_s_ = 0;  // simulated time since the last velocity sample
+  std::int64_t calls_ = 0;  // monitored calls that stepped
+  bool held_last_ = false;  // the last velocity sample was held at the limit
   double limit_fraction_last_ = 0, period2_last_ = 0;  // of the last velocity sample
   double elastic_drift_ = 0;
   double velocity_limit_ = 0;
