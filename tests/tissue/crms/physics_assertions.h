@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tsf/common/cuda_support.h"
@@ -149,6 +150,33 @@ inline ::testing::AssertionResult assert_same_positions(const std::vector<Vec3f>
 inline Vec3d stretch_far_end_compress_rest(Vec3d p) {
   const double x = p.x < 6.5 ? 0.5 + 0.9 * (p.x - 0.5) : 5.9 + 2.0 * (p.x - 6.5);
   return Vec3d{x, p.y, p.z};
+}
+
+/// The backend-parity scene: a 12 × 8 × 6 mm box at 1 mm, held behind x = 0.6 mm, one dead node;
+/// `combo` bits: 1 a second, stiffer material beyond x = 6, 2 a constant load on the tip (added by
+/// with_parity_loads once the solver exists), 4 the cosine angular form, 8 symmetric reactions.
+inline std::pair<Lattice, SolverConfig> parity_scene(Backend backend, unsigned combo) {
+  Lattice l = box({12, 8, 6}, 1);
+  fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
+  const bool hetero = combo & 1;
+  if (hetero)
+    for (std::int64_t n = 0; n < l.node_count(); ++n)
+      if (l.geometry().rest_position(n).x > 6) l.set_material(n, 1);
+  l.set_alive(l.geometry().index(5, 4, 3), false);
+  SolverConfig c;
+  c.backend = backend;
+  c.angular_form = (combo & 4) ? AngularForm::kCosine : AngularForm::kExact;
+  c.angular_reactions = (combo & 8) ? AngularReactions::kSymmetric : AngularReactions::kGather;
+  c.materials = {soft_material(10e3, 2e-4)};
+  if (hetero) c.materials.push_back(soft_material(40e3, 2e-4));
+  return {std::move(l), c};
+}
+
+/// The parity scene's tip load (combo bit 2): 50 µN along y on the nodes beyond x = 11 mm.
+inline void with_parity_loads(Solver& s, unsigned combo) {
+  if (!(combo & 2)) return;
+  const auto tip = nodes_where(s.lattice(), [](Vec3d p) { return p.x > 11; });
+  s.set_external_forces(tip, std::vector<Vec3f>(tip.size(), Vec3f{0, 50, 0}));
 }
 
 }  // namespace tsf::crms::test

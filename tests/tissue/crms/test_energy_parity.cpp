@@ -45,26 +45,11 @@ Vec3f swirl(Vec3d p) {
 /// velocity, under gravity.
 std::unique_ptr<Solver> deformed_scene(Backend backend, unsigned combo,
                                        const EffectsConfig& effects) {
-  Lattice l = test::box({12, 8, 6}, 1);
-  fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
-  const bool hetero = combo & 1, external = combo & 2;
-  if (hetero)
-    for (std::int64_t n = 0; n < l.node_count(); ++n)
-      if (l.geometry().rest_position(n).x > 6) l.set_material(n, 1);
-  l.set_alive(l.geometry().index(5, 4, 3), false);
-  SolverConfig c;
-  c.backend = backend;
-  c.angular_form = (combo & 4) ? AngularForm::kCosine : AngularForm::kExact;
-  c.angular_reactions = (combo & 8) ? AngularReactions::kSymmetric : AngularReactions::kGather;
-  c.materials = {test::soft_material(10e3, 2e-4)};
-  if (hetero) c.materials.push_back(test::soft_material(40e3, 2e-4));
+  auto [l, c] = test::parity_scene(backend, combo);
   c.gravity = {2000, -3000, -9810};  // x too: the deformation is along x
   c.effects = effects;
   auto s = std::make_unique<Solver>(std::move(l), c);
-  if (external) {
-    const auto tip = test::nodes_where(s->lattice(), [](Vec3d p) { return p.x > 11; });
-    s->set_external_forces(tip, std::vector<Vec3f>(tip.size(), Vec3f{0, 50, 0}));
-  }
+  test::with_parity_loads(*s, combo);
   const Lattice& lat = s->lattice();
   std::vector<Vec3f> u(static_cast<std::size_t>(lat.node_count())), v(u.size());
   for (std::int64_t n = 0; n < lat.node_count(); ++n) {
