@@ -425,10 +425,11 @@ std::vector<unsigned long> frame_fragments(DcmPixelSequence& sequence, int frame
   return first;
 }
 
-/// Compares the codestream header of every frame with the DICOM header (compressed_frame_header.h);
-/// "" when all agree, else the first disagreement with its frame.
+/// Compares the codestream header of every frame with the DICOM header (compressed_frame_header.h)
+/// and the declared image size with the compressed bytes; "" when all agree, else the first
+/// disagreement with its frame. Sets info.pixel_data_bytes to the compressed bytes.
 std::string check_compressed_frames(DcmElement& pixel_data, const DcmXfer& xfer,
-                                    const DicomFileInfo& info) {
+                                    DicomFileInfo& info) {
   if (!has_checked_frame_header(info.transfer_syntax_uid)) return "";
   auto* pixel = dynamic_cast<DcmPixelData*>(&pixel_data);
   DcmPixelSequence* sequence = nullptr;
@@ -447,22 +448,24 @@ std::string check_compressed_frames(DcmElement& pixel_data, const DcmXfer& xfer,
   const std::vector<unsigned long> first =
       frame_fragments(*sequence, info.number_of_frames, problem);
   if (!problem.empty()) return problem;
-  const double per_byte = max_samples_per_compressed_byte(info.transfer_syntax_uid);
-  if (per_byte > 0) {
-    std::uint64_t bytes = 0;
-    for (unsigned long i = 1; i < sequence->card(); ++i) {
-      DcmPixelItem* fragment = nullptr;
-      if (sequence->getItem(fragment, i).good() && fragment) bytes += fragment->getLength();
-    }
-    const double samples =
-        static_cast<double>(info.decoded_bytes()) / std::max(1, (info.bits_allocated + 7) / 8);
-    if (samples > per_byte * static_cast<double>(bytes))
-      return "the compressed pixel data hold " + std::to_string(bytes) +
-             " bytes, too few for the " + std::to_string(info.columns) + "×" +
-             std::to_string(info.rows) + "×" + std::to_string(info.number_of_frames) +
-             " pixels of the DICOM header (at most " + std::to_string(static_cast<int>(per_byte)) +
-             " samples per byte in " + dicom_uid_name(info.transfer_syntax_uid) + ")";
+  std::uint64_t bytes = 0;
+  for (unsigned long i = 1; i < sequence->card(); ++i) {
+    DcmPixelItem* fragment = nullptr;
+    if (sequence->getItem(fragment, i).good() && fragment) bytes += fragment->getLength();
   }
+  info.pixel_data_bytes = bytes;
+  const std::string image_size = std::to_string(info.columns) + "×" + std::to_string(info.rows) +
+                                 "×" + std::to_string(info.number_of_frames);
+  const double per_byte = max_samples_per_compressed_byte(info.transfer_syntax_uid);
+  const double samples =
+      static_cast<double>(info.decoded_bytes()) / std::max(1, (info.bits_allocated + 7) / 8);
+  if (per_byte > 0 && samples > per_byte * static_cast<double>(bytes))
+    return "the compressed pixel data hold " + std::to_string(bytes) + " bytes, too few for the " +
+           image_size + " pixels of the DICOM header (at most " +
+           std::to_string(static_cast<int>(per_byte)) + " samples per byte in " +
+           dicom_uid_name(info.transfer_syntax_uid) + ")";
+  const std::string ratio = compression_ratio_problem(info.decoded_bytes(), bytes);
+  if (!ratio.empty()) return "the " + image_size + " pixels of the DICOM header are " + ratio;
   const ExpectedFrame expected{info.rows, info.columns, info.samples_per_pixel, info.bits_allocated,
                                info.bits_stored};
   constexpr Uint32 kHeaderBytes = 16384;  // markers before the frame header fit well within
@@ -647,6 +650,73 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
   if (kind_before_frames == DicomObjectKind::localizer && info.kind == DicomObjectKind::image)
     info.kind = DicomObjectKind::localizer;
   return info;
+}
+
+std::vector<std::vector<std::uint8_t>> read_frame_codestreams(const DicomFileInfo& info) {
+  const std::string where =
+      "'" + info.path.string() + "' (" + dicom_uid_name(info.transfer_syntax_uid) + ")";
+  DcmFileFormat file;
+  if (file.loadFile(info.path.c_str(), EXS_Unknown, EGL_noChange, kMaxHeaderValueLength,
+                    ERM_autoDetect)
+          .bad())
+    throw Error("cannot re-read " + where + " for its compressed frames");
+  DcmDataset& ds = *file.getDataset();
+  const DcmXfer xfer(ds.getOriginalXfer());
+  DcmElement* element = nullptr;
+  auto* pixel = ds.findAndGetElement(DCM_PixelData, element).good()
+                    ? dynamic_cast<DcmPixelData*>(element)
+                    : nullptr;
+  DcmPixelSequence* sequence = nullptr;
+  if (!pixel || !xfer.isEncapsulated() ||
+      pixel->getEncapsulatedRepresentation(xfer.getXfer(), nullptr, sequence).bad() || !sequence)
+    throw Error(where + ": the compressed pixel data have no fragments");
+  const unsigned long fragments = sequence->card() > 0 ? sequence->card() - 1 : 0;
+  const int frames = info.number_of_frames;
+  std::string problem;
+  std::vector<unsigned long> first = frame_fragments(*sequence, frames, problem);
+  if (!problem.empty()) throw Error(where + ": " + problem);
+  auto fragment_at = [&](unsigned long index) {
+    DcmPixelItem* fragment = nullptr;
+    if (sequence->getItem(fragment, index).bad() || !fragment)
+      throw Error(where + ": fragment " + std::to_string(index) + " cannot be read");
+    return fragment;
+  };
+  if (first.size() != static_cast<std::size_t>(frames)) {
+    // Several fragments per frame and no offset table: a frame starts where a fragment starts
+    // with its codestream's first marker (JPEG SOI, JPEG 2000 SOC or the JP2 signature).
+    first.clear();
+    for (unsigned long i = 1; i <= fragments; ++i) {
+      DcmPixelItem* fragment = fragment_at(i);
+      std::uint8_t head[4] = {0, 0, 0, 0};
+      const Uint32 n = std::min<Uint32>(fragment->getLength(), 4);
+      if (n > 0 && fragment->getPartialValue(head, 0, n).bad())
+        throw Error(where + ": fragment " + std::to_string(i) + " cannot be read");
+      const bool starts =
+          n >= 4 && ((head[0] == 0xFF && (head[1] == 0xD8 || head[1] == 0x4F)) ||
+                     (head[0] == 0 && head[1] == 0 && head[2] == 0 && head[3] == 12));
+      if (i == 1 || (starts && frames > 1)) first.push_back(i);
+    }
+    if (frames == 1) first.assign(1, 1);
+    if (first.size() != static_cast<std::size_t>(frames))
+      throw Error(where + ": " + std::to_string(fragments) + " fragments without an offset " +
+                  "table cannot be told apart into " + std::to_string(frames) + " frames");
+  }
+  std::vector<std::vector<std::uint8_t>> streams(static_cast<std::size_t>(frames));
+  for (int f = 0; f < frames; ++f) {
+    const unsigned long end =
+        f + 1 < frames ? first[static_cast<std::size_t>(f) + 1] : fragments + 1;
+    std::vector<std::uint8_t>& out = streams[static_cast<std::size_t>(f)];
+    for (unsigned long i = first[static_cast<std::size_t>(f)]; i < end; ++i) {
+      DcmPixelItem* fragment = fragment_at(i);
+      const Uint32 length = fragment->getLength();
+      if (length == 0 || length == DCM_UndefinedLength) continue;
+      const std::size_t at = out.size();
+      out.resize(at + length);
+      if (fragment->getPartialValue(out.data() + at, 0, length).bad())
+        throw Error(where + ": fragment " + std::to_string(i) + " cannot be read");
+    }
+  }
+  return streams;
 }
 
 DicomDirContents read_dicomdir(const fs::path& dicomdir) {

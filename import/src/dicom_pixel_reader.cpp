@@ -2,6 +2,7 @@
 
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
+#include <gdcmTrace.h>
 #include <itkGDCMImageIO.h>
 
 #include <algorithm>
@@ -9,10 +10,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <iostream>
 #include <mutex>
 #include <new>
-#include <optional>
+#include <sstream>
 
+#include "compressed_frame_header.h"
+#include "native_pixel_data.h"
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
 
@@ -25,57 +29,115 @@ void convert(const void* src, std::size_t n, float* out) {
   for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(s[i]);
 }
 
-/// While alive, C stdio's `stderr` stream points at /dev/null. GDCM tries JPEG data with its
-/// 8-bit libjpeg first; for 12-bit data that libjpeg prints "Unsupported JPEG data precision 12"
-/// with fprintf(stderr, ...) before GDCM retries with the 12-bit one, which decodes correctly.
-/// The message would only confuse users. Only the `stderr` variable is swapped (glibc allows
-/// it), never file descriptor 2: sanitizer reports, std::cerr and the log sinks (which captured
-/// the stream earlier) still reach the terminal. Reference counted across threads; used only
-/// around JPEG decoding.
-class JpegStderrSilence {
+/// While alive, what the codecs print goes to memory instead of the terminal: C stdio's `stderr`
+/// stream (libjpeg's warnings, OpenJPEG's errors as GDCM forwards them) and GDCM's warning and
+/// error trace. Only the `stderr` variable is swapped (glibc allows it), never file descriptor 2:
+/// sanitizer reports, std::cerr and the log sinks still reach the terminal. GDCM tries 12-bit
+/// JPEG with its 8-bit libjpeg first ("Unsupported JPEG data precision 12") before the 12-bit
+/// one decodes it: that message is noise; others tell of damaged data (codec_damage). Used only
+/// while codec_mutex() is held, or in a decoder process of one thread.
+class CodecDiagnostics {
  public:
-  JpegStderrSilence() {
-    std::lock_guard<std::mutex> lock(mutex());
-    if (depth()++ > 0) return;
-    static FILE* const null_stream = std::fopen("/dev/null", "we");
-    if (!null_stream) return;
+  CodecDiagnostics() {
+    gdcm::Trace::SetWarningStream(trace_);
+    gdcm::Trace::SetErrorStream(trace_);
+    gdcm::Trace::SetWarning(true);
+    gdcm::Trace::SetError(true);
     std::fflush(stderr);
-    saved() = stderr;
-    stderr = null_stream;
-  }
-  ~JpegStderrSilence() {
-    std::lock_guard<std::mutex> lock(mutex());
-    if (--depth() > 0) return;
-    if (saved()) {
-      std::fflush(stderr);
-      stderr = saved();
-      saved() = nullptr;
+    memory_ = open_memstream(&buffer_, &size_);
+    if (memory_) {
+      saved_ = stderr;
+      stderr = memory_;
     }
   }
-  JpegStderrSilence(const JpegStderrSilence&) = delete;
-  JpegStderrSilence& operator=(const JpegStderrSilence&) = delete;
+  ~CodecDiagnostics() {
+    restore();
+    std::free(buffer_);
+  }
+  CodecDiagnostics(const CodecDiagnostics&) = delete;
+  CodecDiagnostics& operator=(const CodecDiagnostics&) = delete;
+
+  /// Everything printed so far (ends the capture).
+  std::string text() {
+    restore();
+    return std::string(buffer_ ? buffer_ : "", size_) + trace_.str();
+  }
 
  private:
-  static std::mutex& mutex() {
-    static std::mutex m;
-    return m;
+  void restore() {
+    if (restored_) return;
+    restored_ = true;
+    if (memory_) {
+      std::fflush(memory_);
+      stderr = saved_;
+      std::fclose(memory_);
+      memory_ = nullptr;
+    }
+    gdcm::Trace::SetWarning(false);
+    gdcm::Trace::SetError(false);
+    gdcm::Trace::SetWarningStream(std::cerr);
+    gdcm::Trace::SetErrorStream(std::cerr);
   }
-  static int& depth() {
-    static int d = 0;
-    return d;
-  }
-  static FILE*& saved() {
-    static FILE* stream = nullptr;
-    return stream;
-  }
+
+  std::ostringstream trace_;
+  FILE* memory_ = nullptr;
+  FILE* saved_ = nullptr;
+  char* buffer_ = nullptr;
+  std::size_t size_ = 0;
+  bool restored_ = false;
 };
 
-/// JPEG baseline/extended/lossless transfer syntaxes (1.2.840.10008.1.2.4.50 - .70).
-bool is_libjpeg_syntax(const std::string& uid) {
-  const std::string prefix = "1.2.840.10008.1.2.4.";
-  if (uid.rfind(prefix, 0) != 0) return false;
-  const int process = std::atoi(uid.c_str() + prefix.size());
-  return process >= 50 && process <= 70;
+/// Codecs of third-party libraries run one at a time in this process (GDCM's codecs and the
+/// stderr capture are not made for threads); decoder processes each run one anyway.
+std::mutex& codec_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+/// The first line of `diagnostics` that tells of damaged data from a decode that succeeded:
+/// libjpeg's warnings ("Corrupt JPEG data: ...", "Premature end of JPEG file"), anything
+/// OpenJPEG reported. "" when there is none.
+std::string codec_damage(const std::string& diagnostics) {
+  static const char* const kSigns[] = {"Corrupt JPEG data",
+                                       "Premature end of JPEG",
+                                       "Invalid SOS parameters",
+                                       "Inconsistent progression",
+                                       "too few scanlines",
+                                       "Bogus",
+                                       "openjpeg",
+                                       "Tile part",
+                                       "tile part",
+                                       "Stream too short",
+                                       "Expected EOC",
+                                       "not enough data"};
+  std::istringstream lines(diagnostics);
+  std::string line;
+  while (std::getline(lines, line))
+    for (const char* sign : kSigns)
+      if (line.find(sign) != std::string::npos) return line;
+  return "";
+}
+
+/// The codec lines of `diagnostics` worth showing with a decoder's failure, at most 3. Only lines
+/// about the codestream are kept: GDCM's other warnings can quote attribute values, and no
+/// patient name or ID may reach a message (import.md, "Privacy").
+std::string diagnostics_summary(const std::string& diagnostics) {
+  static const char* const kCodecWords[] = {"JPEG", "jpeg",   "openjpeg", "Tile",    "tile",
+                                            "RLE",  "stream", "decode",   "Huffman", "marker"};
+  std::istringstream lines(diagnostics);
+  std::string line, out;
+  int kept = 0;
+  while (std::getline(lines, line) && kept < 3) {
+    if (line.empty() || line.rfind("Warning: In ", 0) == 0 || line.rfind("Error: In ", 0) == 0 ||
+        line.find("Unsupported JPEG data precision") != std::string::npos || line.size() > 200)
+      continue;
+    bool codec = false;
+    for (const char* w : kCodecWords) codec = codec || line.find(w) != std::string::npos;
+    if (!codec) continue;
+    out += (out.empty() ? "" : "; ") + line;
+    ++kept;
+  }
+  return out;
 }
 
 std::string where(const DicomFileInfo& info) {
@@ -122,24 +184,23 @@ void apply_modality_lut(const DicomFileInfo& info, float* values, std::size_t n,
   result.modality_lut_applied = true;
 }
 
-}  // namespace
-
-DecodedFrameValues decode_dicom_frames(const DicomFileInfo& info, float* out) {
-  setup_imaging_libraries();
-  if (!info.has_pixel_data) throw Error(where(info) + " has no pixel data");
-  if (info.samples_per_pixel != 1)
-    throw Error(where(info) + " has " + std::to_string(info.samples_per_pixel) +
-                " samples per pixel, expected 1 (grey-scale)");
-  const std::uint64_t declared = info.decoded_bytes();
-  if (!info.pixel_data_encapsulated && info.pixel_data_bytes < declared)
-    throw Error(where(info) + ": the pixel data hold " + std::to_string(info.pixel_data_bytes) +
-                " bytes but the header declares " + std::to_string(info.columns) + "×" +
-                std::to_string(info.rows) + "×" + std::to_string(info.number_of_frames) +
-                " pixels of " + std::to_string(info.bits_allocated) + " bits (" +
-                std::to_string(declared) + " bytes)");
-
-  std::optional<JpegStderrSilence> silence;
-  if (is_libjpeg_syntax(info.transfer_syntax_uid)) silence.emplace();
+/// GDCM's decode of an encapsulated file into `out`: each frame's codestream is checked whole
+/// first, the decoder's messages are read after it.
+DecodedFrameValues decode_compressed_frames(const DicomFileInfo& info, float* out) {
+  if (has_checked_frame_header(info.transfer_syntax_uid)) {
+    // The structure of every frame first: what a decoder would turn into wrong pixels.
+    const ExpectedFrame expected{info.rows, info.columns, info.samples_per_pixel,
+                                 info.bits_allocated, info.bits_stored};
+    const std::vector<std::vector<std::uint8_t>> streams = read_frame_codestreams(info);
+    for (std::size_t f = 0; f < streams.size(); ++f) {
+      const std::string problem = check_frame_codestream(
+          info.transfer_syntax_uid, streams[f].data(), streams[f].size(), expected);
+      if (!problem.empty())
+        throw Error(where(info) + ": frame " + std::to_string(f + 1) + " is damaged: " + problem);
+    }
+  }
+  std::lock_guard<std::mutex> lock(codec_mutex());
+  CodecDiagnostics diagnostics;
   auto io = itk::GDCMImageIO::New();
   io->SetFileName(info.path.string());
   io->LoadPrivateTagsOff();
@@ -170,10 +231,16 @@ DecodedFrameValues decode_dicom_frames(const DicomFileInfo& info, float* out) {
     buffer.resize(bytes);
     io->Read(buffer.data());
   } catch (const itk::ExceptionObject& e) {
-    throw Error("cannot decode the pixel data of " + where(info) + ": " + e.GetDescription());
+    const std::string said = diagnostics_summary(diagnostics.text());
+    throw Error("cannot decode the pixel data of " + where(info) + ": " + e.GetDescription() +
+                (said.empty() ? std::string() : " (the decoder said: " + said + ")"));
   } catch (const std::bad_alloc&) {
     throw Error("not enough memory to decode " + where(info));
   }
+  const std::string damage = codec_damage(diagnostics.text());
+  if (!damage.empty())
+    throw Error(where(info) + ": the decoder reported damaged data (" + damage +
+                "): refused rather than imported with wrong pixels");
 
   using Component = itk::CommonEnums::IOComponent;
   switch (io->GetComponentType()) {
@@ -238,6 +305,27 @@ DecodedFrameValues decode_dicom_frames(const DicomFileInfo& info, float* out) {
     ++result.frames_remapped;
   }
 
+  return result;
+}
+
+}  // namespace
+
+DecodedFrameValues decode_dicom_frames(const DicomFileInfo& info, float* out) {
+  setup_imaging_libraries();
+  if (!info.has_pixel_data) throw Error(where(info) + " has no pixel data");
+  if (info.samples_per_pixel != 1)
+    throw Error(where(info) + " has " + std::to_string(info.samples_per_pixel) +
+                " samples per pixel, expected 1 (grey-scale)");
+  const std::uint64_t declared = info.decoded_bytes();
+  if (!info.pixel_data_encapsulated && info.pixel_data_bytes < declared)
+    throw Error(where(info) + ": the pixel data hold " + std::to_string(info.pixel_data_bytes) +
+                " bytes but the header declares " + std::to_string(info.columns) + "×" +
+                std::to_string(info.rows) + "×" + std::to_string(info.number_of_frames) +
+                " pixels of " + std::to_string(info.bits_allocated) + " bits (" +
+                std::to_string(declared) + " bytes)");
+  DecodedFrameValues result = info.pixel_data_encapsulated ? decode_compressed_frames(info, out)
+                                                           : decode_native_frames(info, out);
+  const std::size_t n = static_cast<std::size_t>(info.columns) * info.rows * info.number_of_frames;
   if (info.has_modality_lut) {
     if (result.slope != 1.0 || result.intercept != 0.0 || result.frames_remapped > 0)
       throw Error(where(info) +

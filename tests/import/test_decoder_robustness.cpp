@@ -195,5 +195,132 @@ TEST(DecoderRobustness, ACorruptJ2kSliceBesideValidOnesFailsTheSameWayOnEveryThr
   }
 }
 
+TEST(DecoderRobustness, AJ2kClaimingFarMorePixelsThanItsBytesIsRefusedBeforeAllocating) {
+  // 22000×22000 declared by both headers in about 190 kB: 5000:1 where a CT compresses at most
+  // about 15:1. JPEG 2000 has no hard bound (a blank frame compresses ~3000:1), so the ratio
+  // bound applies above 64 MiB of decoded pixels.
+  const fs::path dir = test::scratch_dir("j2k-claims");
+  const fs::path good = transcoded(dir, "j2k", gdcm::TransferSyntax::JPEG2000Lossless);
+  const fs::path big = dir / "claims-22000.dcm";
+  test_files::copy_with_changes(good, big, [](DcmDataset& ds) {
+    ds.putAndInsertUint16(DCM_Rows, 22000);
+    ds.putAndInsertUint16(DCM_Columns, 22000);
+  });
+  std::string bytes = test_files::file_bytes(big);
+  const std::size_t siz = bytes.find("\xFF\x4F\xFF\x51");
+  ASSERT_NE(siz, std::string::npos);
+  for (std::size_t at : {siz + 8, siz + 12}) {  // Xsiz, Ysiz: big-endian 22000
+    bytes[at] = 0;
+    bytes[at + 1] = 0;
+    bytes[at + 2] = static_cast<char>(22000 >> 8);
+    bytes[at + 3] = static_cast<char>(22000 & 0xff);
+  }
+  std::ofstream(big, std::ios::binary) << bytes;
+  const std::string e = decode_error(big);
+  EXPECT_NE(e.find("the 22000×22000×1 pixels of the DICOM header are 968000000 bytes of pixels "
+                   "from"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("refused before allocating"), std::string::npos) << e;
+}
+
+/// A copy of `good` whose codestream (starting at the first `start` marker) `edit` changes in
+/// place; the error of decoding it.
+std::string damaged_error(const fs::path& good, const fs::path& copy, const std::string& start,
+                          const std::function<void(std::string&, std::size_t)>& edit) {
+  std::string bytes = test_files::file_bytes(good);
+  const std::size_t at = bytes.find(start);
+  EXPECT_NE(at, std::string::npos) << good;
+  if (at == std::string::npos) return "";
+  edit(bytes, at);
+  std::ofstream(copy, std::ios::binary) << bytes;
+  return decode_error(copy);
+}
+
+/// The offset of the last `marker` in `bytes`.
+std::size_t last(const std::string& bytes, const char* marker) {
+  return bytes.rfind(marker);
+}
+
+TEST(DecoderRobustness, DamageInsideACompressedFrameIsRefusedWhereItsStructureShowsIt) {
+  const fs::path dir = test::scratch_dir("codestream-damage");
+  struct Damage {
+    const char* codec;
+    gdcm::TransferSyntax::TSType syntax;
+    const char* start;
+    const char* name;
+    std::function<void(std::string&, std::size_t)> edit;
+    const char* expected;
+  };
+  const std::string soc("\xFF\x4F\xFF\x51", 4), soi("\xFF\xD8", 2);
+  const Damage damages[] = {
+      {"j2k", gdcm::TransferSyntax::JPEG2000Lossless, soc.c_str(), "no-eoc",
+       [](std::string& b, std::size_t) { b[last(b, "\xFF\xD9") + 1] = 0; },
+       "does not end with an EOC marker"},
+      {"j2k", gdcm::TransferSyntax::JPEG2000Lossless, soc.c_str(), "psot",
+       [](std::string& b, std::size_t at) {
+         const std::size_t sot = b.find("\xFF\x90", at);
+         b[sot + 7] = static_cast<char>(b[sot + 7] + 1);  // Psot grows by 65536
+       },
+       "bytes (Psot), the codestream holds"},
+      {"j2k", gdcm::TransferSyntax::JPEG2000Lossless, soc.c_str(), "tile",
+       [](std::string& b, std::size_t at) { b[b.find("\xFF\x90", at) + 5] = 7; },
+       "the image has only 1 tiles"},
+      {"j2k", gdcm::TransferSyntax::JPEG2000Lossless, soc.c_str(), "marker-in-data",
+       [](std::string& b, std::size_t) {
+         const std::size_t eoc = last(b, "\xFF\xD9");
+         b[eoc - 40] = static_cast<char>(0xFF);
+         b[eoc - 39] = static_cast<char>(0xA5);
+       },
+       "marker code 0xFFA5 inside the coded data"},
+      {"jpeg-lossless", gdcm::TransferSyntax::JPEGLosslessProcess14_1, soi.c_str(), "no-eoi",
+       [](std::string& b, std::size_t) { b[last(b, "\xFF\xD9") + 1] = 0; }, "EOI"},
+      {"jpeg-lossless", gdcm::TransferSyntax::JPEGLosslessProcess14_1, soi.c_str(), "stray-rst",
+       [](std::string& b, std::size_t) {
+         const std::size_t eoi = last(b, "\xFF\xD9");
+         b[eoi - 100] = static_cast<char>(0xFF);
+         b[eoi - 99] = static_cast<char>(0xD3);
+       },
+       "restart marker RST3 where RST0 is due"},
+      {"jpeg-ls", gdcm::TransferSyntax::JPEGLSLossless, soi.c_str(), "no-eoi",
+       [](std::string& b, std::size_t) { b[last(b, "\xFF\xD9") + 1] = 0; }, "EOI"},
+      {"rle", gdcm::TransferSyntax::RLELossless, "\xFE\xFF\x00\xE0", "short-run",
+       [](std::string& b, std::size_t) {
+         // The first control byte of segment 1 (after the frame's item tag, length and the
+         // 64-byte RLE header) now copies one literal byte fewer or more.
+         const std::size_t first = b.rfind(std::string("\xFE\xFF\x00\xE0", 4)) + 8 + 64;
+         b[first] = static_cast<char>(static_cast<unsigned char>(b[first]) ^ 0x01);
+       },
+       "RLE segment 1"},
+  };
+  for (const Damage& d : damages) {
+    const fs::path good = transcoded(dir, d.codec, d.syntax);
+    ASSERT_EQ(decode_error(good), "") << d.codec;
+    const fs::path copy = dir / (std::string(d.codec) + "-" + d.name + ".dcm");
+    const std::string e = damaged_error(good, copy, d.start, d.edit);
+    EXPECT_NE(e.find(copy.filename().string()), std::string::npos) << e;
+    EXPECT_NE(e.find(d.expected), std::string::npos) << d.codec << " " << d.name << ": " << e;
+  }
+}
+
+TEST(DecoderRobustness, ADecoderWarningOfDamagedDataRefusesTheFile) {
+  // Bytes of a lossless JPEG's coded data overwritten: libjpeg decodes, warns "Corrupt JPEG
+  // data: N extraneous bytes before marker 0xd9" and returns wrong pixels; the warning refuses.
+  const fs::path dir = test::scratch_dir("decoder-warning");
+  const fs::path good =
+      transcoded(dir, "jpeg-lossless", gdcm::TransferSyntax::JPEGLosslessProcess14_1);
+  const std::string e = damaged_error(good, dir / "jpeg-lossless-extra.dcm", "\xFF\xD8",
+                                      [](std::string& b, std::size_t) {
+                                        // A copy of the last bytes before EOI, shifted by three.
+                                        const std::size_t eoi = last(b, "\xFF\xD9");
+                                        for (std::size_t i = 1; i <= 3; ++i)
+                                          b[eoi - i] = static_cast<char>(0x5A);
+                                      });
+  EXPECT_NE(e.find("jpeg-lossless-extra.dcm"), std::string::npos) << e;
+  EXPECT_TRUE(e.find("the decoder reported damaged data") != std::string::npos ||
+              e.find("cannot decode") != std::string::npos)
+      << e;
+}
+
 }  // namespace
 }  // namespace tsf::import

@@ -72,7 +72,8 @@ struct DicomFileInfo {
 
   bool has_pixel_data = false;
   bool pixel_data_encapsulated = false;  ///< compressed transfer syntax
-  std::uint64_t pixel_data_bytes = 0;    ///< value length for native (uncompressed) pixel data
+  /// Native pixel data: the value length; encapsulated: the bytes of all fragments.
+  std::uint64_t pixel_data_bytes = 0;
 
   /// Bytes the decoded pixel data occupy: rows·columns·frames·samples·ceil(bits_allocated/8).
   std::uint64_t decoded_bytes() const;
