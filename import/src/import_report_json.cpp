@@ -114,6 +114,13 @@ SidecarJson import_report_to_json(const ImportReport& r) {
                   {"bits_allocated", rs.bits_allocated},
                   {"bits_stored", rs.bits_stored},
                   {"modality_lut_applied", rs.modality_lut_applied}};
+  if (r.source.kind == "dicom") {
+    const auto& d = r.decoding;
+    j["pixel_decoding"] = {{"native_files_decoded_by_tsf", d.native_files},
+                           {"compressed_files_decoded_by_gdcm", d.compressed_files},
+                           {"decoder_processes", d.decoder_processes},
+                           {"decoder_limits", d.limits}};
+  }
   j["warnings"] = r.warnings;
   j["seconds"] = {{"scan", r.seconds.scan},
                   {"read", r.seconds.read},

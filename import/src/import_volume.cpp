@@ -10,12 +10,14 @@
 #include <new>
 #include <set>
 
+#include "compressed_frame_header.h"
 #include "huge_pages.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/common/text_format.h"
 #include "tsf/import/ct_geometry.h"
+#include "tsf/import/decoder_processes.h"
 #include "tsf/import/dicom_catalog.h"
 #include "tsf/import/dicom_pixel_reader.h"
 #include "tsf/import/imaging_library_setup.h"
@@ -202,7 +204,9 @@ void add_geometry_warnings(const DicomSeries& s, const SliceStackGeometry& g, Im
 }
 
 /// Decodes every slice of `s` into `stack` in the sorted order of `g` (slice k at
-/// stack + k·plane). Files are decoded in parallel.
+/// stack + k·plane). Uncompressed files are decoded by tsf in parallel threads; compressed ones
+/// by GDCM in decoder processes (decoder_processes.h), or here, one at a time, when
+/// TSF_DECODE_IN_PROCESS=1.
 void read_series_pixels(const DicomSeries& s, const SliceStackGeometry& g,
                         const ImportOptions& options, float* stack, ImportReport& r) {
   const std::size_t plane = static_cast<std::size_t>(g.columns) * g.rows;
@@ -210,6 +214,7 @@ void read_series_pixels(const DicomSeries& s, const SliceStackGeometry& g,
   for (int k = 0; k < g.slice_count(); ++k) slot[static_cast<std::size_t>(g.sorted[k])] = k;
   std::vector<std::vector<int>> slices_of_file(s.files.size());
   for (int i = 0; i < s.slice_count(); ++i) slices_of_file[s.slices[i].file].push_back(i);
+  auto stopped = [&] { return options.stop_requested && options.stop_requested(); };
 
   const int n_files = static_cast<int>(s.files.size());
   std::vector<std::string> errors(s.files.size());
@@ -218,9 +223,13 @@ void read_series_pixels(const DicomSeries& s, const SliceStackGeometry& g,
                     static_cast<std::uint64_t>(g.slice_count()),
                     options.show_progress && Progress::stderr_is_terminal());
   const int threads = options.reader_threads > 0 ? options.reader_threads : omp_get_max_threads();
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-  for (int f = 0; f < n_files; ++f) {
+  const bool isolated = decoders_isolated();
+  std::vector<int> compressed;
+  for (int f = 0; f < n_files; ++f)
+    if (s.files[static_cast<std::size_t>(f)].pixel_data_encapsulated) compressed.push_back(f);
+  auto decode_here = [&](int f) {
     const DicomFileInfo& info = s.files[static_cast<std::size_t>(f)];
+    if (stopped()) return;
     try {
       if (info.number_of_frames == 1) {
         decoded[f] = decode_dicom_frames(info, stack + slot[slices_of_file[f][0]] * plane);
@@ -235,10 +244,49 @@ void read_series_pixels(const DicomSeries& s, const SliceStackGeometry& g,
       errors[f] = e.what();
     }
     progress.advance(slices_of_file[f].size());
-  }
-  progress.finish();
+  };
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (int f = 0; f < n_files; ++f)
+    if (!isolated || !s.files[static_cast<std::size_t>(f)].pixel_data_encapsulated) decode_here(f);
   for (const auto& e : errors)
     if (!e.empty()) throw Error(e);
+  if (stopped()) throw Error("interrupted");
+
+  if (isolated && !compressed.empty()) {
+    // Frame k of file f goes to the slot of its slice.
+    std::vector<std::vector<int>> slice_of_frame(s.files.size());
+    for (int i = 0; i < s.slice_count(); ++i) {
+      auto& frames = slice_of_frame[s.slices[i].file];
+      const auto& info = s.files[static_cast<std::size_t>(s.slices[i].file)];
+      frames.resize(static_cast<std::size_t>(info.number_of_frames), -1);
+      frames[static_cast<std::size_t>(s.slices[i].frame)] = i;
+    }
+    std::vector<const DicomFileInfo*> files;
+    for (int f : compressed) files.push_back(&s.files[static_cast<std::size_t>(f)]);
+    DecoderProcessOptions dopt;
+    dopt.processes = threads;
+    dopt.stop_requested = options.stop_requested;
+    r.decoding.decoder_processes = std::min<int>(threads, static_cast<int>(files.size()));
+    decode_in_processes(
+        files, dopt,
+        [&](int job, int frame) -> float* {
+          const auto& frames = slice_of_frame[static_cast<std::size_t>(compressed[job])];
+          const int i = static_cast<std::size_t>(frame) < frames.size() ? frames[frame] : -1;
+          return i < 0 ? nullptr : stack + static_cast<std::size_t>(slot[i]) * plane;
+        },
+        [&](int job, const DecodedFrameValues& v) {
+          decoded[static_cast<std::size_t>(compressed[job])] = v;
+          progress.advance(slices_of_file[compressed[job]].size());
+        });
+  }
+  progress.finish();
+  r.decoding.native_files = n_files - static_cast<int>(compressed.size());
+  r.decoding.compressed_files = static_cast<int>(compressed.size());
+  if (r.decoding.decoder_processes > 0) r.decoding.limits = decoder_process_limits_text();
+  if (!isolated && !compressed.empty())
+    r.warnings.push_back(
+        "compressed pixel data were decoded inside tsf (TSF_DECODE_IN_PROCESS=1), not in decoder "
+        "processes: a codec failure would have ended tsf");
 
   auto& rs = r.rescale;
   const DicomFileInfo& first = s.files.front();
@@ -319,6 +367,16 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
   check_voxel_budget(stack_dims, options.max_voxels, series_name);
   if (g.needs_resampling)
     check_voxel_budget(g.grid.dims, options.max_voxels, "the resampled grid of " + series_name);
+
+  // Compressed files together may claim no more than they can hold (compressed_frame_header.h).
+  std::uint64_t declared = 0, compressed_bytes = 0;
+  for (const DicomFileInfo& f : s.files)
+    if (f.pixel_data_encapsulated) {
+      declared += f.decoded_bytes();
+      compressed_bytes += f.pixel_data_bytes;
+    }
+  const std::string ratio = compression_ratio_problem(declared, compressed_bytes);
+  if (!ratio.empty()) throw Error(series_name + ": its compressed files declare " + ratio);
 
   const std::size_t plane = static_cast<std::size_t>(g.columns) * g.rows;
   HuImage::Pointer image;

@@ -51,6 +51,19 @@ inline void write_dicomdir(const std::filesystem::path& root, const std::vector<
   ASSERT_TRUE(dicomdir.writeDicomDir().good());
 }
 
+/// A series of `count` copies of the DICOM file `source` (any transfer syntax), 2 mm apart along
+/// z with an axial orientation, new instance UIDs, in `dir` (emptied first): "slice-K.dcm".
+inline void series_of_copies(const std::filesystem::path& source, const std::filesystem::path& dir,
+                             int count) {
+  std::filesystem::remove_all(dir);
+  for (int k = 0; k < count; ++k)
+    copy_with_changes(source, dir / ("slice-" + std::to_string(k) + ".dcm"), [&](DcmDataset& ds) {
+      new_instance_uid(ds);
+      ds.putAndInsertString(DCM_ImagePositionPatient, ("0\\0\\" + std::to_string(2 * k)).c_str());
+      ds.putAndInsertString(DCM_ImageOrientationPatient, "1\\0\\0\\0\\1\\0");
+    });
+}
+
 /// The raw bytes of a file.
 inline std::string file_bytes(const std::filesystem::path& p) {
   std::ifstream in(p, std::ios::binary);

@@ -92,6 +92,14 @@ struct ImportReport {
     bool modality_lut_applied = false;
   } rescale;
 
+  /// How the DICOM pixel data were decoded (robustness.md, "Containment of the decoders").
+  struct Decoding {
+    int native_files = 0;       ///< uncompressed: decoded by tsf itself
+    int compressed_files = 0;   ///< decoded by GDCM's codecs
+    int decoder_processes = 0;  ///< isolated processes that ran the codecs (0: inside tsf)
+    std::string limits;         ///< the per-file limits of a decoder process, in words
+  } decoding;
+
   std::vector<std::string> warnings;
 
   struct Seconds {

@@ -20,6 +20,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "tsf/import/import_report.h"
@@ -43,8 +44,12 @@ struct ImportOptions {
   bool allow_non_ct = false;
   /// Refuse volumes with more voxels than this before allocating anything for them.
   std::int64_t max_voxels = std::int64_t{1} << 30;
-  /// Threads reading DICOM files in parallel; 0 = OpenMP's default.
+  /// Threads decoding uncompressed DICOM files in parallel, and decoder processes running the
+  /// codecs of compressed ones; 0 = OpenMP's default (the cores).
   int reader_threads = 0;
+  /// Polled between files and while decoder processes run: returning true stops the import
+  /// with tsf::Error("interrupted") (e.g. after Ctrl-C).
+  std::function<bool()> stop_requested;
 };
 
 struct ImportResult {
