@@ -1,5 +1,6 @@
 #include "tsf/import/volume_file_reader.h"
 
+#include <itkByteSwapper.h>
 #include <itkImageFileReader.h>
 #include <itkImageIOBase.h>
 #include <itkImageIOFactory.h>
@@ -323,6 +324,130 @@ void check_deflate_stream(const DataLocation& loc, std::uint64_t min_bytes,
                 loc.data_path.string() + ")");
 }
 
+/// The checksum at the end of a deflate stream: gzip's CRC-32 and length (mod 2^32), or zlib's
+/// Adler-32. `prefix` is what the stream decompresses to before the voxels (a NIfTI header and
+/// extensions; empty for NRRD and MetaImage).
+struct DeflateTrailer {
+  bool gzip = false, zlib = false;
+  std::uint32_t check = 0, length = 0;
+  std::vector<unsigned char> prefix;
+};
+
+/// Reads the trailer of the stream of `loc` and, for NIfTI, inflates the header and extensions
+/// in front of the voxels (a few hundred bytes). `usable` is false where this shortcut does not
+/// apply (the full check then runs).
+DeflateTrailer read_deflate_trailer(const DataLocation& loc, const std::string& format,
+                                    bool& usable) {
+  usable = false;
+  DeflateTrailer t;
+  std::ifstream in(loc.data_path, std::ios::binary);
+  unsigned char head[2] = {0, 0};
+  in.seekg(static_cast<std::streamoff>(loc.data_offset));
+  in.read(reinterpret_cast<char*>(head), 2);
+  if (!in || loc.available_bytes < 18) return t;
+  const std::uint64_t end = loc.data_offset + loc.available_bytes;
+  unsigned char tail[8] = {};
+  in.seekg(static_cast<std::streamoff>(end - 8));
+  in.read(reinterpret_cast<char*>(tail), 8);
+  if (!in) return t;
+  if (head[0] == 0x1f && head[1] == 0x8b) {
+    t.gzip = true;
+    t.check = std::uint32_t{tail[0]} | (std::uint32_t{tail[1]} << 8) |
+              (std::uint32_t{tail[2]} << 16) | (std::uint32_t{tail[3]} << 24);
+    t.length = std::uint32_t{tail[4]} | (std::uint32_t{tail[5]} << 8) |
+               (std::uint32_t{tail[6]} << 16) | (std::uint32_t{tail[7]} << 24);
+  } else if ((head[0] & 0x0F) == 8 && ((unsigned{head[0]} << 8) | head[1]) % 31 == 0) {
+    t.zlib = true;
+    t.check = (std::uint32_t{tail[4]} << 24) | (std::uint32_t{tail[5]} << 16) |
+              (std::uint32_t{tail[6]} << 8) | tail[7];
+  } else {
+    return t;
+  }
+  if (format == "nifti") {
+    if (!t.gzip) return t;
+    // The header and extensions up to vox_offset come first in the stream.
+    in.clear();
+    in.seekg(static_cast<std::streamoff>(loc.data_offset));
+    z_stream z{};
+    if (inflateInit2(&z, 15 + 16) != Z_OK) return t;
+    std::vector<unsigned char> input(1 << 14), out(1 << 16);
+    std::size_t have = 0, want = 540;
+    bool sized = false;
+    while (have < want) {
+      if (z.avail_in == 0) {
+        in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
+        z.next_in = input.data();
+        z.avail_in = static_cast<uInt>(in.gcount());
+        if (z.avail_in == 0) break;
+      }
+      z.next_out = out.data() + have;
+      z.avail_out = static_cast<uInt>(want - have);
+      const int r = inflate(&z, Z_NO_FLUSH);
+      have = want - z.avail_out;
+      if (r != Z_OK) break;
+      if (!sized && have >= 348) {
+        // NIfTI-1: sizeof_hdr 348, vox_offset a float at 108; NIfTI-2: 540, an int64 at 168.
+        std::int32_t size = 0;
+        std::memcpy(&size, out.data(), 4);
+        double offset = -1;
+        if (size == 348) {
+          float v = 0;
+          std::memcpy(&v, out.data() + 108, 4);
+          offset = v;
+        } else if (size == 540 && have >= 540) {
+          std::int64_t v = 0;
+          std::memcpy(&v, out.data() + 168, 8);
+          offset = static_cast<double>(v);
+        } else if (size != 540) {
+          break;
+        } else {
+          continue;
+        }
+        sized = true;
+        if (!(offset >= 348 && offset <= static_cast<double>(out.size()))) break;
+        want = static_cast<std::size_t>(offset);
+      }
+    }
+    inflateEnd(&z);
+    if (!sized || have != want) return t;
+    t.prefix.assign(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(want));
+  }
+  usable = true;
+  return t;
+}
+
+/// Whether `bytes` (the voxel data as the file stores them after `t.prefix`) are what the stream
+/// of `t` checksums: the CRC-32 of prefix + voxels and their length (gzip) or their Adler-32.
+/// `swap` undoes a byte-order swap of `component` bytes the reader made.
+bool matches_trailer(const DeflateTrailer& t, const unsigned char* bytes, std::size_t n,
+                     std::size_t component, bool swap) {
+  uLong sum = t.gzip ? crc32(0L, Z_NULL, 0) : adler32(0L, Z_NULL, 0);
+  auto add = [&](const unsigned char* p, std::size_t k) {
+    while (k > 0) {
+      const uInt step = static_cast<uInt>(std::min<std::size_t>(k, 1u << 30));
+      sum = t.gzip ? crc32(sum, p, step) : adler32(sum, p, step);
+      p += step;
+      k -= step;
+    }
+  };
+  add(t.prefix.data(), t.prefix.size());
+  if (!swap || component < 2) {
+    add(bytes, n);
+  } else {
+    std::vector<unsigned char> chunk(1 << 16);
+    const std::size_t per = chunk.size() / component * component;
+    for (std::size_t at = 0; at < n; at += per) {
+      const std::size_t k = std::min(per, n - at);
+      for (std::size_t i = 0; i < k; i += component)
+        for (std::size_t b = 0; b < component; ++b)
+          chunk[i + b] = bytes[at + i + component - 1 - b];
+      add(chunk.data(), k);
+    }
+  }
+  if (sum != t.check) return false;
+  return !t.gzip || t.length == static_cast<std::uint32_t>((t.prefix.size() + n) & 0xFFFFFFFFu);
+}
+
 /// Where the voxel bytes of the volume file `path` live; `format` is set to nrrd, metaimage or
 /// nifti.
 DataLocation locate_data(const fs::path& path, std::string& format) {
@@ -451,16 +576,10 @@ VolumeFileHeader inspect_volume_file(const fs::path& path, std::int64_t max_voxe
   return h;
 }
 
-HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& options,
-                                  ImportReport& report) {
-  Stopwatch clock;
-  const VolumeFileHeader h = inspect_volume_file(path, options.max_voxels);
-  // Compressed voxel data are checked (CRC, length) before ITK decompresses them for the image:
-  // ITK's reader would stop short of the trailer, and its error paths for a damaged stream leak.
-  std::string format;
-  const DataLocation loc = locate_data(path, format);
-  if (loc.known && loc.deflate && !loc.data_path.empty())
-    check_deflate_stream(loc, h.voxel_bytes, "'" + path.string() + "': ");
+namespace {
+
+/// ITK's reader, values converted to float.
+HuImage::Pointer read_with_itk(const fs::path& path, const VolumeFileHeader& h) {
   auto io = create_io(path);
   auto reader = itk::ImageFileReader<HuImage>::New();
   reader->SetImageIO(io);
@@ -478,6 +597,143 @@ HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& opt
   HuImage::Pointer image = reader->GetOutput();
   image->DisconnectPipeline();
   image->SetMetaDataDictionary(itk::MetaDataDictionary());  // nothing from the source header
+  return image;
+}
+
+template <typename T>
+void to_float(const unsigned char* raw, std::size_t n, float* out) {
+  const T* v = reinterpret_cast<const T*>(raw);
+  for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(v[i]);
+}
+
+/// The voxels as the file stores them (ITK's ImageIO, decompressed, in this machine's byte
+/// order), checked against the stream's trailer, then converted to float as ImageFileReader
+/// does. A mismatch runs the full stream check, which names the damage.
+HuImage::Pointer read_checksummed(const fs::path& path, const DataLocation& loc,
+                                  const DeflateTrailer& trailer, const VolumeFileHeader& h,
+                                  const std::string& where) {
+  auto io = create_io(path);
+  io->SetFileName(path.string());
+  const std::size_t n = static_cast<std::size_t>(h.dims.volume());
+  std::vector<unsigned char> raw;
+  try {
+    io->ReadImageInformation();
+    const unsigned nd = io->GetNumberOfDimensions();
+    itk::ImageIORegion region(nd);
+    for (unsigned a = 0; a < nd; ++a) {
+      region.SetIndex(a, 0);
+      region.SetSize(a, io->GetDimensions(a));
+    }
+    io->SetIORegion(region);
+    raw.resize(static_cast<std::size_t>(io->GetImageSizeInBytes()));
+    io->Read(raw.data());
+  } catch (const itk::ExceptionObject& e) {
+    check_deflate_stream(loc, h.voxel_bytes, where);  // names the damage when there is one
+    throw Error("cannot read '" + path.string() + "': " + e.GetDescription());
+  } catch (const std::bad_alloc&) {
+    throw Error("not enough memory to read '" + path.string() + "' (" + std::to_string(n) +
+                " voxels)");
+  } catch (const std::exception& e) {
+    check_deflate_stream(loc, h.voxel_bytes, where);
+    throw Error("cannot read '" + path.string() + "': " + e.what());
+  }
+  const std::size_t component = io->GetComponentSize();
+  const bool swapped = io->GetByteOrder() != itk::CommonEnums::IOByteOrder::OrderNotApplicable &&
+                       ((io->GetByteOrder() == itk::CommonEnums::IOByteOrder::BigEndian) !=
+                        itk::ByteSwapper<int>::SystemIsBigEndian());
+  if (raw.size() != n * component ||
+      !matches_trailer(trailer, raw.data(), raw.size(), component, swapped))
+    check_deflate_stream(loc, h.voxel_bytes, where);  // throws unless the stream is sound
+
+  auto image = HuImage::New();
+  HuImage::RegionType region;
+  HuImage::SpacingType spacing;
+  HuImage::PointType origin;
+  HuImage::DirectionType direction;
+  for (int a = 0; a < 3; ++a) {
+    region.SetSize(static_cast<unsigned>(a), static_cast<itk::SizeValueType>(h.dims[a]));
+    spacing[static_cast<unsigned>(a)] = h.spacing[a];
+    origin[static_cast<unsigned>(a)] = h.origin[a];
+    for (int r = 0; r < 3; ++r)
+      direction[static_cast<unsigned>(r)][static_cast<unsigned>(a)] = h.direction[r * 3 + a];
+  }
+  image->SetRegions(region);
+  image->SetSpacing(spacing);
+  image->SetOrigin(origin);
+  image->SetDirection(direction);
+  try {
+    image->Allocate();
+  } catch (const std::bad_alloc&) {
+    throw Error("not enough memory to read '" + path.string() + "' (" + std::to_string(n) +
+                " voxels)");
+  }
+  float* out = image->GetBufferPointer();
+  using Component = itk::CommonEnums::IOComponent;
+  switch (io->GetComponentType()) {
+    case Component::UCHAR:
+      to_float<unsigned char>(raw.data(), n, out);
+      break;
+    case Component::CHAR:
+      to_float<signed char>(raw.data(), n, out);
+      break;
+    case Component::USHORT:
+      to_float<std::uint16_t>(raw.data(), n, out);
+      break;
+    case Component::SHORT:
+      to_float<std::int16_t>(raw.data(), n, out);
+      break;
+    case Component::UINT:
+      to_float<std::uint32_t>(raw.data(), n, out);
+      break;
+    case Component::INT:
+      to_float<std::int32_t>(raw.data(), n, out);
+      break;
+    case Component::ULONG:
+      to_float<unsigned long>(raw.data(), n, out);
+      break;
+    case Component::LONG:
+      to_float<long>(raw.data(), n, out);
+      break;
+    case Component::ULONGLONG:
+      to_float<unsigned long long>(raw.data(), n, out);
+      break;
+    case Component::LONGLONG:
+      to_float<long long>(raw.data(), n, out);
+      break;
+    case Component::FLOAT:
+      to_float<float>(raw.data(), n, out);
+      break;
+    case Component::DOUBLE:
+      to_float<double>(raw.data(), n, out);
+      break;
+    default:
+      throw Error(where +
+                  "the voxel type is not one ITK reads (expected an integer or float type)");
+  }
+  return image;
+}
+
+}  // namespace
+
+HuImage::Pointer read_volume_file(const fs::path& path, const ImportOptions& options,
+                                  ImportReport& report) {
+  Stopwatch clock;
+  const VolumeFileHeader h = inspect_volume_file(path, options.max_voxels);
+  // Compressed voxel data are checked against their stream's checksum (CRC-32 and length, or
+  // Adler-32): ITK's readers stop once they have the voxels, before the trailer. The fast way
+  // checksums the bytes ITK decompressed (one inflate, one CRC pass); where that does not apply
+  // or does not match, the whole stream is inflated once more for the exact reason
+  // (check_deflate_stream).
+  std::string format;
+  const DataLocation loc = locate_data(path, format);
+  const std::string where = "'" + path.string() + "': ";
+  const bool deflate = loc.known && loc.deflate && !loc.data_path.empty();
+  bool fast = false;
+  const DeflateTrailer trailer =
+      deflate ? read_deflate_trailer(loc, format, fast) : DeflateTrailer{};
+  if (deflate && !fast) check_deflate_stream(loc, h.voxel_bytes, where);
+  HuImage::Pointer image =
+      fast ? read_checksummed(path, loc, trailer, h, where) : read_with_itk(path, h);
 
   const VolumeStatistics stats =
       volume_statistics(image->GetBufferPointer(), static_cast<std::size_t>(h.dims.volume()));
