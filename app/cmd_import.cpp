@@ -9,6 +9,7 @@
 #include <string>
 
 #include "commands.h"
+#include "output/interrupt.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/common/text_format.h"
@@ -227,7 +228,25 @@ void run_import(const ImportCommandOptions& o) {
   ImportOptions options = o.import;
   options.show_progress = !o.no_progress;
   options.max_voxels = static_cast<std::int64_t>(o.max_gigavoxels * 1e9);
-  ImportResult result = import_volume(o.path, options);
+  // Ctrl-C or SIGTERM: the decoders stop, nothing is written (or what was is removed), and the
+  // command fails saying so. Temporaries of a write in progress are removed either way.
+  InterruptScope interrupts;
+  options.stop_requested = [] { return interrupted(); };
+  auto stop_if_interrupted = [&](const std::vector<fs::path>& written) {
+    if (!interrupted()) return;
+    std::error_code ec;
+    for (const fs::path& p : written) fs::remove(p, ec);
+    throw Error("interrupted (signal " + std::to_string(interrupt_signal()) +
+                "): nothing was written");
+  };
+  ImportResult result;
+  try {
+    result = import_volume(o.path, options);
+  } catch (const Error&) {
+    stop_if_interrupted({});
+    throw;
+  }
+  stop_if_interrupted({});
   ImportReport& r = result.report;
   for (const auto& w : r.warnings) std::fprintf(stderr, "tsf import: warning: %s\n", w.c_str());
 
@@ -237,6 +256,7 @@ void run_import(const ImportCommandOptions& o) {
   r.output.stored_pixel_type = write_hu_volume(o.output, *result.image, wopt);
   r.output.file = o.output;
   r.seconds.write = write_clock.seconds();
+  stop_if_interrupted({o.output});
   try {
     write_json_atomically(sidecar, import_report_to_json(r));
   } catch (...) {
@@ -279,8 +299,11 @@ Inputs
   image files are grouped by SeriesInstanceUID. A DICOMDIR (or any directory object such as
   Philips' DIRFILE) imports the files it references. A single DICOM file works when it is a
   whole volume (enhanced multi-frame CT). .nrrd/.nhdr, .mha/.mhd and .nii/.nii.gz are read
-  through ITK. Pixels are decoded by GDCM: native, deflate, RLE, JPEG (baseline, extended,
-  lossless), JPEG-LS and JPEG 2000.
+  through ITK. Uncompressed pixels (native, deflate) are decoded by tsf; compressed ones by
+  GDCM (RLE, JPEG baseline/extended/lossless, JPEG-LS, JPEG 2000) in separate decoder
+  processes with memory and CPU limits: a decoder that crashes, hangs or runs out of its
+  limits fails the import naming the file, it cannot take tsf down. Each compressed frame's
+  codestream is checked whole before decoding; decoder warnings of damaged data refuse it.
 
 What is skipped, refused or repaired
   skipped   localizers/scouts, objects without pixels (reports, DICOMDIR), colour images;
@@ -301,7 +324,8 @@ Outputs
   OUT.nrrd or OUT.mha in the LPS patient frame, int16 when every value is a whole number of HU
   (resampled values are rounded to whole HU: ≤ 0.5 HU, far below CT noise), else float32;
   OUT.json beside it: source and skipped files, series, acquired geometry (gaps, tilt, missing
-  slices), output geometry, resampling, rescale, warnings, seconds. Both are written atomically.
+  slices), output geometry, resampling, rescale, pixel decoding, warnings, seconds. Both are
+  written atomically; Ctrl-C or SIGTERM stops the import and leaves neither (exit 1).
   No patient name, ID or birth date is written or printed.
 
 Examples
@@ -345,7 +369,8 @@ void add_import_command(CLI::App& app) {
                   "Refuse volumes larger than this many 10^9 voxels (default 1)")
       ->check(CLI::PositiveNumber);
   sub->add_option("--threads", o->import.reader_threads,
-                  "Threads decoding DICOM files (default: all cores)")
+                  "Threads decoding uncompressed DICOM files, and decoder processes for "
+                  "compressed ones (default: all cores)")
       ->check(CLI::NonNegativeNumber);
   sub->callback([o] { run_import(*o); });
 }

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "commands.h"
+#include "output/interrupt.h"
 #include "tsf/common/error.h"
 #include "tsf/version.h"
 
@@ -29,6 +30,7 @@ int main(int argc, char** argv) {
       ": turns a CT scan into an interactive, cuttable soft-tissue asset.\n"
       "Pipeline: import -> segment -> surface / simulate -> export / view; `tsf run` does it all "
       "from a scene file. A new patient's CT: `tsf info CT`, then `tsf run SCENE --ct CT`."};
+  tsf::app::remove_temporaries_on_signal();
   app.require_subcommand(1);
   app.set_version_flag("--version", "tsf " TSF_VERSION_STRING);
 

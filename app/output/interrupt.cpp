@@ -7,6 +7,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "tsf/common/atomic_file.h"
+
 namespace tsf::app {
 namespace {
 
@@ -28,7 +30,10 @@ extern "C" void on_signal(int sig) {
   // of the first is the same request delivered twice (`timeout` and `kill` on the process
   // group send it to the process and to its group) and is ignored.
   if (g_signal.load() != 0) {
-    if (monotonic_ns() - g_first_ns.load() > 1000000000LL) std::_Exit(128 + sig);
+    if (monotonic_ns() - g_first_ns.load() > 1000000000LL) {
+      remove_pending_temporaries();
+      std::_Exit(128 + sig);
+    }
     return;
   }
   g_first_ns = monotonic_ns();
@@ -40,7 +45,21 @@ extern "C" void on_signal(int sig) {
   [[maybe_unused]] const ssize_t n = write(2, kMessage, sizeof kMessage - 1);
 }
 
+extern "C" void on_signal_cleanup(int sig) {
+  remove_pending_temporaries();
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
 }  // namespace
+
+void remove_temporaries_on_signal() {
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) {
+    // A signal ignored when tsf started (nohup, a background job) stays ignored.
+    const Handler previous = std::signal(sig, on_signal_cleanup);
+    if (previous == SIG_IGN) std::signal(sig, SIG_IGN);
+  }
+}
 
 InterruptScope::InterruptScope() {
   g_signal = 0;

@@ -1,5 +1,9 @@
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <fstream>
 
 #include "support/test_data.h"
@@ -42,6 +46,41 @@ TEST(AtomicFile, CreatesParentsAndKeepsExtensionForFormatDetection) {
   EXPECT_EQ(seen.extension(), ".nrrd");
   EXPECT_EQ(seen.parent_path(), target.parent_path());
   EXPECT_EQ(read_all(target), "x");
+}
+
+extern "C" void remove_and_end(int sig) {
+  remove_pending_temporaries();
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+TEST(AtomicFile, ASignalDuringAWriteLeavesNoTemporaryWhenItsHandlerRemovesThem) {
+  const fs::path dir = test::scratch_dir("atomic-signal");
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    // The child writes slowly, as a large volume would, with the handler tsf installs.
+    std::signal(SIGTERM, remove_and_end);
+    write_file_atomically(dir / "volume.nrrd", [&](const fs::path& tmp) {
+      std::ofstream(tmp) << "half a volume";
+      [[maybe_unused]] const ssize_t n = ::write(ready[1], "x", 1);
+      ::pause();
+    });
+    _exit(0);
+  }
+  char c = 0;
+  ASSERT_EQ(::read(ready[0], &c, 1), 1);  // the temporary exists now
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM);
+  EXPECT_TRUE(fs::is_empty(dir)) << "the temporary or a half-written volume was left behind";
+  ::close(ready[0]);
+  ::close(ready[1]);
 }
 
 }  // namespace

@@ -22,4 +22,15 @@ void write_file_atomically(
 /// Writes `contents` to `target` atomically (text or binary bytes).
 void write_text_atomically(const std::filesystem::path& target, const std::string& contents);
 
+/// Registers a temporary file being written (write_file_atomically does so for its own), so that
+/// remove_pending_temporaries removes it if a signal ends the process first. Returns the slot to
+/// release once the file is renamed or removed; -1 when all 64 slots are taken.
+int register_pending_temporary(const std::filesystem::path& temp);
+void release_pending_temporary(int slot);
+
+/// Removes the temporaries of writes still in progress. Async-signal-safe (unlink(2) only): a
+/// SIGINT/SIGTERM handler calls it before the process ends, so an interrupted writer leaves no
+/// hidden `.name.tmp-*` file behind.
+void remove_pending_temporaries() noexcept;
+
 }  // namespace tsf
