@@ -47,9 +47,33 @@ OutputFolder OutputFolder::prepare(const fs::path& folder, bool force, const std
   return out;
 }
 
+namespace {
+/// Whether `inner` is `outer` or below it (both absolute and normal).
+bool is_inside(const fs::path& inner, const fs::path& outer) {
+  const fs::path rel = inner.lexically_relative(outer);
+  return !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
+}
+}  // namespace
+
 fs::path OutputFolder::file(const fs::path& name) const {
   if (name.empty()) return {};
-  return (path_ / name).lexically_normal();
+  const fs::path p = (path_ / name).lexically_normal();
+  if (name.is_absolute() || !is_inside(p, path_) || p == path_)
+    throw Error("output '" + name.string() + "' would be written outside the output folder " +
+                path_.string() + ": outputs are names inside it");
+  return p;
+}
+
+void check_scene_output_folder(const fs::path& folder, const std::string& key,
+                               const fs::path& scene_file) {
+  std::error_code ec;
+  const fs::path here = fs::weakly_canonical(fs::current_path(ec), ec);
+  const fs::path chosen = fs::weakly_canonical(absolute_path(folder), ec);
+  if (ec || !is_inside(chosen.lexically_normal(), here.lexically_normal()) || chosen == here)
+    throw Error(scene_file.string() + ": " + key + ": '" + folder.string() + "' (" +
+                chosen.string() + ") is not a folder inside the working folder " + here.string() +
+                ": a scene may choose its output folder only there; give -o DIR to write "
+                "elsewhere");
 }
 
 }  // namespace tsf::app

@@ -23,12 +23,20 @@ class OutputFolder {
 
   const std::filesystem::path& path() const { return path_; }
   bool empty() const { return path_.empty(); }
-  /// `name` (relative) inside the folder, absolute. Empty name → empty path.
+  /// `name` (relative) inside the folder, absolute. Empty name → empty path. A name that would
+  /// leave the folder (absolute, or climbing with `..`) throws tsf::Error naming it.
   std::filesystem::path file(const std::filesystem::path& name) const;
 
  private:
   std::filesystem::path path_;
 };
+
+/// A scene file may choose its run's output folder (`key`, e.g. pipeline.outputs.folder), but only
+/// inside the working folder tsf runs in: a scene from elsewhere cannot make tsf create folders
+/// and write files anywhere on the disk; `-o DIR` on the command line may. Throws tsf::Error
+/// naming the scene file, the key and both folders; links are followed for the part that exists.
+void check_scene_output_folder(const std::filesystem::path& folder, const std::string& key,
+                               const std::filesystem::path& scene_file);
 
 /// `path` made absolute (lexically normal); empty stays empty.
 std::filesystem::path absolute_path(const std::filesystem::path& path);

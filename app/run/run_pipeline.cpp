@@ -332,7 +332,10 @@ RunContext prepare_run(const RunOptions& options) {
     clock.restart();
 #endif
   }
-  // Output folder: command line, then the scene, then out/<scene name> here.
+  // Output folder: command line, then the scene (inside the working folder), then
+  // out/<scene name> here.
+  if (options.output_folder.empty() && !scene.pipeline.folder.empty())
+    check_scene_output_folder(scene.pipeline.folder, "pipeline.outputs.folder", scene.file);
   const fs::path folder = !options.output_folder.empty()   ? options.output_folder
                           : !scene.pipeline.folder.empty() ? scene.pipeline.folder
                                                            : fs::path("out") / scene.name;
