@@ -349,10 +349,24 @@ std::string binary_value_problem(DcmDataset& ds) {
              DcmVR(e->ident()).getVRName() + " and " + std::to_string(e->getLengthField()) +
              " bytes: expected one US value";
   }
+  // Attributes GDCM reads with a fixed VR (gdcm::Attribute, in ImageHelper) assert on another:
+  // those that place or scale the image must have their standard VR (found by fuzzing).
+  static const std::pair<DcmTagKey, DcmEVR> kFixedVr[] = {
+      {DCM_ImagePositionPatient, EVR_DS}, {DCM_ImageOrientationPatient, EVR_DS},
+      {DCM_PixelSpacing, EVR_DS},         {DCM_RescaleIntercept, EVR_DS},
+      {DCM_RescaleSlope, EVR_DS},         {DCM_SliceThickness, EVR_DS},
+      {DCM_SpacingBetweenSlices, EVR_DS}, {DCM_NumberOfFrames, EVR_IS},
+      {DCM_ImagerPixelSpacing, EVR_DS},   {DCM_NominalScannedPixelSpacing, EVR_DS},
+      {DCM_RescaleType, EVR_LO}};
   DcmStack stack;
   while (ds.nextObject(stack, OFTrue).good()) {
     DcmObject* o = stack.top();
     if (!o || !o->isLeaf()) continue;
+    for (const auto& [tag, vr] : kFixedVr)
+      if (o->getTag() == tag && o->ident() != vr && o->ident() != EVR_UN)
+        return std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() +
+               " has VR " + DcmVR(o->ident()).getVRName() + ", expected " +
+               DcmVR(vr).getVRName();
     Uint32 unit = 0;
     switch (o->ident()) {
       case EVR_US:
@@ -550,6 +564,12 @@ DicomFileInfo read_dicom_file_info(const fs::path& path) {
     info.kind = DicomObjectKind::unreadable;
     info.skip_reason = "sequences nested more than " + std::to_string(kMaxSequenceDepth) +
                        " deep: refused before parsing";
+    info.series_instance_uid = nesting.series_instance_uid;
+    return info;
+  }
+  if (!nesting.problem.empty()) {
+    info.kind = DicomObjectKind::unreadable;
+    info.skip_reason = "damaged or truncated DICOM: " + nesting.problem;
     info.series_instance_uid = nesting.series_instance_uid;
     return info;
   }

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -138,6 +139,14 @@ bool long_length_vr(const char vr[2]) {
   return false;
 }
 
+std::string overrun(unsigned group, unsigned element, std::uint64_t length) {
+  char text[128];
+  std::snprintf(text, sizeof text,
+                "element (%04X,%04X) declares %llu bytes, more than the file holds after it", group,
+                element, static_cast<unsigned long long>(length));
+  return text;
+}
+
 }  // namespace
 
 DicomNesting dicom_nesting(const std::filesystem::path& path, int limit) {
@@ -154,7 +163,14 @@ DicomNesting dicom_nesting(const std::filesystem::path& path, int limit) {
     const std::uint64_t at = file.position;
     if (!file.read(b, 8)) return result;
     const unsigned group = b[0] | (b[1] << 8), element = b[2] | (b[3] << 8);
-    if (group != 0x0002 || !(b[4] >= 'A' && b[4] <= 'Z' && b[5] >= 'A' && b[5] <= 'Z')) {
+    const bool vr_letters = b[4] >= 'A' && b[4] <= 'Z' && b[5] >= 'A' && b[5] <= 'Z';
+    if (group == 0x0002 && !vr_letters && meta) {
+      char text[64];
+      std::snprintf(text, sizeof text, "meta information element (0002,%04X) has no valid VR",
+                    element);
+      result.problem = text;
+    }
+    if (group != 0x0002 || !vr_letters) {
       file.seek(at);
       break;
     }
@@ -171,6 +187,7 @@ DicomNesting dicom_nesting(const std::filesystem::path& path, int limit) {
       while (!uid.empty() && (uid.back() == '\0' || uid.back() == ' ')) uid.pop_back();
       syntax = uid;
     } else if (!file.skip(length)) {
+      result.problem = overrun(0x0002, element, length);
       return result;
     }
   }
@@ -217,7 +234,11 @@ DicomNesting dicom_nesting(const std::filesystem::path& path, int limit) {
       if (element == 0xE000) {
         if (stack.empty() || !stack.back().sequence) return result;  // an item outside a sequence
         if (stack.back().pixel) {
-          if (length == kUndefined || !in->skip(length)) return result;
+          if (length == kUndefined) return result;
+          if (!in->skip(length)) {
+            if (in == &file) result.problem = overrun(group, element, length);
+            return result;
+          }
           continue;
         }
         stack.push_back(
@@ -244,6 +265,14 @@ DicomNesting dicom_nesting(const std::filesystem::path& path, int limit) {
     } else {
       if (!in->read(b, 4)) return result;
       const char vr[2] = {static_cast<char>(b[0]), static_cast<char>(b[1])};
+      if (!(vr[0] >= 'A' && vr[0] <= 'Z' && vr[1] >= 'A' && vr[1] <= 'Z')) {
+        // DCMTK and GDCM read a different length after a VR that is no VR.
+        char text[96];
+        std::snprintf(text, sizeof text, "element (%04X,%04X) has no valid VR (bytes %02X %02X)",
+                      group, element, b[0], b[1]);
+        result.problem = text;
+        return result;
+      }
       if (long_length_vr(vr)) {
         if (!in->read(b, 4)) return result;
         length = u32(b);
@@ -273,7 +302,10 @@ DicomNesting dicom_nesting(const std::filesystem::path& path, int limit) {
       result.series_instance_uid = uid;
       continue;
     }
-    if (!in->skip(length)) return result;
+    if (!in->skip(length)) {
+      if (in == &file) result.problem = overrun(group, element, length);
+      return result;
+    }
   }
 }
 

@@ -15,6 +15,12 @@ constexpr int kMaxSequenceDepth = 64;
 struct DicomNesting {
   int depth = 0;  ///< deepest sequence nesting seen (stops counting past the limit)
   std::string series_instance_uid;  ///< (0020,000E) at the top level, when seen before that
+  /// Damage the walk saw that DCMTK reads past but GDCM does not (found by fuzzing): a
+  /// meta-information element (group 0002, always explicit VR) whose VR is not two capital
+  /// letters (GDCM asserts), any explicit-VR element whose VR is not (DCMTK and GDCM then read
+  /// different lengths: GDCM allocated 3 GB for a 3 kB file), an element declaring more bytes
+  /// than the file holds after it. "" if none.
+  std::string problem;
 };
 
 /// Walks the elements of `path` (any transfer syntax, deflated data sets inflated on the fly)
