@@ -1,8 +1,9 @@
 // Writes the seed corpora of the fuzz targets (docs/robustness.md) from the bundled data, small
 // on purpose (a fuzzer mutates small inputs faster):
 //   build/fuzz/tsf_fuzz_make_seeds fuzz/corpus
-//   dicom/    a 32×32 crop of the GE sample's first slice, native and in RLE, JPEG lossless,
-//             JPEG-LS and JPEG 2000 (GDCM encodes), plus an implicit VR copy
+//   dicom/    a 32×32 crop of the GE sample's first slice, native (explicit, implicit and
+//             big-endian VR, deflated) and in RLE, JPEG lossless (processes 14 and 14 SV1),
+//             JPEG-LS (lossless, near-lossless) and JPEG 2000 (lossless, lossy), GDCM encoding
 //   volume/   4×4×4 NRRD (raw, gzip), MetaImage, NIfTI and NIfTI gzip, each after the format
 //             byte the volume target reads first
 //   tsfmesh/  a tetrahedron at rest, one pose and one re-mesh
@@ -52,11 +53,17 @@ bool dicom_seeds(const fs::path& source_dir, const fs::path& out) {
   const fs::path native = out / "native.dcm";
   if (file.saveFile(native.c_str(), EXS_LittleEndianExplicit).bad()) return false;
   if (file.saveFile((out / "implicit.dcm").c_str(), EXS_LittleEndianImplicit).bad()) return false;
+  if (file.saveFile((out / "big-endian.dcm").c_str(), EXS_BigEndianExplicit).bad()) return false;
+  if (file.saveFile((out / "deflate.dcm").c_str(), EXS_DeflatedLittleEndianExplicit).bad())
+    return false;
   const std::pair<const char*, gdcm::TransferSyntax::TSType> syntaxes[] = {
       {"rle.dcm", gdcm::TransferSyntax::RLELossless},
       {"jpeg-lossless.dcm", gdcm::TransferSyntax::JPEGLosslessProcess14_1},
       {"jpeg-ls.dcm", gdcm::TransferSyntax::JPEGLSLossless},
-      {"j2k.dcm", gdcm::TransferSyntax::JPEG2000Lossless}};
+      {"j2k.dcm", gdcm::TransferSyntax::JPEG2000Lossless},
+      {"jpeg-lossless-57.dcm", gdcm::TransferSyntax::JPEGLosslessProcess14},
+      {"jpeg-ls-near.dcm", gdcm::TransferSyntax::JPEGLSNearLossless},
+      {"j2k-lossy.dcm", gdcm::TransferSyntax::JPEG2000}};
   for (const auto& [name, syntax] : syntaxes) {
     gdcm::ImageReader reader;
     reader.SetFileName(native.c_str());

@@ -2,6 +2,8 @@
 # Fuzz campaigns (docs/robustness.md): builds the libFuzzer harnesses with clang + ASan + UBSan
 # in build-fuzz, then runs each target for SECONDS on a working copy of its seed corpus.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]     default: 60 s each; dicom volume tsfmesh yaml
+# (dicom_codec: the DICOM codecs inside the fuzzer's process, so its coverage reaches them; the
+# dicom target decodes as tsf import does, compressed files in decoder processes.)
 # Prints one line per target (runs, new corpus entries, findings). Findings (crash-*, leak-*,
 # timeout-*, oom-*) land in build-fuzz/findings/TARGET: fix the cause, then keep the input in
 # fuzz/regressions/TARGET, where FuzzCorpusRobustness replays it under ASan + UBSan in CI.
@@ -37,9 +39,10 @@ for t in "${TARGETS[@]}"; do
   before=$(find "$work" -type f | wc -l)
   log="$BUILD/fuzz-$t.log"
   set +e
+  seeds="$ROOT/fuzz/corpus/${t%_codec}"
   "$BUILD/fuzz/tsf_fuzz_$t" -max_total_time="$SECONDS_PER_TARGET" -timeout=30 \
     -rss_limit_mb=2560 -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" \
-    -ignore_crashes=1 -fork=1 "$work" "$ROOT/fuzz/corpus/$t" >"$log" 2>&1
+    -ignore_crashes=1 -fork=1 "$work" "$seeds" >"$log" 2>&1
   set -e
   # The fork-mode status lines: "#RUNS: cov: ... oom/timeout/crash: O/T/C time: ...".
   last=$(grep -E '^#[0-9]+: cov' "$log" | tail -1)
