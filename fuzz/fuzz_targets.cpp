@@ -26,6 +26,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::size_t g_output_bytes = 0;
+std::size_t g_decoder_peak_bytes = 0;
 std::string g_refusal;
 
 /// `data` written to <temp>/tsf-fuzz-<pid>/input<extension>: the same path for every input of a
@@ -54,6 +55,7 @@ void expect_result_or_error(const std::function<void()>& parse) {
 void run_input(const std::function<void()>& parse) {
   g_refusal.clear();
   g_output_bytes = 0;
+  g_decoder_peak_bytes = 0;
   try {
     parse();
   } catch (const Error& e) {
@@ -149,7 +151,9 @@ std::vector<float> decode_as_import(const import::DicomFileInfo& info) {
   if (info.pixel_data_encapsulated && import::decoders_isolated())
     import::decode_in_processes(
         {&info}, {}, [&](int, int frame) { return v.data() + plane * frame; },
-        [](int, const import::DecodedFrameValues&) {});
+        [](int, const import::DecodedFrameValues& d) {
+          g_decoder_peak_bytes = std::max<std::size_t>(g_decoder_peak_bytes, d.decoder_peak_bytes);
+        });
   else
     import::decode_dicom_frames(info, v.data());
   return v;
@@ -222,6 +226,10 @@ std::size_t last_output_bytes() {
 
 const std::string& last_refusal() {
   return g_refusal;
+}
+
+std::size_t last_decoder_peak_bytes() {
+  return g_decoder_peak_bytes;
 }
 
 Target find_target(const std::string& name) {

@@ -25,6 +25,10 @@ const std::string& last_refusal();
 /// when the input was refused): the memory bound of a campaign is 2× this + 256 MiB.
 std::size_t last_output_bytes();
 
+/// The peak resident memory a decoder process added for the last input (0: none ran): counted
+/// with this process's own peak against the memory bound.
+std::size_t last_decoder_peak_bytes();
+
 using Target = void (*)(const std::uint8_t* data, std::size_t size);
 
 /// A DICOM file: its header (read_dicom_file_info) and, for an image of at most 2^25 bytes, its

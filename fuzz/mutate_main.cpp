@@ -526,7 +526,8 @@ int main(int argc, char** argv) {
     }
     if (memory) {
       const std::uint64_t peak = status_bytes("VmHWM:");
-      const std::uint64_t used = peak > baseline ? peak - baseline : 0;
+      const std::uint64_t used =
+          (peak > baseline ? peak - baseline : 0) + tsf::fuzz::last_decoder_peak_bytes();
       const std::uint64_t output = tsf::fuzz::last_output_bytes();
       const std::uint64_t excess = used > 2 * output ? used - 2 * output : 0;
       if (excess > worst_excess || worst_case.empty()) {

@@ -58,6 +58,7 @@ struct ResultHeader {
   std::int32_t modality_lut_applied = 0;
   std::int32_t padding = 0;
   double slope = 1, intercept = 0;
+  std::uint64_t peak_bytes = 0;  ///< resident memory the decoder added while decoding the file
 };
 
 std::string where(const DicomFileInfo& info) {
@@ -86,12 +87,12 @@ std::string mib(std::uint64_t bytes) {
   return std::to_string((bytes + (std::uint64_t{1} << 20) - 1) >> 20) + " MiB";
 }
 
-/// This process's data segment as the kernel counts it for RLIMIT_DATA (VmData), bytes.
-std::uint64_t data_segment_bytes() {
+/// A size line of /proc/self/status (VmData, VmRSS, VmHWM), bytes.
+std::uint64_t status_bytes(const char* wanted) {
   std::ifstream status("/proc/self/status");
   std::string key;
   while (status >> key) {
-    if (key == "VmData:") {
+    if (key == wanted) {
       std::uint64_t kib = 0;
       status >> kib;
       return kib << 10;
@@ -142,7 +143,7 @@ void set_limits(const DicomFileInfo& info, const DecoderProcessOptions& options)
   // own allocation limit (max_allocation_size_mb in CI) stands in.
   rlimit data{};
   getrlimit(RLIMIT_DATA, &data);
-  const auto limit = static_cast<rlim_t>(data_segment_bytes() + memory_allowance(info));
+  const auto limit = static_cast<rlim_t>(status_bytes("VmData:") + memory_allowance(info));
   data.rlim_cur = data.rlim_max == RLIM_INFINITY ? limit : std::min(limit, data.rlim_max);
   setrlimit(RLIMIT_DATA, &data);
 #endif
@@ -165,6 +166,8 @@ void set_limits(const DicomFileInfo& info, const DecoderProcessOptions& options)
         _exit(0);
       const DicomFileInfo& info = *files[static_cast<std::size_t>(job)];
       set_limits(info, options);
+      std::ofstream("/proc/self/clear_refs") << "5";  // the peak from here on
+      const std::uint64_t resident = status_bytes("VmRSS:");
       ResultHeader header;
       header.file = job;
       std::string text;
@@ -188,6 +191,8 @@ void set_limits(const DicomFileInfo& info, const DecoderProcessOptions& options)
         text = e.what();
       }
       if (text.size() > kMaxText) text.resize(kMaxText);
+      const std::uint64_t peak = status_bytes("VmHWM:");
+      header.peak_bytes = peak > resident ? peak - resident : 0;
       header.text_bytes = static_cast<std::uint32_t>(text.size());
       if (!send_all(socket, &header, sizeof header) || !send_all(socket, text.data(), text.size()))
         _exit(1);
@@ -393,6 +398,7 @@ class DecoderPool {
     v.frames_remapped = h.frames_remapped;
     v.modality_lut_applied = h.modality_lut_applied != 0;
     v.modality_lut_type = d.text;
+    v.decoder_peak_bytes = h.peak_bytes;
     done_(file, v);
     dispatch(d);
     return true;

@@ -9,6 +9,7 @@
 // The declared pixel data size is checked against the header before GDCM allocates anything.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -22,6 +23,8 @@ struct DecodedFrameValues {
   int frames_remapped = 0;          ///< frames whose own rescale differed and was applied
   bool modality_lut_applied = false;
   std::string modality_lut_type;  ///< ModalityLUTType (0028,3004), e.g. "HU"
+  /// Decoded in a decoder process: the peak resident memory it added for this file (bytes).
+  std::uint64_t decoder_peak_bytes = 0;
 };
 
 /// Decodes all frames of `info` into `out`: columns×rows×number_of_frames floats, frame after
