@@ -10,9 +10,6 @@
 //   yaml/     the bundled haptics scene and trajectories
 #include <dcmtk/dcmdata/dcdeftag.h>
 #include <dcmtk/dcmdata/dcfilefo.h>
-#include <gdcmImageChangeTransferSyntax.h>
-#include <gdcmImageReader.h>
-#include <gdcmImageWriter.h>
 
 #include <cstring>
 #include <filesystem>
@@ -22,6 +19,7 @@
 #include <vector>
 
 #include "support/crafted_bytes.h"
+#include "support/gdcm_transcode.h"
 #include "tissue/io/mesh_sequence_test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -64,20 +62,8 @@ bool dicom_seeds(const fs::path& source_dir, const fs::path& out) {
       {"jpeg-lossless-57.dcm", gdcm::TransferSyntax::JPEGLosslessProcess14},
       {"jpeg-ls-near.dcm", gdcm::TransferSyntax::JPEGLSNearLossless},
       {"j2k-lossy.dcm", gdcm::TransferSyntax::JPEG2000}};
-  for (const auto& [name, syntax] : syntaxes) {
-    gdcm::ImageReader reader;
-    reader.SetFileName(native.c_str());
-    if (!reader.Read()) return false;
-    gdcm::ImageChangeTransferSyntax change;
-    change.SetTransferSyntax(syntax);
-    change.SetInput(reader.GetImage());
-    if (!change.Change()) return false;
-    gdcm::ImageWriter writer;
-    writer.SetFileName((out / name).c_str());
-    writer.SetFile(reader.GetFile());
-    writer.SetImage(change.GetOutput());
-    if (!writer.Write()) return false;
-  }
+  for (const auto& [name, syntax] : syntaxes)
+    if (!tsf::test::transcode(native, out / name, syntax)) return false;
   return true;
 }
 

@@ -34,6 +34,9 @@
 
 #include "fuzz_targets.h"
 #include "tsf/common/error.h"
+#ifdef TSF_FUZZ_IMPORT
+#include "tsf/import/decoder_processes.h"
+#endif
 
 extern "C" void __sanitizer_set_death_callback(void (*callback)(void)) __attribute__((weak));
 
@@ -350,20 +353,14 @@ Bytes make_case(const std::vector<Bytes>& seeds, const std::string& target, std:
 }
 
 // ---- memory -------------------------------------------------------------------------------------
-/// VmHWM or VmRSS of this process, bytes.
+/// VmRSS or VmHWM of this process, bytes (0 without the import library).
 std::uint64_t status_bytes(const char* key) {
-  std::ifstream in("/proc/self/status");
-  std::string k;
-  while (in >> k) {
-    if (k == key) {
-      std::uint64_t kib = 0;
-      in >> kib;
-      return kib << 10;
-    }
-    std::string rest;
-    std::getline(in, rest);
-  }
+#ifdef TSF_FUZZ_IMPORT
+  return tsf::import::process_status_bytes(key);
+#else
+  (void)key;
   return 0;
+#endif
 }
 
 void reset_peak_memory() {
@@ -565,8 +562,7 @@ int main(int argc, char** argv) {
       target.c_str(), static_cast<unsigned long long>(ran), static_cast<unsigned long long>(seed),
       seeds.size(), seconds, static_cast<unsigned long long>(accepted),
       static_cast<unsigned long long>(refused), slowest, slowest_case.c_str(),
-      static_cast<unsigned long long>(wrong),
-      static_cast<unsigned long long>(exceptions));
+      static_cast<unsigned long long>(wrong), static_cast<unsigned long long>(exceptions));
   if (memory)
     std::printf(
         ", %llu over the memory bound (worst: %llu MiB peak, %llu MiB above 2 × output, %s)",
@@ -580,8 +576,7 @@ int main(int argc, char** argv) {
       << "\nrefused " << refused << "\nwrong " << wrong << "\nexceptions " << exceptions
       << "\nover_memory " << over_memory << "\nworst_peak_mib " << (worst_peak >> 20)
       << "\nworst_excess_mib " << (worst_excess >> 20) << "\nslowest_s " << slowest
-      << "\nslowest_case " << slowest_case << "\nseconds "
-      << seconds << "\n";
+      << "\nslowest_case " << slowest_case << "\nseconds " << seconds << "\n";
     for (const auto& [k, v] : reasons) s << "reason " << v << " " << k << "\n";
   }
   return findings_count > 0 ? 1 : 0;

@@ -18,7 +18,11 @@
 // markdown table. Also printed: the write step of `tsf import` (int16 gzip NRRD) for reference,
 // and the resampling accuracy/time knob (output slice spacing) on an analytic field.
 //
-// Usage: bench_import [--repeats N] [--threads N] [--samples DIR]
+// Also printed: the cost of decoding compressed series in decoder processes (the GE series
+// encoded by GDCM in RLE, JPEG lossless, JPEG-LS and JPEG 2000; decoders in processes vs inside
+// tsf, alternated; skipped with --no-containment).
+//
+// Usage: bench_import [--repeats N] [--threads N] [--samples DIR] [--no-containment]
 #include <itkGDCMImageIO.h>
 #include <itkGDCMSeriesFileNames.h>
 #include <itkImage.h>
@@ -38,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "support/gdcm_transcode.h"
 #include "tsf/common/error.h"
 #include "tsf/import/hu_volume_writer.h"
 #include "tsf/import/imaging_library_setup.h"
@@ -128,6 +133,48 @@ HuImage::Pointer itk_file(const fs::path& file) {
   return reader->GetOutput();
 }
 
+/// Cost of decoding compressed series in decoder processes (docs/robustness.md, "Containment of
+/// the decoders"): the GE series encoded by GDCM in each codec, imported alternately with the
+/// decoders in their processes and inside tsf (TSF_DECODE_IN_PROCESS=1), same options.
+void containment_cost(const fs::path& ge, int repeats, const tsf::import::ImportOptions& options) {
+  const fs::path dir = fs::temp_directory_path() / "tsf-bench-import-codecs";
+  struct Codec {
+    const char* name;
+    gdcm::TransferSyntax::TSType syntax;
+  };
+  const Codec codecs[] = {{"RLE Lossless", gdcm::TransferSyntax::RLELossless},
+                          {"JPEG Lossless SV1", gdcm::TransferSyntax::JPEGLosslessProcess14_1},
+                          {"JPEG-LS Lossless", gdcm::TransferSyntax::JPEGLSLossless},
+                          {"JPEG 2000 Lossless", gdcm::TransferSyntax::JPEG2000Lossless}};
+  std::printf(
+      "\nCompressed twins of the GE series (GDCM-encoded): decoders in their own processes vs "
+      "inside tsf, median of %d alternating repetitions\n\n",
+      repeats);
+  std::printf("| codec | decoder processes (ms) | inside tsf (ms) | ratio |\n|---|---|---|---|\n");
+  for (const Codec& c : codecs) {
+    const fs::path series = dir / c.name;
+    fs::create_directories(series);
+    for (const auto& e : fs::directory_iterator(ge))
+      if (e.path().extension() == ".dcm" && !fs::exists(series / e.path().filename()) &&
+          !tsf::test::transcode(e.path(), series / e.path().filename(), c.syntax))
+        throw tsf::Error(std::string("GDCM cannot encode the GE series in ") + c.name);
+    const Pair p = alternate(
+        repeats,
+        [&] {
+          unsetenv("TSF_DECODE_IN_PROCESS");
+          tsf::import::import_volume(series, options);
+        },
+        [&] {
+          setenv("TSF_DECODE_IN_PROCESS", "1", 1);
+          tsf::import::import_volume(series, options);
+          unsetenv("TSF_DECODE_IN_PROCESS");
+        });
+    print_row(c.name, p);
+  }
+  std::error_code ec;
+  fs::remove_all(dir, ec);
+}
+
 /// Resampling knob: an analytic field sampled on a tilted, unevenly spaced stack like the GE
 /// series (4 mm then 7 mm, 18.5°), resampled at several output slice spacings; RMS and max error
 /// against the field at the output voxel centres that lie inside the acquired stack.
@@ -207,6 +254,7 @@ void resampling_knob(int repeats) {
 
 int main(int argc, char** argv) {
   int repeats = 15, threads = 0;
+  bool skip_containment = false;
   fs::path samples = fs::path(TSF_SOURCE_DIR) / "data-samples";
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
@@ -216,8 +264,12 @@ int main(int argc, char** argv) {
       threads = std::atoi(argv[++a]);
     else if (arg == "--samples" && a + 1 < argc)
       samples = argv[++a];
+    else if (arg == "--no-containment")
+      skip_containment = true;
     else {
-      std::fprintf(stderr, "usage: %s [--repeats N] [--threads N] [--samples DIR]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [--repeats N] [--threads N] [--samples DIR] [--no-containment]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -267,6 +319,7 @@ int main(int argc, char** argv) {
         "\nGE import stages (last run): scan %.1f ms, read %.1f ms, resample %.1f ms, "
         "total %.1f ms\n",
         s.scan * 1e3, s.read * 1e3, s.resample * 1e3, s.total * 1e3);
+    if (!skip_containment) containment_cost(ge, std::max(3, repeats / 3), options);
 
     const fs::path out = fs::temp_directory_path() / "tsf-bench-import.nrrd";
     std::vector<double> write_gz, write_raw;

@@ -87,22 +87,6 @@ std::string mib(std::uint64_t bytes) {
   return std::to_string((bytes + (std::uint64_t{1} << 20) - 1) >> 20) + " MiB";
 }
 
-/// A size line of /proc/self/status (VmData, VmRSS, VmHWM), bytes.
-std::uint64_t status_bytes(const char* wanted) {
-  std::ifstream status("/proc/self/status");
-  std::string key;
-  while (status >> key) {
-    if (key == wanted) {
-      std::uint64_t kib = 0;
-      status >> kib;
-      return kib << 10;
-    }
-    std::string rest;
-    std::getline(status, rest);
-  }
-  return 0;
-}
-
 bool send_all(int fd, const void* data, std::size_t n) {
   const char* p = static_cast<const char*>(data);
   while (n > 0) {
@@ -143,7 +127,7 @@ void set_limits(const DicomFileInfo& info, const DecoderProcessOptions& options)
   // own allocation limit (max_allocation_size_mb in CI) stands in.
   rlimit data{};
   getrlimit(RLIMIT_DATA, &data);
-  const auto limit = static_cast<rlim_t>(status_bytes("VmData:") + memory_allowance(info));
+  const auto limit = static_cast<rlim_t>(process_status_bytes("VmData:") + memory_allowance(info));
   data.rlim_cur = data.rlim_max == RLIM_INFINITY ? limit : std::min(limit, data.rlim_max);
   setrlimit(RLIMIT_DATA, &data);
 #endif
@@ -167,7 +151,7 @@ void set_limits(const DicomFileInfo& info, const DecoderProcessOptions& options)
       const DicomFileInfo& info = *files[static_cast<std::size_t>(job)];
       set_limits(info, options);
       std::ofstream("/proc/self/clear_refs") << "5";  // the peak from here on
-      const std::uint64_t resident = status_bytes("VmRSS:");
+      const std::uint64_t resident = process_status_bytes("VmRSS:");
       ResultHeader header;
       header.file = job;
       std::string text;
@@ -191,7 +175,7 @@ void set_limits(const DicomFileInfo& info, const DecoderProcessOptions& options)
         text = e.what();
       }
       if (text.size() > kMaxText) text.resize(kMaxText);
-      const std::uint64_t peak = status_bytes("VmHWM:");
+      const std::uint64_t peak = process_status_bytes("VmHWM:");
       header.peak_bytes = peak > resident ? peak - resident : 0;
       header.text_bytes = static_cast<std::uint32_t>(text.size());
       if (!send_all(socket, &header, sizeof header) || !send_all(socket, text.data(), text.size()))
@@ -483,6 +467,21 @@ class DecoderPool {
 };
 
 }  // namespace
+
+std::uint64_t process_status_bytes(const char* wanted) {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == wanted) {
+      std::uint64_t kib = 0;
+      status >> kib;
+      return kib << 10;
+    }
+    std::string rest;
+    std::getline(status, rest);
+  }
+  return 0;
+}
 
 void decode_in_processes(const std::vector<const DicomFileInfo*>& files,
                          const DecoderProcessOptions& options, const FrameSink& sink,

@@ -16,18 +16,13 @@
 #include <sstream>
 
 #include "compressed_frame_header.h"
+#include "image_buffers.h"
 #include "native_pixel_data.h"
 #include "tsf/common/error.h"
 #include "tsf/import/imaging_library_setup.h"
 
 namespace tsf::import {
 namespace {
-
-template <typename T>
-void convert(const void* src, std::size_t n, float* out) {
-  const T* s = static_cast<const T*>(src);
-  for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(s[i]);
-}
 
 /// While alive, what the codecs print goes to memory instead of the terminal: C stdio's `stderr`
 /// stream (libjpeg's warnings, OpenJPEG's errors as GDCM forwards them) and GDCM's warning and
@@ -242,42 +237,9 @@ DecodedFrameValues decode_compressed_frames(const DicomFileInfo& info, float* ou
     throw Error(where(info) + ": the decoder reported damaged data (" + damage +
                 "): refused rather than imported with wrong pixels");
 
-  using Component = itk::CommonEnums::IOComponent;
-  switch (io->GetComponentType()) {
-    case Component::UCHAR:
-      convert<unsigned char>(buffer.data(), n, out);
-      break;
-    case Component::CHAR:
-      convert<signed char>(buffer.data(), n, out);
-      break;
-    case Component::USHORT:
-      convert<std::uint16_t>(buffer.data(), n, out);
-      break;
-    case Component::SHORT:
-      convert<std::int16_t>(buffer.data(), n, out);
-      break;
-    case Component::UINT:
-      convert<std::uint32_t>(buffer.data(), n, out);
-      break;
-    case Component::INT:
-      convert<std::int32_t>(buffer.data(), n, out);
-      break;
-    case Component::ULONG:
-      convert<unsigned long>(buffer.data(), n, out);
-      break;
-    case Component::LONG:
-      convert<long>(buffer.data(), n, out);
-      break;
-    case Component::FLOAT:
-      convert<float>(buffer.data(), n, out);
-      break;
-    case Component::DOUBLE:
-      convert<double>(buffer.data(), n, out);
-      break;
-    default:
-      throw Error(where(info) + ": GDCM decoded an unsupported component type " +
-                  itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType()));
-  }
+  if (!convert_to_float(io->GetComponentType(), buffer.data(), n, out))
+    throw Error(where(info) + ": GDCM decoded an unsupported component type " +
+                itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType()));
 
   DecodedFrameValues result;
   result.slope = io->GetRescaleSlope();

@@ -12,6 +12,7 @@
 
 #include "compressed_frame_header.h"
 #include "huge_pages.h"
+#include "image_buffers.h"
 #include "tsf/common/error.h"
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
@@ -36,36 +37,6 @@ constexpr float kAirCeilingHu = -900.0f;
 
 std::string dims_text(const Int3& d) {
   return std::to_string(d.x) + "×" + std::to_string(d.y) + "×" + std::to_string(d.z);
-}
-
-HuImage::Pointer make_hu_image(const OrthogonalGrid& grid) {
-  auto image = HuImage::New();
-  HuImage::RegionType region;
-  region.SetSize({static_cast<itk::SizeValueType>(grid.dims.x),
-                  static_cast<itk::SizeValueType>(grid.dims.y),
-                  static_cast<itk::SizeValueType>(grid.dims.z)});
-  image->SetRegions(region);
-  HuImage::SpacingType spacing;
-  HuImage::PointType origin;
-  HuImage::DirectionType direction;
-  for (int a = 0; a < 3; ++a) {
-    spacing[a] = grid.spacing[a];
-    origin[a] = grid.origin[a];
-    for (int r = 0; r < 3; ++r) direction[r][a] = grid.axes[a][r];
-  }
-  image->SetSpacing(spacing);
-  image->SetOrigin(origin);
-  image->SetDirection(direction);
-  try {
-    image->Allocate();
-  } catch (const std::bad_alloc&) {
-    throw Error("not enough memory for a " + dims_text(grid.dims) + " volume");
-  } catch (const itk::ExceptionObject& e) {
-    throw Error("cannot allocate a " + dims_text(grid.dims) + " volume: " + e.GetDescription());
-  }
-  advise_huge_pages(image->GetBufferPointer(),
-                    static_cast<std::size_t>(grid.dims.volume()) * sizeof(float));
-  return image;
 }
 
 void check_voxel_budget(const Int3& dims, std::int64_t max_voxels, const std::string& what) {
@@ -470,6 +441,89 @@ HuImage::Pointer import_dicom(const fs::path& path, const ImportOptions& options
 }
 
 }  // namespace
+
+HuImage::Pointer make_hu_image(const OrthogonalGrid& grid) {
+  auto image = HuImage::New();
+  HuImage::RegionType region;
+  region.SetSize({static_cast<itk::SizeValueType>(grid.dims.x),
+                  static_cast<itk::SizeValueType>(grid.dims.y),
+                  static_cast<itk::SizeValueType>(grid.dims.z)});
+  image->SetRegions(region);
+  HuImage::SpacingType spacing;
+  HuImage::PointType origin;
+  HuImage::DirectionType direction;
+  for (int a = 0; a < 3; ++a) {
+    spacing[a] = grid.spacing[a];
+    origin[a] = grid.origin[a];
+    for (int r = 0; r < 3; ++r) direction[r][a] = grid.axes[a][r];
+  }
+  image->SetSpacing(spacing);
+  image->SetOrigin(origin);
+  image->SetDirection(direction);
+  try {
+    image->Allocate();
+  } catch (const std::bad_alloc&) {
+    throw Error("not enough memory for a " + dims_text(grid.dims) + " volume");
+  } catch (const itk::ExceptionObject& e) {
+    throw Error("cannot allocate a " + dims_text(grid.dims) + " volume: " + e.GetDescription());
+  }
+  advise_huge_pages(image->GetBufferPointer(),
+                    static_cast<std::size_t>(grid.dims.volume()) * sizeof(float));
+  return image;
+}
+
+namespace {
+template <typename T>
+void to_float(const void* src, std::size_t n, float* out) {
+  const T* s = static_cast<const T*>(src);
+  for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(s[i]);
+}
+}  // namespace
+
+bool convert_to_float(itk::CommonEnums::IOComponent type, const void* src, std::size_t n,
+                      float* out) {
+  using Component = itk::CommonEnums::IOComponent;
+  switch (type) {
+    case Component::UCHAR:
+      to_float<unsigned char>(src, n, out);
+      return true;
+    case Component::CHAR:
+      to_float<signed char>(src, n, out);
+      return true;
+    case Component::USHORT:
+      to_float<std::uint16_t>(src, n, out);
+      return true;
+    case Component::SHORT:
+      to_float<std::int16_t>(src, n, out);
+      return true;
+    case Component::UINT:
+      to_float<std::uint32_t>(src, n, out);
+      return true;
+    case Component::INT:
+      to_float<std::int32_t>(src, n, out);
+      return true;
+    case Component::ULONG:
+      to_float<unsigned long>(src, n, out);
+      return true;
+    case Component::LONG:
+      to_float<long>(src, n, out);
+      return true;
+    case Component::ULONGLONG:
+      to_float<unsigned long long>(src, n, out);
+      return true;
+    case Component::LONGLONG:
+      to_float<long long>(src, n, out);
+      return true;
+    case Component::FLOAT:
+      to_float<float>(src, n, out);
+      return true;
+    case Component::DOUBLE:
+      to_float<double>(src, n, out);
+      return true;
+    default:
+      return false;
+  }
+}
 
 const DicomSeries& select_dicom_series(const DicomCatalog& catalog, const ImportOptions& options) {
   return select_series(catalog, options);

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "geometry_limits.h"
+#include "image_buffers.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/common/text_format.h"
@@ -600,12 +601,6 @@ HuImage::Pointer read_with_itk(const fs::path& path, const VolumeFileHeader& h) 
   return image;
 }
 
-template <typename T>
-void to_float(const unsigned char* raw, std::size_t n, float* out) {
-  const T* v = reinterpret_cast<const T*>(raw);
-  for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(v[i]);
-}
-
 /// The voxels as the file stores them (ITK's ImageIO, decompressed, in this machine's byte
 /// order), checked against the stream's trailer, then converted to float as ImageFileReader
 /// does. A mismatch runs the full stream check, which names the damage.
@@ -645,71 +640,16 @@ HuImage::Pointer read_checksummed(const fs::path& path, const DataLocation& loc,
       !matches_trailer(trailer, raw.data(), raw.size(), component, swapped))
     check_deflate_stream(loc, h.voxel_bytes, where);  // throws unless the stream is sound
 
-  auto image = HuImage::New();
-  HuImage::RegionType region;
-  HuImage::SpacingType spacing;
-  HuImage::PointType origin;
-  HuImage::DirectionType direction;
-  for (int a = 0; a < 3; ++a) {
-    region.SetSize(static_cast<unsigned>(a), static_cast<itk::SizeValueType>(h.dims[a]));
-    spacing[static_cast<unsigned>(a)] = h.spacing[a];
-    origin[static_cast<unsigned>(a)] = h.origin[a];
-    for (int r = 0; r < 3; ++r)
-      direction[static_cast<unsigned>(r)][static_cast<unsigned>(a)] = h.direction[r * 3 + a];
-  }
-  image->SetRegions(region);
-  image->SetSpacing(spacing);
-  image->SetOrigin(origin);
-  image->SetDirection(direction);
-  try {
-    image->Allocate();
-  } catch (const std::bad_alloc&) {
-    throw Error("not enough memory to read '" + path.string() + "' (" + std::to_string(n) +
-                " voxels)");
-  }
-  float* out = image->GetBufferPointer();
-  using Component = itk::CommonEnums::IOComponent;
-  switch (io->GetComponentType()) {
-    case Component::UCHAR:
-      to_float<unsigned char>(raw.data(), n, out);
-      break;
-    case Component::CHAR:
-      to_float<signed char>(raw.data(), n, out);
-      break;
-    case Component::USHORT:
-      to_float<std::uint16_t>(raw.data(), n, out);
-      break;
-    case Component::SHORT:
-      to_float<std::int16_t>(raw.data(), n, out);
-      break;
-    case Component::UINT:
-      to_float<std::uint32_t>(raw.data(), n, out);
-      break;
-    case Component::INT:
-      to_float<std::int32_t>(raw.data(), n, out);
-      break;
-    case Component::ULONG:
-      to_float<unsigned long>(raw.data(), n, out);
-      break;
-    case Component::LONG:
-      to_float<long>(raw.data(), n, out);
-      break;
-    case Component::ULONGLONG:
-      to_float<unsigned long long>(raw.data(), n, out);
-      break;
-    case Component::LONGLONG:
-      to_float<long long>(raw.data(), n, out);
-      break;
-    case Component::FLOAT:
-      to_float<float>(raw.data(), n, out);
-      break;
-    case Component::DOUBLE:
-      to_float<double>(raw.data(), n, out);
-      break;
-    default:
-      throw Error(where +
-                  "the voxel type is not one ITK reads (expected an integer or float type)");
-  }
+  OrthogonalGrid grid;
+  grid.dims = h.dims;
+  grid.spacing = h.spacing;
+  grid.origin = h.origin;
+  for (int a = 0; a < 3; ++a)
+    grid.axes[static_cast<std::size_t>(a)] = {h.direction[a], h.direction[3 + a],
+                                              h.direction[6 + a]};
+  HuImage::Pointer image = make_hu_image(grid);
+  if (!convert_to_float(io->GetComponentType(), raw.data(), n, image->GetBufferPointer()))
+    throw Error(where + "the voxel type is not one ITK reads (expected an integer or float type)");
   return image;
 }
 

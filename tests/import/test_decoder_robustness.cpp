@@ -2,9 +2,6 @@
 // the DICOM header are refused before decoding, naming both values; the JPEG decoders' chatter
 // is kept off the terminal without touching file descriptor 2 (sanitizer reports go there).
 // Runs under ASan + UBSan in CI ("Robustness").
-#include <gdcmImageChangeTransferSyntax.h>
-#include <gdcmImageReader.h>
-#include <gdcmImageWriter.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -16,6 +13,7 @@
 
 #include "dicom_test_files.h"
 #include "support/error_of.h"
+#include "support/gdcm_transcode.h"
 #include "support/test_data.h"
 #include "tsf/common/error.h"
 #include "tsf/import/dicom_pixel_reader.h"
@@ -68,18 +66,7 @@ fs::path transcoded(const fs::path& dir, const char* name, gdcm::TransferSyntax:
                     const char* slice = "01.dcm") {
   const fs::path source = test::samples_dir() / "ct-head-ge-hispeed-tilt-varspacing" / slice;
   const fs::path target = dir / (std::string(name) + ".dcm");
-  gdcm::ImageReader reader;
-  reader.SetFileName(source.c_str());
-  EXPECT_TRUE(reader.Read()) << source;
-  gdcm::ImageChangeTransferSyntax change;
-  change.SetTransferSyntax(syntax);
-  change.SetInput(reader.GetImage());
-  EXPECT_TRUE(change.Change()) << name;
-  gdcm::ImageWriter writer;
-  writer.SetFileName(target.c_str());
-  writer.SetFile(reader.GetFile());
-  writer.SetImage(change.GetOutput());
-  EXPECT_TRUE(writer.Write()) << target;
+  EXPECT_TRUE(test::transcode(source, target, syntax)) << name;
   return target;
 }
 

@@ -51,6 +51,9 @@ std::string decoder_process_limits_text();
 /// TSF_DECODE_IN_PROCESS is set to 1 (a debugging aid: a codec's crash then ends tsf).
 bool decoders_isolated();
 
+/// A size line of /proc/self/status ("VmData:", "VmRSS:", "VmHWM:"), in bytes; 0 when absent.
+std::uint64_t process_status_bytes(const char* key);
+
 /// For tests of the containment only: when the environment variable TSF_TEST_DECODER_FAULT is
 /// "abort", "segfault", "spin", "sleep" or "allocate", a decoder process given a file whose name
 /// contains TSF_TEST_DECODER_FAULT_FILE does that instead of decoding it.
