@@ -10,8 +10,9 @@
 //   memory (RLIMIT_DATA): what it holds already + 256 MiB + 8 × the file's decoded bytes + 2 × its
 //                         compressed bytes; compressed bytes are themselves bounded by the ratio
 //                         check of the header pass, so the limit follows what the file holds;
-//   CPU (RLIMIT_CPU):     30 s + 1 s per 2^22 samples of the file;
-//   wall clock:           a decoder sending nothing for 120 s + 4 × that CPU budget is killed.
+//   CPU (RLIMIT_CPU):     30 s + 1 s per 2^20 samples of the file (×5 under AddressSanitizer);
+//   wall clock:           a decoder that sends nothing and uses no CPU for 120 s + 4 × that CPU
+//                         budget is killed (waiting on something that will not come).
 // A decoder that dies (signal, exit) or breaks a limit fails the import with the file, its
 // transfer syntax and what happened; the other decoders are stopped.
 #pragma once
