@@ -244,6 +244,19 @@ void classify_image(DcmDataset& ds, DicomFileInfo& info) {
                        std::to_string(info.bits_allocated);
     return;
   }
+  if (info.high_bit < info.bits_stored - 1 || info.high_bit >= info.bits_allocated) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "HighBit " + std::to_string(info.high_bit) + " with BitsStored " +
+                       std::to_string(info.bits_stored) + " and BitsAllocated " +
+                       std::to_string(info.bits_allocated);
+    return;
+  }
+  if (info.pixel_representation != 0 && info.pixel_representation != 1) {
+    info.kind = DicomObjectKind::unsupported;
+    info.skip_reason = "PixelRepresentation " + std::to_string(info.pixel_representation) +
+                       " (expected 0, unsigned, or 1, signed)";
+    return;
+  }
   if (image_type_is_localizer(info.image_type)) {
     info.kind = DicomObjectKind::localizer;
     info.skip_reason = "localizer (ImageType " + info.image_type + ")";
