@@ -31,6 +31,7 @@
 #include <itkLinearInterpolateImageFunction.h>
 #include <itkResampleImageFilter.h>
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -55,9 +56,26 @@ using tsf::import::HuImage;
 
 namespace {
 
+/// CPU seconds (user + system) this process and its reaped children (decoder processes) used.
+double cpu_seconds() {
+  double total = 0;
+  for (const int who : {RUSAGE_SELF, RUSAGE_CHILDREN}) {
+    rusage u{};
+    getrusage(who, &u);
+    total += static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+             1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  }
+  return total;
+}
+
+/// The last call's CPU seconds (seconds_of measures both).
+double g_last_cpu = 0;
+
 double seconds_of(const std::function<void()>& f) {
+  const double c0 = cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   f();
+  g_last_cpu = cpu_seconds() - c0;
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -68,7 +86,7 @@ double median(std::vector<double> v) {
 }
 
 struct Pair {
-  std::vector<double> tsf, itk;
+  std::vector<double> tsf, itk, tsf_cpu, itk_cpu;
 };
 
 Pair alternate(int repeats, const std::function<void()>& tsf_run,
@@ -78,14 +96,20 @@ Pair alternate(int repeats, const std::function<void()>& tsf_run,
   Pair p;
   for (int r = 0; r < repeats; ++r) {
     p.tsf.push_back(seconds_of(tsf_run));
+    p.tsf_cpu.push_back(g_last_cpu);
     p.itk.push_back(seconds_of(itk_run));
+    p.itk_cpu.push_back(g_last_cpu);
   }
   return p;
 }
 
+/// Wall-clock medians and their ratio; then the CPU medians (user + system, decoder processes
+/// included), which load from other processes disturbs far less.
 void print_row(const char* name, const Pair& p) {
   const double t = median(p.tsf), i = median(p.itk);
-  std::printf("| %s | %.1f | %.1f | %.2f× |\n", name, t * 1e3, i * 1e3, t / i);
+  const double tc = median(p.tsf_cpu), ic = median(p.itk_cpu);
+  std::printf("| %s | %.1f | %.1f | %.2f× | %.1f | %.1f |\n", name, t * 1e3, i * 1e3, t / i,
+              tc * 1e3, ic * 1e3);
 }
 
 HuImage::Pointer itk_series(const fs::path& dir, unsigned expected_slices) {
@@ -150,7 +174,9 @@ void containment_cost(const fs::path& ge, int repeats, const tsf::import::Import
       "\nCompressed twins of the GE series (GDCM-encoded): decoders in their own processes vs "
       "inside tsf, median of %d alternating repetitions\n\n",
       repeats);
-  std::printf("| codec | decoder processes (ms) | inside tsf (ms) | ratio |\n|---|---|---|---|\n");
+  std::printf(
+      "| codec | decoder processes (ms) | inside tsf (ms) | ratio | processes CPU (ms) | inside "
+      "CPU (ms) |\n|---|---|---|---|---|---|\n");
   for (const Codec& c : codecs) {
     const fs::path series = dir / c.name;
     fs::create_directories(series);
@@ -286,7 +312,9 @@ int main(int argc, char** argv) {
         "tsf import vs plain ITK, same run: median of %d alternating repetitions, "
         "%d OpenMP thread(s), %d cores\n\n",
         repeats, omp_get_max_threads(), omp_get_num_procs());
-    std::printf("| case | tsf import (ms) | plain ITK (ms) | ratio |\n|---|---|---|---|\n");
+    std::printf(
+        "| case | tsf import (ms) | plain ITK (ms) | ratio | tsf CPU (ms) | ITK CPU (ms) |\n"
+        "|---|---|---|---|---|---|\n");
     tsf::import::ImportResult last;
     const Pair g = alternate(
         repeats, [&] { last = tsf::import::import_volume(ge, options); },
@@ -313,7 +341,7 @@ int main(int argc, char** argv) {
           [&] { itk_series(philips, 28); });
       print_row("Philips phantom, 28 DICOM slices 512², even, no tilt (no resampling)", p);
     } else {
-      std::printf("| Philips phantom (needs ../shared/data) | not run | not run | – |\n");
+      std::printf("| Philips phantom (needs ../shared/data) | not run | not run | – | – | – |\n");
     }
     std::printf(
         "\nGE import stages (last run): scan %.1f ms, read %.1f ms, resample %.1f ms, "
