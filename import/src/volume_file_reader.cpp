@@ -215,7 +215,11 @@ std::vector<HeaderField> nifti_geometry_fields(const fs::path& path, bool gzippe
     gzFile gz = gzopen(path.c_str(), "rb");
     if (!gz) return {};
     n = gzread(gz, h, sizeof h);
+    int code = Z_OK;
+    const std::string message = n < 0 ? gzerror(gz, &code) : "";
     gzclose(gz);
+    if (n < 0)  // a small file is inflated whole here, trailer included
+      throw Error("'" + path.string() + "': the compressed data fail their check: " + message);
   } else {
     std::ifstream in(path, std::ios::binary);
     in.read(reinterpret_cast<char*>(h), sizeof h);

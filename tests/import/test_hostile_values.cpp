@@ -209,6 +209,54 @@ TEST(HostileValuesRobustness, GzipVoxelDataFailingItsCrcOrLengthAreRefused) {
   EXPECT_NE(e.find("bytes follow the end"), std::string::npos) << e;
 }
 
+TEST(HostileValuesRobustness, EveryCompressedVolumeFormatIsCheckedOnTheBytesItsReaderInflated) {
+  // The checksum is computed over what ITK decompressed (one inflate): right for NIfTI, whose
+  // stream holds the header too, and for big-endian voxels, which ITK swaps; wrong bytes refused.
+  const fs::path dir = test::scratch_dir("hostile-gzip-formats");
+  std::string voxels(128, '\0');
+  for (std::size_t i = 0; i < voxels.size(); i += 2) voxels[i] = static_cast<char>(i / 2);
+  const float pixdim[3] = {1, 1, 1}, qoffset[3] = {0, 0, 0}, srow[4] = {1, 0, 0, 0};
+  const std::string h = test::nifti1_header(4, 4, 4, pixdim, 0, qoffset, 1, srow);
+  write_bytes(dir / "ok.nii.gz", gzip_stored(h + voxels));
+  ASSERT_EQ(import_error(dir / "ok.nii.gz"), "");
+  std::string flipped = gzip_stored(h + voxels);
+  flipped[15 + 352 + 20] ^= 0x10;  // a voxel byte, behind the NIfTI header in the stream
+  write_bytes(dir / "flipped.nii.gz", flipped);
+  std::string e = import_error(dir / "flipped.nii.gz");
+  EXPECT_NE(e.find("incorrect data check"), std::string::npos) << e;
+
+  // Big-endian int16 voxels in a gzip NRRD: ITK swaps them; the values are 0..63.
+  std::string big(128, '\0');
+  for (std::size_t i = 0; i < big.size(); i += 2) big[i + 1] = static_cast<char>(i / 2);
+  std::string header = nrrd(std::string(kSpace) + "space origin: (0,0,0)\n", "gzip", "");
+  header.replace(header.find("endian: little"), 14, "endian: big");
+  write_bytes(dir / "big.nrrd", header + gzip_stored(big));
+  ImportOptions options;
+  options.show_progress = false;
+  const ImportResult r = import_volume(dir / "big.nrrd", options);
+  EXPECT_EQ(r.image->GetBufferPointer()[63], 63.0f);
+  std::string big_flipped = gzip_stored(big);
+  big_flipped[15 + 9] ^= 0x01;
+  write_bytes(dir / "big-flipped.nrrd", header + big_flipped);
+  e = import_error(dir / "big-flipped.nrrd");
+  EXPECT_NE(e.find("incorrect data check"), std::string::npos) << e;
+
+  // A zlib-compressed MetaImage (Adler-32) with one voxel byte changed after compression.
+  std::string zlib = test::deflated(voxels, 15);
+  write_bytes(dir / "ok.mha",
+              "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_SHORT\n"
+              "CompressedData = True\nCompressedDataSize = " +
+                  std::to_string(zlib.size()) + "\nElementDataFile = LOCAL\n" + zlib);
+  ASSERT_EQ(import_error(dir / "ok.mha"), "");
+  zlib[zlib.size() - 1] ^= 0x01;  // the Adler-32's last byte
+  write_bytes(dir / "adler.mha",
+              "ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_SHORT\n"
+              "CompressedData = True\nCompressedDataSize = " +
+                  std::to_string(zlib.size()) + "\nElementDataFile = LOCAL\n" + zlib);
+  e = import_error(dir / "adler.mha");
+  EXPECT_NE(e.find("incorrect data check"), std::string::npos) << e;
+}
+
 /// A DICOMDIR in `root` referencing two GE slices in root/DICOM, then its second record's
 /// ReferencedFileID replaced by `id`.
 void dicomdir_with_second_id(const fs::path& root, const std::string& id) {
