@@ -45,11 +45,11 @@ VoxelBox ToolStroke::apply(VoxelVolume& volume, const VoxelBox& box, const Remov
         const std::size_t v = volume.index(i, j, k);
         const float old = density[v];
         if (old <= 0.0f) continue;
-        const float w = weight(i, j, k);
+        const float w = o.strength * weight(i, j, k);
         if (w <= 0.0f) continue;
         float& done = applied_[v];
         if (w <= done) continue;
-        const float removal = o.strength * o.rates[labels[v]] * (w - done);
+        const float removal = o.rates[labels[v]] * (w - done);
         done = w;
         const float now = std::max(0.0f, old - removal);
         if (now != old) {

@@ -1,6 +1,7 @@
 // One stroke of an ablating or cutting tool, in rest space: consecutive moves of the same tool in
-// the same mode. Each voxel loses density once, with the largest fall-off weight the stroke has
-// given it so far (removal = strength · rate(label) · (w − w_already_applied)), so
+// the same mode. Each voxel loses density once, with the largest strength-scaled fall-off weight
+// the stroke has given it so far (removal = rate(label) · (s·w − (s·w)_already_applied), s the
+// move's strength: force-dependent ablation scales it per move, docs/deform-cut.md), so
 //   * a ball or wand dragged through tissue carves one smooth channel (moves overlap at their
 //     shared pose; applying each move on its own would lower the fall-off band twice there and
 //     widen the channel by up to the band's width);
