@@ -317,14 +317,24 @@ void force_section(const ReportContext& c, std::ostream& md) {
 
 // ---- what the tools did, per instance ---------------------------------------------------------
 
-/// "mucosa 120 mm³, cortical-bone 1.2 mm³" from a {label: mm³} object, largest first.
-std::string by_label(const json& m) {
+/// "mucosa 120 of 120 mm³ reached (rate 1), cortical-bone 1.2 of 24 mm³ (0.05)" from the
+/// {label: mm³} objects of what was removed and what the tools reached, largest first.
+std::string by_label(const json& removed, const json& reached) {
   std::vector<std::pair<double, std::string>> v;
-  for (auto it = m.begin(); it != m.end(); ++it) v.emplace_back(it.value().get<double>(), it.key());
+  for (auto it = removed.begin(); it != removed.end(); ++it)
+    v.emplace_back(it.value().get<double>(), it.key());
   std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   std::string out;
-  for (const auto& [mm3, label] : v)
-    out += (out.empty() ? "" : ", ") + label + " " + number(mm3) + " mm³";
+  for (const auto& [mm3, label] : v) {
+    const bool first = out.empty();
+    out += (first ? "" : ", ") + label + " " + number(mm3);
+    const double r = reached.value(label, 0.0);
+    if (r > 0)
+      out += " of " + number(r) + " mm³ reached (" + (first ? "effective rate " : "") +
+             number(mm3 / r, 2) + ")";
+    else
+      out += " mm³";
+  }
   return out;
 }
 
@@ -344,7 +354,9 @@ void edits_section(const ReportContext& c, std::ostream& md) {
     const json by = totals.value("removed_by_label_mm3", json::object());
     if (!by.empty()) {
       const json removal = in.value("removal", json::object());
-      md << " Removed by tissue: " << by_label(by) << " (removal rates: "
+      md << " Removed by tissue: "
+         << by_label(by, totals.value("reached_by_label_mm3", json::object()))
+         << " (removal rates: "
          << (removal.contains("rates_source") ? removal["rates_source"].get<std::string>()
                                               : std::string("uniform 1"))
          << (removal.value("feather_force_mn", 0.0) > 0

@@ -1,6 +1,7 @@
 #include "scene/interaction_run.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -279,12 +280,11 @@ json exposure_json(const ExposureRecord& e, const VolumeGeometry& patient_frame)
           {"first", e.event.first}};
 }
 
-json removed_by_label_json(const interaction::InteractionTotals& t) {
+json by_label_json(const std::array<double, 256>& mm3) {
   std::vector<std::pair<std::uint8_t, double>> v;
   for (int l = 0; l < 256; ++l)
-    if (t.removed_by_label_mm3[static_cast<std::size_t>(l)] > 0.0)
-      v.emplace_back(static_cast<std::uint8_t>(l),
-                     t.removed_by_label_mm3[static_cast<std::size_t>(l)]);
+    if (mm3[static_cast<std::size_t>(l)] > 0.0)
+      v.emplace_back(static_cast<std::uint8_t>(l), mm3[static_cast<std::size_t>(l)]);
   return by_label_json(v);
 }
 
@@ -295,6 +295,7 @@ json edit_json(const EditRecord& e) {
           {"mode", interaction::to_string(r.mode)},
           {"removed_mm3", r.removed_mm3},
           {"removed_by_label_mm3", by_label_json(r.removed_by_label)},
+          {"reached_by_label_mm3", by_label_json(r.reached_by_label)},
           {"rate_scale", r.rate_scale},
           {"contact_force_un", length(r.contact.force_un)},
           {"nodes_deleted", r.nodes_deleted},
@@ -449,7 +450,8 @@ json instance_report_json(const Scene& scene, const InteractionResult& result,
       {"totals",
        {{"edits", r.totals.edits},
         {"removed_mm3", r.totals.removed_mm3},
-        {"removed_by_label_mm3", removed_by_label_json(r.totals)},
+        {"removed_by_label_mm3", by_label_json(r.totals.removed_by_label_mm3)},
+        {"reached_by_label_mm3", by_label_json(r.totals.reached_by_label_mm3)},
         {"nodes_deleted", r.totals.nodes_deleted},
         {"springs_broken", r.totals.springs_broken},
         {"springs_torn", r.totals.springs_torn},

@@ -116,6 +116,10 @@ TEST(RemovalRateScene, MucosaIsAblatedFasterThanBoneByTheConfiguredRatio) {
     ASSERT_GT(mucosa, 50.0) << tag;
     EXPECT_NEAR(bone / mucosa, c.ratio, 0.1 * c.ratio)
         << tag << ": mucosa " << mucosa << " mm³, bone " << bone << " mm³";
+    // The effective rates: removed / reached per label.
+    const json& reached = r["totals"]["reached_by_label_mm3"];
+    EXPECT_NEAR(mucosa / reached.value("mucosa", 0.0), 1.0, 0.01) << tag;
+    EXPECT_NEAR(bone / reached.value("cortical-bone", 0.0), c.ratio, 0.01 * c.ratio) << tag;
     EXPECT_EQ(r["session"]["removal"]["ablation_rates"].value("cortical-bone", 1.0), c.ratio)
         << tag;
   }

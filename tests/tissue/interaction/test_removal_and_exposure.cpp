@@ -51,6 +51,10 @@ TEST(RemovalRates, MucosaIsAblatedFasterThanBoneByTheRatioOfTheirRates) {
   EXPECT_NEAR(bone / mucosa, 0.25, 0.025);
   EXPECT_NEAR(model.totals().removed_by_label_mm3[kLabelMucosa], mucosa, 1e-6 * mucosa);
   EXPECT_NEAR(mucosa + bone, model.totals().removed_mm3, 1e-6 * mucosa);
+  // What the ball reached of each tissue: removed / reached is the label's rate.
+  const auto& reached = model.totals().reached_by_label_mm3;
+  EXPECT_NEAR(mucosa / reached[kLabelMucosa], 1.0, 1e-6);
+  EXPECT_NEAR(bone / reached[kLabelCorticalBone], 0.25, 1e-6);
 }
 
 TEST(RemovalRates, ABladeCutsMucosaButNotBoneWhoseCutRateIsZero) {

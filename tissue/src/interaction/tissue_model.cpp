@@ -267,6 +267,14 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   }
   r.edit_us = micros(clock);
   r.changed_voxels = changed;
+  const double voxel_mm3 = vg.spacing.x * vg.spacing.y * vg.spacing.z;
+  for (int l = 0; l < 256; ++l) {
+    const double reached = stroke_.last_reached()[static_cast<std::size_t>(l)] * voxel_mm3;
+    if (reached > 0.0) {
+      r.reached_by_label.emplace_back(static_cast<std::uint8_t>(l), reached);
+      totals_.reached_by_label_mm3[static_cast<std::size_t>(l)] += reached;
+    }
+  }
   if (changed.empty()) {
     r.total_us = micros(total);
     return r;

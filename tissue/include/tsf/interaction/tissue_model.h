@@ -111,6 +111,9 @@ struct EditReport {
   double removed_mm3 = 0;  ///< tissue removed (Σ density drop × voxel volume)
   /// removed_mm3 by the voxels' tissue labels (labels that lost nothing left out), ascending.
   std::vector<std::pair<std::uint8_t, double>> removed_by_label;
+  /// Per label, what the tool reached: the tissue it would have removed at rate 1 (same strength
+  /// and pressure), mm³. removed / reached is the label's effective rate.
+  std::vector<std::pair<std::uint8_t, double>> reached_by_label;
   /// The factor on the removal strength: 1 − exp(−F/F0) for force-dependent ablation, else 1.
   double rate_scale = 1.0;
   /// Exposure events this edit raised (the first within the distance of a label, or nearer than
@@ -160,8 +163,8 @@ struct InteractionTotals {
   std::size_t vertices_rebound = 0;
   std::int64_t steps = 0;
   double simulated_s = 0;
-  /// removed_mm3 by tissue label.
-  std::array<double, 256> removed_by_label_mm3{};
+  /// removed_mm3 by tissue label, and what the tools reached (EditReport::reached_by_label).
+  std::array<double, 256> removed_by_label_mm3{}, reached_by_label_mm3{};
   // Tearing (AdvanceReport::tear).
   std::size_t springs_torn = 0, nodes_masked = 0;
   std::size_t tear_nodes_deleted = 0, tear_springs_broken = 0;

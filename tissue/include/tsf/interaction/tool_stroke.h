@@ -12,6 +12,7 @@
 // and is dropped by end() (the tool lifted, or a new stroke).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <unordered_map>
@@ -28,6 +29,10 @@ class ToolStroke {
   /// Ends the stroke: the next move starts a fresh one.
   void end() { applied_.clear(); }
   std::size_t voxels_remembered() const { return applied_.size(); }
+  /// Per tissue label, the density the last move would have removed at rate 1 (Σ over its
+  /// voxels of min(density, s·w − already applied)): with the density it did remove, the
+  /// effective rate of each label (removed / reached).
+  const std::array<double, 256>& last_reached() const { return reached_; }
 
   /// A ball of `radius` moving from `from` to `to` (mm). Returns the changed voxels.
   VoxelBox ablate_ball(VoxelVolume& volume, const Vec3d& from, const Vec3d& to, double radius,
@@ -46,6 +51,7 @@ class ToolStroke {
                  const Weight& weight);
 
   std::unordered_map<std::size_t, float> applied_;
+  std::array<double, 256> reached_{};
 };
 
 }  // namespace tsf::interaction
