@@ -21,15 +21,12 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-#define TSF_NEED_EXE()                          \
-  if (!fs::exists(test::tsf_executable_path())) \
-  GTEST_SKIP() << "not run: the tsf executable is not built at " << test::tsf_executable_path()
-
-/// `tsf simulate -q SCENE --out DIR --backend cpu`; the report (the scene's outputs.report).
-json simulate(const fs::path& scene, const fs::path& out, test::ProcessRun* run = nullptr) {
-  const test::ProcessRun p = test::run_tsf(
-      test::tsf_executable_path(),
-      "simulate " + test::shell_quoted(scene) + " --backend cpu --out " + test::shell_quoted(out));
+/// `tsf simulate SCENE --out DIR --backend cpu`; the report (the scene's outputs.report).
+json simulate(const fs::path& exe, const fs::path& scene, const fs::path& out,
+              test::ProcessRun* run = nullptr) {
+  const test::ProcessRun p =
+      test::run_tsf(exe, "simulate " + test::shell_quoted(scene) + " --backend cpu --out " +
+                             test::shell_quoted(out));
   if (run) *run = p;
   EXPECT_EQ(p.status, 0) << p.output;
   if (p.status != 0 || !fs::exists(out / "report.json")) return json();
@@ -37,10 +34,10 @@ json simulate(const fs::path& scene, const fs::path& out, test::ProcessRun* run 
 }
 
 TEST(TearScene, TheMucosaStripTearsIntoTwoPiecesAndTheReportCountsThem) {
-  TSF_NEED_EXE();
+  TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path out = test::scratch_dir("tear-mucosa") / "out";
   test::ProcessRun run;
-  const json r = simulate(test::source_dir() / "scenes" / "tear-mucosa.yaml", out, &run);
+  const json r = simulate(exe, test::source_dir() / "scenes" / "tear-mucosa.yaml", out, &run);
   ASSERT_TRUE(r.is_object());
   // The report counts the tear: springs torn, pieces of the lattice and of the surface.
   EXPECT_GT(r["totals"]["springs_torn"].get<int>(), 0);
@@ -100,7 +97,7 @@ double removed(const json& r, const std::string& label) {
 }
 
 TEST(RemovalRateScene, MucosaIsAblatedFasterThanBoneByTheConfiguredRatio) {
-  TSF_NEED_EXE();
+  TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path dir = test::scratch_dir("removal-rates");
   // The library's rates (mucosa 1, cortical bone 0.05) and a scene's own (bone 0.4).
   struct Case {
@@ -110,7 +107,7 @@ TEST(RemovalRateScene, MucosaIsAblatedFasterThanBoneByTheConfiguredRatio) {
   for (const Case& c : {Case{"library", 0.05}, Case{"{mucosa: 1, cortical-bone: 0.4}", 0.4}}) {
     const std::string tag = c.rates == "library" ? "library" : "scene";
     std::ofstream(dir / (tag + ".yaml")) << two_tissue_scene(c.rates);
-    const json r = simulate(dir / (tag + ".yaml"), dir / ("out-" + tag));
+    const json r = simulate(exe, dir / (tag + ".yaml"), dir / ("out-" + tag));
     ASSERT_TRUE(r.is_object()) << tag;
     const double mucosa = removed(r, "mucosa"), bone = removed(r, "cortical-bone");
     ASSERT_GT(mucosa, 50.0) << tag;
@@ -126,10 +123,10 @@ TEST(RemovalRateScene, MucosaIsAblatedFasterThanBoneByTheConfiguredRatio) {
 }
 
 TEST(ExposureScene, AnEditNearTheVesselRaisesAnEventAtTheRightTimeAndFiresItsTrigger) {
-  TSF_NEED_EXE();
+  TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path out = test::scratch_dir("exposure-vessel") / "out";
   test::ProcessRun run;
-  const json r = simulate(test::source_dir() / "scenes" / "exposure-vessel.yaml", out, &run);
+  const json r = simulate(exe, test::source_dir() / "scenes" / "exposure-vessel.yaml", out, &run);
   ASSERT_TRUE(r.is_object());
   ASSERT_FALSE(r["exposures"].empty()) << r.dump(1).substr(0, 2000);
   const json& first = r["exposures"][0];
@@ -154,7 +151,7 @@ TEST(ExposureScene, AnEditNearTheVesselRaisesAnEventAtTheRightTimeAndFiresItsTri
 }
 
 TEST(EditConsequenceKeys, ErrorsNameTheirKeyPath) {
-  TSF_NEED_EXE();
+  TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path dir = test::scratch_dir("edit-keys");
   const std::string base = two_tissue_scene("library");
   struct Case {
@@ -187,9 +184,8 @@ TEST(EditConsequenceKeys, ErrorsNameTheirKeyPath) {
     text.replace(at, c.from.size(), c.to);
     const fs::path scene = dir / ("case" + std::to_string(i++) + ".yaml");
     std::ofstream(scene) << text;
-    const test::ProcessRun p =
-        test::run_tsf(test::tsf_executable_path(), "simulate -q " + test::shell_quoted(scene) +
-                                                       " --out " + test::shell_quoted(dir / "out"));
+    const test::ProcessRun p = test::run_tsf(exe, "simulate -q " + test::shell_quoted(scene) +
+                                                      " --out " + test::shell_quoted(dir / "out"));
     EXPECT_NE(p.status, 0) << c.to;
     EXPECT_NE(p.output.find(c.expect), std::string::npos)
         << "expected '" << c.expect << "' in: " << p.output;

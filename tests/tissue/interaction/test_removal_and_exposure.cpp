@@ -154,39 +154,40 @@ VoxelVolume block_with_vessel() {
   return v;
 }
 
-TEST(Exposure, AnEditReportsItsDistanceToTheNearestWatchedVoxel) {
+/// The exposures of ablating `ball` from block_with_vessel(), watching `o`'s labels.
+std::vector<ExposureHit> exposures_of(const SphereTool& ball, const ExposureOptions& o) {
   VoxelVolume v = block_with_vessel();
   DensitySnapshot before;
   const VoxelBox all = VoxelBox::of_dims(v.dims());
   before.capture(v, all);
+  ablate_sphere(v, ball);
+  return find_exposures(v, before, all, 0.5f, o);
+}
+
+TEST(Exposure, AnEditReportsItsDistanceToTheNearestWatchedVoxel) {
   // Remove a ball of radius 2 centred 6 mm from the vessel axis along x (x = 14): the voxels
   // taken below the iso-level reach x = 15 (x = 16 lies on the ball's surface and keeps density
   // 0.5), the vessel's voxels start at x = 19: 4 mm.
-  ablate_sphere(v, {{14, 10, 10}, 2.0});
+  const SphereTool ball{{14, 10, 10}, 2.0};
   ExposureOptions o;
   o.distance_mm = 4.5;
-  const std::vector<ExposureHit> hits = find_exposures(v, before, all, 0.5f, o);
+  const std::vector<ExposureHit> hits = exposures_of(ball, o);
   ASSERT_EQ(hits.size(), 1u);
   EXPECT_EQ(hits[0].label, kLabelVessel);
   EXPECT_NEAR(hits[0].distance_mm, 4.0, 1e-9);
   EXPECT_NEAR(hits[0].label_mm.x, 19.0, 1e-9);
   // Beyond the distance: nothing; another watched label: nothing.
   o.distance_mm = 3.5;
-  EXPECT_TRUE(find_exposures(v, before, all, 0.5f, o).empty());
+  EXPECT_TRUE(exposures_of(ball, o).empty());
   o.distance_mm = 4.5;
   o.labels = {kLabelNerve};
-  EXPECT_TRUE(find_exposures(v, before, all, 0.5f, o).empty());
+  EXPECT_TRUE(exposures_of(ball, o).empty());
 }
 
 TEST(Exposure, RemovingTheVesselItselfIsDistanceZero) {
-  VoxelVolume v = block_with_vessel();
-  DensitySnapshot before;
-  const VoxelBox all = VoxelBox::of_dims(v.dims());
-  before.capture(v, all);
-  ablate_sphere(v, {{20, 10, 13}, 2.5});
   ExposureOptions o;
   o.distance_mm = 1.0;
-  const std::vector<ExposureHit> hits = find_exposures(v, before, all, 0.5f, o);
+  const std::vector<ExposureHit> hits = exposures_of({{20, 10, 13}, 2.5}, o);
   ASSERT_EQ(hits.size(), 1u);
   EXPECT_EQ(hits[0].distance_mm, 0.0);
 }
