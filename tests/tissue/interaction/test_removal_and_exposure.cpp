@@ -147,6 +147,38 @@ TEST(FeatherAblation, WithoutItAblationExertsNoForceAndRemovesAtTheFullRate) {
   EXPECT_GT(model.totals().removed_mm3, 10.0);
 }
 
+TEST(FeatherAblation, PressingTissueAgainstAnchoredBoneMovesNoNodeFar) {
+  // Soft tissue over an anchored bone layer (z < 9); a wand lowered through the soft tissue into
+  // the bone, pressing as it ablates. Vertices held mostly by anchored corners cannot be pushed
+  // out: their free corners must not be flung away (a corner moves at most 4× the push).
+  VoxelVolume v = block_volume({40, 20, 20}, {2, 2, 2}, {38, 18, 18});
+  label_box(v, {0, 0, 0}, {40, 20, 9}, kLabelCorticalBone);
+  TissueModelOptions o = block_options(-1.0, 0.0);
+  o.anchor = [](crms::Lattice& l) { crms::fix_nodes_with_labels(l, {kLabelCorticalBone}); };
+  o.feather_force_un = 5e3;
+  TissueModel model(std::move(v), std::move(o));
+  Tool wand;
+  wand.shape = collision::ToolShape::kCapsule;
+  wand.radius_mm = 1.5;
+  wand.half_length_mm = 3.0;
+  const Rotation along_x = Rotation::about_axis({0, 1, 0}, M_PI / 2);
+  double force_max = 0;
+  for (int f = 0; f < 16; ++f) {
+    const EditReport r =
+        model.apply_tool(wand, {{20.0 + 0.7 * f, 10, 20.0 - 0.8 * f}, along_x}, ToolMode::kAblate);
+    force_max = std::max(force_max, length(r.contact.force_un));
+    model.advance(1e-3);
+  }
+  ASSERT_TRUE(test::all_finite(model));
+  const auto u = model.solver().displacements();
+  double farthest = 0;
+  for (std::int64_t n = 0; n < model.solver().lattice().node_count(); ++n)
+    if (model.solver().lattice().alive(n))
+      farthest = std::max(farthest, double(length(u[static_cast<std::size_t>(n)])));
+  EXPECT_LT(farthest, 6.0) << "a node was moved " << farthest << " mm";
+  EXPECT_LT(force_max, 10e6) << "µN";
+}
+
 /// A block of soft tissue with a vessel (label 64) along y at x = 20, z = 10, radius 1 mm.
 VoxelVolume block_with_vessel() {
   VoxelVolume v = block_volume({40, 20, 20}, {2, 2, 2}, {38, 18, 18});
