@@ -192,5 +192,39 @@ TEST(EditConsequenceKeys, ErrorsNameTheirKeyPath) {
   }
 }
 
+TEST(LibraryRemovalRates, TheLibraryListsThemAndBadEntriesNameTheirKeyPath) {
+  TSF_EXECUTABLE_OR_SKIP(exe);
+  const test::ProcessRun ok = test::run_tsf(exe, "run --materials");
+  ASSERT_EQ(ok.status, 0) << ok.output;
+  EXPECT_NE(ok.output.find("| cortical-bone | 0.05 | 0 | assumption:"), std::string::npos)
+      << ok.output;
+  const std::string library = test::read_text(test::source_dir() / "materials" / "tissues.yaml");
+  const fs::path dir = test::scratch_dir("removal-library");
+  struct Case {
+    std::string from, to, expect;
+  };
+  const Case cases[] = {
+      {"  cortical-bone:\n    ablation: 0.05", "  cortical-bone:\n    ablation: 1.5",
+       "removal_rates.cortical-bone.ablation: expected a number in [0, 1]"},
+      {"    assumption: \"compact bone", "    notes: \"compact bone",
+       "removal_rates.cortical-bone.notes: unknown key"},
+      {"  nerve:\n", "  2:\n", "names the same tissue label as 'mucosa'"},
+  };
+  int i = 0;
+  for (const Case& c : cases) {
+    std::string text = library;
+    const auto at = text.find(c.from);
+    ASSERT_NE(at, std::string::npos) << c.from;
+    text.replace(at, c.from.size(), c.to);
+    const fs::path file = dir / ("library" + std::to_string(i++) + ".yaml");
+    std::ofstream(file) << text;
+    const test::ProcessRun p =
+        test::run_tsf(exe, "run --materials --library " + test::shell_quoted(file));
+    EXPECT_NE(p.status, 0) << c.to;
+    EXPECT_NE(p.output.find(c.expect), std::string::npos)
+        << "expected '" << c.expect << "' in: " << p.output.substr(0, 600);
+  }
+}
+
 }  // namespace
 }  // namespace tsf

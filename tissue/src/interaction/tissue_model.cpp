@@ -11,7 +11,6 @@
 #include "tsf/interaction/lattice_components.h"
 #include "tsf/interaction/lattice_topology_edit.h"
 #include "tsf/interaction/tear_separation.h"
-#include "tsf/volume/tissue_labels.h"
 
 namespace tsf::interaction {
 namespace {
