@@ -8,7 +8,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "support/test_data.h"
 #include "support/tsf_process.h"
@@ -150,14 +152,37 @@ TEST(ExposureScene, AnEditNearTheVesselRaisesAnEventAtTheRightTimeAndFiresItsTri
             r["totals"]["removed_by_label_mm3"].value("vessel", 0.0));
 }
 
+/// A text edit of a file (`from` → `to`) and the error the command must give for it.
+struct Refusal {
+  std::string from, to, expect;
+};
+
+/// For each refusal: `base` with the edit written to DIR/NAME<i>.yaml, `command` (given that
+/// file's quoted path) run, which must fail naming `expect`.
+void expect_refusals(const fs::path& exe, const std::string& base,
+                     const std::vector<Refusal>& cases, const fs::path& dir,
+                     const std::string& name,
+                     const std::function<std::string(const std::string&)>& command) {
+  int i = 0;
+  for (const Refusal& c : cases) {
+    std::string text = base;
+    const auto at = text.find(c.from);
+    ASSERT_NE(at, std::string::npos) << c.from;
+    text.replace(at, c.from.size(), c.to);
+    const fs::path file = dir / (name + std::to_string(i++) + ".yaml");
+    std::ofstream(file) << text;
+    const test::ProcessRun p = test::run_tsf(exe, command(test::shell_quoted(file)));
+    EXPECT_NE(p.status, 0) << c.to;
+    EXPECT_NE(p.output.find(c.expect), std::string::npos)
+        << "expected '" << c.expect << "' in: " << p.output.substr(0, 800);
+  }
+}
+
 TEST(EditConsequenceKeys, ErrorsNameTheirKeyPath) {
   TSF_EXECUTABLE_OR_SKIP(exe);
   const fs::path dir = test::scratch_dir("edit-keys");
   const std::string base = two_tissue_scene("library");
-  struct Case {
-    std::string from, to, expect;
-  };
-  const Case cases[] = {
+  const std::vector<Refusal> cases = {
       {"rates: library", "rates: fastest", "tissue.removal.rates: expected `library`"},
       {"rates: library", "rates: {mucosa: 2}",
        "tissue.removal.rates.mucosa: expected a number in [0, 1]"},
@@ -172,24 +197,12 @@ TEST(EditConsequenceKeys, ErrorsNameTheirKeyPath) {
       {"rates: library",
        "rates: library\neffects:\n  palette: {materials: [{name: soft, youngs_modulus: 1000}]}\n"
        "  animation:\n    exposure_triggers: [{name: x, label: vessel, entry: soft}]",
-       "exposure_triggers[0]: fires when an edit exposes label 'vessel', which tissue.exposure "
-       "does "
-       "not watch"},
+       "exposure_triggers[0]: fires when an edit exposes label 'vessel', which "
+       "tissue.exposure does not watch"},
   };
-  int i = 0;
-  for (const Case& c : cases) {
-    std::string text = base;
-    const auto at = text.find(c.from);
-    ASSERT_NE(at, std::string::npos) << c.from;
-    text.replace(at, c.from.size(), c.to);
-    const fs::path scene = dir / ("case" + std::to_string(i++) + ".yaml");
-    std::ofstream(scene) << text;
-    const test::ProcessRun p = test::run_tsf(exe, "simulate -q " + test::shell_quoted(scene) +
-                                                      " --out " + test::shell_quoted(dir / "out"));
-    EXPECT_NE(p.status, 0) << c.to;
-    EXPECT_NE(p.output.find(c.expect), std::string::npos)
-        << "expected '" << c.expect << "' in: " << p.output;
-  }
+  expect_refusals(exe, base, cases, dir, "case", [&](const std::string& scene) {
+    return "simulate -q " + scene + " --out " + test::shell_quoted(dir / "out");
+  });
 }
 
 TEST(LibraryRemovalRates, TheLibraryListsThemAndBadEntriesNameTheirKeyPath) {
@@ -200,30 +213,15 @@ TEST(LibraryRemovalRates, TheLibraryListsThemAndBadEntriesNameTheirKeyPath) {
       << ok.output;
   const std::string library = test::read_text(test::source_dir() / "materials" / "tissues.yaml");
   const fs::path dir = test::scratch_dir("removal-library");
-  struct Case {
-    std::string from, to, expect;
-  };
-  const Case cases[] = {
+  const std::vector<Refusal> cases = {
       {"  cortical-bone:\n    ablation: 0.05", "  cortical-bone:\n    ablation: 1.5",
        "removal_rates.cortical-bone.ablation: expected a number in [0, 1]"},
       {"    assumption: \"compact bone", "    notes: \"compact bone",
        "removal_rates.cortical-bone.notes: unknown key"},
       {"  nerve:\n", "  2:\n", "names the same tissue label as 'mucosa'"},
   };
-  int i = 0;
-  for (const Case& c : cases) {
-    std::string text = library;
-    const auto at = text.find(c.from);
-    ASSERT_NE(at, std::string::npos) << c.from;
-    text.replace(at, c.from.size(), c.to);
-    const fs::path file = dir / ("library" + std::to_string(i++) + ".yaml");
-    std::ofstream(file) << text;
-    const test::ProcessRun p =
-        test::run_tsf(exe, "run --materials --library " + test::shell_quoted(file));
-    EXPECT_NE(p.status, 0) << c.to;
-    EXPECT_NE(p.output.find(c.expect), std::string::npos)
-        << "expected '" << c.expect << "' in: " << p.output.substr(0, 600);
-  }
+  expect_refusals(exe, library, cases, dir, "library",
+                  [](const std::string& file) { return "run --materials --library " + file; });
 }
 
 }  // namespace
