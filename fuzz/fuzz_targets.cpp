@@ -148,14 +148,16 @@ void check_decoded(const import::DicomFileInfo& info, const std::vector<float>& 
 std::vector<float> decode_as_import(const import::DicomFileInfo& info) {
   const std::size_t plane = static_cast<std::size_t>(info.columns) * info.rows;
   std::vector<float> v(plane * static_cast<std::size_t>(info.number_of_frames));
-  if (info.pixel_data_encapsulated && import::decoders_isolated())
-    import::decode_in_processes(
-        {&info}, {}, [&](int, int frame) { return v.data() + plane * frame; },
-        [](int, const import::DecodedFrameValues& d) {
-          g_decoder_peak_bytes = std::max<std::size_t>(g_decoder_peak_bytes, d.decoder_peak_bytes);
-        });
-  else
+  if (!info.pixel_data_encapsulated || !import::decoders_isolated()) {
     import::decode_dicom_frames(info, v.data());
+    return v;
+  }
+  const std::vector<const import::DicomFileInfo*> files{&info};
+  const auto frame_memory = [&](int, int frame) { return v.data() + plane * frame; };
+  const auto note_peak = [](int, const import::DecodedFrameValues& d) {
+    g_decoder_peak_bytes = std::max<std::size_t>(g_decoder_peak_bytes, d.decoder_peak_bytes);
+  };
+  import::decode_in_processes(files, {}, frame_memory, note_peak);
   return v;
 }
 

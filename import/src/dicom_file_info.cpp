@@ -377,9 +377,8 @@ std::string binary_value_problem(DcmDataset& ds) {
     if (!o || !o->isLeaf()) continue;
     for (const auto& [tag, vr] : kFixedVr)
       if (o->getTag() == tag && o->ident() != vr && o->ident() != EVR_UN)
-        return std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() +
-               " has VR " + DcmVR(o->ident()).getVRName() + ", expected " +
-               DcmVR(vr).getVRName();
+        return std::string(DcmTag(tag).getTagName()) + " " + tag.toString().c_str() + " has VR " +
+               DcmVR(o->ident()).getVRName() + ", expected " + DcmVR(vr).getVRName();
     Uint32 unit = 0;
     switch (o->ident()) {
       case EVR_US:
