@@ -29,15 +29,25 @@ std::size_t g_output_bytes = 0;
 std::size_t g_decoder_peak_bytes = 0;
 std::string g_refusal;
 
+/// <temp>/tsf-fuzz-<pid>, removed when the process that made it exits normally (a test, the
+/// mutation driver, libFuzzer); a forked decoder process that exits leaves it to its parent.
+struct ScratchFolder {
+  pid_t owner = ::getpid();
+  fs::path dir = fs::temp_directory_path() / ("tsf-fuzz-" + std::to_string(owner));
+  ScratchFolder() { fs::create_directories(dir); }
+  ScratchFolder(const ScratchFolder&) = delete;
+  ScratchFolder& operator=(const ScratchFolder&) = delete;
+  ~ScratchFolder() {
+    std::error_code ec;
+    if (::getpid() == owner) fs::remove_all(dir, ec);
+  }
+};
+
 /// `data` written to <temp>/tsf-fuzz-<pid>/input<extension>: the same path for every input of a
 /// process, so a long campaign does not fill the disk.
 fs::path input_file(const std::uint8_t* data, std::size_t size, const std::string& extension) {
-  static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / ("tsf-fuzz-" + std::to_string(::getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  const fs::path file = dir / ("input" + extension);
+  static const ScratchFolder scratch;
+  const fs::path file = scratch.dir / ("input" + extension);
   std::ofstream out(file, std::ios::binary | std::ios::trunc);
   out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   return file;
