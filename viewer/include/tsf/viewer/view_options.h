@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <string>
 
@@ -55,6 +56,11 @@ struct ViewOptions {
   double frame_s = 1.0 / 120.0;
   /// Window: close by itself after this many rendered frames (< 0: when the user quits).
   int close_after_frames = -1;
+  /// Window: close by itself after this many seconds of wall time (≤ 0: when the user quits).
+  double close_after_s = 0;
+  /// Window: runs first on the simulation thread (tsf view lowers its priority below the haptic
+  /// thread's there).
+  std::function<void()> on_simulation_thread_start;
 
   /// Throws tsf::Error naming the field when a value is out of range.
   void validate() const;

@@ -1,0 +1,218 @@
+// Several tools at once, tools read from mesh files and one tissue instance resting on another,
+// through the commands a user runs (`tsf simulate` on the shipped scenes): two tools act in one
+// frame, a mesh tool presses the tissue, a soft block rests on a bone instance without passing
+// through it (and falls through without the contact), and bad tool files and contact keys are
+// refused by name.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+
+#include "support/test_data.h"
+#include "support/tsf_process.h"
+#include "tsf/imt/surface_ply.h"
+
+namespace tsf {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct Simulated {
+  test::ProcessRun process;
+  json report;
+  fs::path out;
+};
+
+Simulated simulate(const fs::path& scene, const std::string& tag, const std::string& extra = "") {
+  Simulated s;
+  s.out = test::scratch_dir("tools-contact-" + tag) / "out";
+  s.process = test::run_tsf(test::tsf_executable_path(),
+                            "simulate -q --backend cpu " + test::shell_quoted(scene) + " --out " +
+                                test::shell_quoted(s.out) + " " + extra);
+  if (s.process.status == 0 && fs::exists(s.out / "report.json"))
+    s.report = json::parse(test::read_text(s.out / "report.json"));
+  return s;
+}
+
+/// `scene` with `from` replaced by `to`, written next to a copy of scenes/tools.
+fs::path edited(const std::string& scene, const std::string& tag, const std::string& from,
+                const std::string& to) {
+  const fs::path dir = test::scratch_dir("tools-contact-scene-" + tag);
+  std::string text = test::read_text(test::source_dir() / "scenes" / scene);
+  if (!from.empty()) {
+    const std::size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  }
+  fs::create_directories(dir / "tools");
+  fs::copy_file(test::source_dir() / "scenes" / "tools" / "endoscope.stl",
+                dir / "tools" / "endoscope.stl", fs::copy_options::overwrite_existing);
+  std::ofstream(dir / scene) << text;
+  return dir / scene;
+}
+
+#define TSF_NEED_EXE()                          \
+  if (!fs::exists(test::tsf_executable_path())) \
+  GTEST_SKIP() << "not run: the tsf executable is not built at " << test::tsf_executable_path()
+
+TEST(TwoTools, TheEndoscopePressesWhileTheWandAblatesInTheSameFrames) {
+  TSF_NEED_EXE();
+  const Simulated s = simulate(test::source_dir() / "scenes" / "two-tools.yaml", "two");
+  ASSERT_EQ(s.process.status, 0) << s.process.output;
+  const json& r = s.report;
+  // Frames in which the wand removed tissue (edit times: the frame's start)…
+  std::map<long, double> ablated;
+  for (const json& e : r["edits"])
+    if (e["tool"] == "wand") ablated[std::lround(e["time_s"].get<double>() * 200)] +=
+                             e["removed_mm3"].get<double>();
+  // …and frames in which the endoscope held tissue (contact samples: the frame's end).
+  int both = 0;
+  double scope_force = 0;
+  for (const json& c : r["contact"])
+    for (const json& t : c["tools"])
+      if (t["tool"] == "scope" && t["nodes_held"].get<int>() > 0) {
+        scope_force = std::max(scope_force, t["force_un"][2].get<double>());
+        const long frame = std::lround(c["time_s"].get<double>() * 200) - 1;
+        both += ablated.count(frame) && ablated[frame] > 0;
+      }
+  EXPECT_GE(both, 5) << "frames with both tools acting: " << both;
+  EXPECT_GT(scope_force, 0.0) << "the tissue pushes the endoscope up";
+  EXPECT_GT(r["totals"]["removed_mm3"].get<double>(), 5.0);
+  EXPECT_EQ(r["surface"]["closed_manifold_end"], true);
+  EXPECT_EQ(r["stability"]["verdict"], "stable") << r["stability"].dump();
+}
+
+TEST(TwoTools, AMeshToolPressesTheTissueAndKeepsItOut) {
+  TSF_NEED_EXE();
+  // The endoscope alone: its wand trajectory removed.
+  const fs::path scene = edited("two-tools.yaml", "scope-only", "    - tool: wand          #",
+                                "    - tool: wand\n      keyframes: []\n    #");
+  // (An empty keyframe list is an error: use a scene without the wand's trajectory instead.)
+  std::string text = test::read_text(test::source_dir() / "scenes" / "two-tools.yaml");
+  text = text.substr(0, text.find("    - tool: wand          #")) + "outputs:\n" +
+         text.substr(text.find("outputs:\n") + 9);
+  std::ofstream(scene) << text;
+  const Simulated s = simulate(scene, "scope");
+  ASSERT_EQ(s.process.status, 0) << s.process.output;
+  int held = 0;
+  double max_nodes = 0;
+  for (const json& c : s.report["contact"]) {
+    held += c["nodes_held"].get<int>() > 0;
+    max_nodes = std::max(max_nodes, c["nodes_held"].get<double>());
+  }
+  EXPECT_GT(held, 10) << "the endoscope holds tissue over many frames";
+  EXPECT_GE(max_nodes, 2.0);
+  EXPECT_GT(s.report["max_tool_force_un"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(s.report["totals"]["removed_mm3"].get<double>(), 0.0) << "it only presses";
+}
+
+TEST(TwoTools, BadToolFilesAndShapesAreRefusedByName) {
+  TSF_NEED_EXE();
+  struct Case {
+    std::string name, from, to, expect;
+  };
+  const fs::path dir = test::scratch_dir("tools-contact-bad-meshes");
+  std::ofstream(dir / "open.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\n";
+  std::ofstream(dir / "broken.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                                       "end_header\n0\n1\n";
+  std::ofstream(dir / "tool.gltf") << "{}";
+  const std::vector<Case> cases = {
+      {"missing", "file: tools/endoscope.stl", "file: tools/nowhere.stl",
+       "tools[0].file: no such file"},
+      {"open", "file: tools/endoscope.stl", "file: " + (dir / "open.obj").string(),
+       "the mesh is not closed"},
+      {"broken-ply", "file: tools/endoscope.stl", "file: " + (dir / "broken.ply").string(),
+       "has no property y"},
+      {"format", "file: tools/endoscope.stl", "file: " + (dir / "tool.gltf").string(),
+       "expected a mesh file .obj, .stl or .ply"},
+      {"radius", "    grid: 0.2 ", "    radius: 2\n    grid: 0.2 ",
+       "tools[0].radius: not for a mesh tool"},
+      {"ablate", "mode: press}\n        - {time: 0.04", "mode: ablate}\n        - {time: 0.04",
+       "cannot ablate"},
+  };
+  for (const Case& c : cases) {
+    const Simulated s = simulate(edited("two-tools.yaml", c.name, c.from, c.to), "bad-" + c.name);
+    EXPECT_NE(s.process.status, 0) << c.name;
+    EXPECT_NE(s.process.output.find(c.expect), std::string::npos)
+        << c.name << ": expected '" << c.expect << "' in: " << s.process.output;
+  }
+}
+
+double lowest_z(const fs::path& ply) {
+  const imt::SurfaceMesh m = imt::read_surface_ply(ply);
+  double z = 1e9;
+  for (const Vec3f& p : m.positions) z = std::min(z, double(p.z));
+  return z;
+}
+
+double highest_z(const fs::path& ply) {
+  const imt::SurfaceMesh m = imt::read_surface_ply(ply);
+  double z = -1e9;
+  for (const Vec3f& p : m.positions) z = std::max(z, double(p.z));
+  return z;
+}
+
+TEST(InstanceContact, ASoftBlockRestsOnTheBoneInsteadOfPassingThrough) {
+  TSF_NEED_EXE();
+  const Simulated s = simulate(test::source_dir() / "scenes" / "rest-on-bone.yaml", "rest");
+  ASSERT_EQ(s.process.status, 0) << s.process.output;
+  const json& soft = s.report["instances"][0];
+  ASSERT_EQ(soft["instance"], "soft");
+  // The block fell its 1 mm gap and lies on the bone: its surface's lowest point at the bone's
+  // top (z = 6; the bone sags a little under it), not below it.
+  const double soft_low = lowest_z(s.out / "final-soft.ply");
+  const double bone_top = highest_z(s.out / "final-bone.ply");
+  EXPECT_LT(soft_low, 7.0 - 0.5) << "the block fell onto the bone";
+  EXPECT_GT(soft_low, bone_top - 1.0) << "the block's surface stays on the bone (within a spacing)";
+  EXPECT_GT(lowest_z(s.out / "final-soft.ply"), 3.0);
+  // The bone holds it up, and the block comes to rest.
+  const json& body = soft["body_contact"];
+  ASSERT_TRUE(body.is_object()) << soft.dump().substr(0, 400);
+  EXPECT_EQ(body["pushed_by"], json::array({"bone"}));
+  ASSERT_FALSE(body["samples"].empty());
+  const json& last = body["samples"].back();
+  EXPECT_GT(last["nodes_held"].get<int>(), 4);
+  EXPECT_GT(last["force_un"][2].get<double>(), 0.0);
+  EXPECT_NE(soft["stability"]["verdict"], "unstable");
+
+  // Without the contact the same block falls through the bone.
+  const Simulated through =
+      simulate(edited("rest-on-bone.yaml", "no-contact",
+                      "    contact: {pushed_by: [bone]}", ""),
+               "through");
+  ASSERT_EQ(through.process.status, 0) << through.process.output;
+  EXPECT_LT(lowest_z(through.out / "final-soft.ply"), 0.0) << "no contact: it falls through";
+}
+
+TEST(InstanceContact, ContactKeysAreCheckedByName) {
+  TSF_NEED_EXE();
+  struct Case {
+    std::string name, from, to, expect;
+  };
+  const std::vector<Case> cases = {
+      {"unknown", "pushed_by: [bone]", "pushed_by: [skull]",
+       "tissues[0].contact.pushed_by[0]: no instance named 'skull'"},
+      {"self", "pushed_by: [bone]", "pushed_by: [soft]", "an instance does not push itself"},
+      {"circle", "    tissue: {voxels_per_node: 2}\nscript:",
+       "    tissue: {voxels_per_node: 2}\n    contact: {pushed_by: [soft]}\nscript:",
+       "contact is one way"},
+      {"key", "contact: {pushed_by: [bone]}", "contact: {pushed: [bone]}",
+       "tissues[0].contact.pushed: unknown key"},
+  };
+  for (const Case& c : cases) {
+    const Simulated s = simulate(edited("rest-on-bone.yaml", c.name, c.from, c.to), "key-" + c.name);
+    EXPECT_NE(s.process.status, 0) << c.name;
+    EXPECT_NE(s.process.output.find(c.expect), std::string::npos)
+        << c.name << ": expected '" << c.expect << "' in: " << s.process.output;
+  }
+}
+
+}  // namespace
+}  // namespace tsf
