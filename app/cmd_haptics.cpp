@@ -384,8 +384,6 @@ LiveRun play_live(const HapticsArguments& args, const HapticRunFile& run,
   haptics::HapticLoop loop(*device, model, frames, lo);
   haptics::SimulationPump pump(source, frames, loop, run.playback.sim_rate_hz,
                                [] { lower_thread_priority(); });
-  if (auto* scripted = dynamic_cast<haptics::ScriptedDevice*>(device.get()))
-    scripted->start_clock();
   LiveRun r;
   r.device = device->describe();
   Progress progress("haptics live", 1000, !args.quiet && Progress::stderr_is_terminal());

@@ -60,7 +60,7 @@ struct ViewArguments {
   bool no_slices = false;
   bool quiet = false;
   std::string device;            ///< --device (window: mouse; offscreen: scripted)
-  std::string haptics = "lattice";  ///< --haptics MODEL | off
+  std::string haptics;  ///< --haptics MODEL | off (default: lattice in a window, off offscreen)
   double haptic_rate = 1000;
   int haptic_filter = 1;
   double seconds = 0;  ///< window: close after this many seconds
@@ -390,6 +390,63 @@ int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
                    static_cast<int>(std::ceil(0.05 / o.frame_s));
 }
 
+/// The live haptic loop of the view: the device named by --device drives the first hand's tool,
+/// the model of --haptics computes the force. Null when --haptics off, or offscreen with no hand
+/// to drive.
+std::unique_ptr<viewer::LiveHaptics> build_live_haptics(const ViewArguments& args,
+                                                        const ViewInputs& in,
+                                                        const VolumeGeometry& patient_frame) {
+  const std::string model = !args.haptics.empty() ? args.haptics : args.offscreen ? "off" : "lattice";
+  if (model == "off") return nullptr;
+  const viewer::ViewOptions& o = in.script.options;
+  const haptics::DeviceRequest request =
+      haptics::parse_device_request(args.device.empty() ? device_name(args) : args.device);
+  if (args.offscreen && request.name != "scripted")
+    throw Error("--device " + request.text +
+                ": offscreen frames are played by the script: the device is `scripted`");
+  if (args.offscreen && (in.script.hands.empty() || in.script.hands.front().path.empty()))
+    return nullptr;  // nothing in hand to drive
+  // Offscreen the device follows the frame clock (frame index); in a window, wall-clock seconds.
+  const interaction::Trajectory path = args.offscreen
+                                           ? (in.script.hands.empty()
+                                                  ? interaction::Trajectory{}
+                                                  : in.script.hands.front().path)
+                                           : hand_in_seconds(in.script, o.frame_s);
+  DeviceContext context;
+  context.trajectory = &path;
+  context.window = !args.offscreen;
+  std::unique_ptr<haptics::HapticDevice> device = haptic_devices(context).create(request);
+  viewer::LiveHapticsOptions ho;
+  ho.model = haptics::force_model_from_string(model);
+  // The stylus of the voxel and mesh models: the size of the first hand's first tool.
+  int tool = 0;
+  if (!in.script.hands.empty() && !in.script.hands.front().keyframe_tools.empty())
+    tool = in.script.hands.front().keyframe_tools.front();
+  ho.force.stylus_radius_mm = stylus_radius_of(in.tools.at(static_cast<std::size_t>(tool)).tool);
+  ho.loop.rate_hz = args.haptic_rate;
+  ho.loop.filter_window = args.haptic_filter;
+  ho.loop.frame = haptics::DeviceFrame(patient_frame);
+  ho.loop.on_thread_start = request_haptic_thread_priority;
+  return std::make_unique<viewer::LiveHaptics>(std::move(device), ho);
+}
+
+/// The loop's statistics for a report.
+nlohmann::json haptics_json(viewer::LiveHaptics* h, bool live) {
+  if (h == nullptr) return nullptr;
+  nlohmann::json j = {{"model", haptics::to_string(h->options().model)},
+                      {"device", h->device().describe()},
+                      {"rate_hz_target", h->options().loop.rate_hz},
+                      {"filter_window", h->options().loop.filter_window},
+                      {"max_force_un", h->max_force_seen_un()},
+                      {"live", live}};
+  if (!live) {
+    j["ticks"] = h->ticks();
+    return j;
+  }
+  j.update(loop_statistics_json(h->statistics()));
+  return j;
+}
+
 void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
                            viewer::SimulationSession& session, const viewer::SliceVolume* slices,
                            const OutputFolder& folder, SceneOutputWriter& outputs,
@@ -438,62 +495,6 @@ void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
         r.last.live_triangles);
 }
 
-/// The live haptic loop of the view: the device named by --device drives the first hand's tool,
-/// the model of --haptics computes the force. Null when --haptics off, or offscreen with no hand
-/// to drive.
-std::unique_ptr<viewer::LiveHaptics> build_live_haptics(const ViewArguments& args,
-                                                        const ViewInputs& in,
-                                                        const VolumeGeometry& patient_frame) {
-  if (args.haptics == "off") return nullptr;
-  const viewer::ViewOptions& o = in.script.options;
-  const haptics::DeviceRequest request =
-      haptics::parse_device_request(args.device.empty() ? device_name(args) : args.device);
-  if (args.offscreen && request.name != "scripted")
-    throw Error("--device " + request.text +
-                ": offscreen frames are played by the script: the device is `scripted`");
-  if (args.offscreen && (in.script.hands.empty() || in.script.hands.front().path.empty()))
-    return nullptr;  // nothing in hand to drive
-  // Offscreen the device follows the frame clock (frame index); in a window, wall-clock seconds.
-  const interaction::Trajectory path = args.offscreen
-                                           ? (in.script.hands.empty()
-                                                  ? interaction::Trajectory{}
-                                                  : in.script.hands.front().path)
-                                           : hand_in_seconds(in.script, o.frame_s);
-  DeviceContext context;
-  context.trajectory = &path;
-  context.window = !args.offscreen;
-  std::unique_ptr<haptics::HapticDevice> device = haptic_devices(context).create(request);
-  viewer::LiveHapticsOptions ho;
-  ho.model = haptics::force_model_from_string(args.haptics);
-  // The stylus of the voxel and mesh models: the size of the first hand's first tool.
-  int tool = 0;
-  if (!in.script.hands.empty() && !in.script.hands.front().keyframe_tools.empty())
-    tool = in.script.hands.front().keyframe_tools.front();
-  ho.force.stylus_radius_mm = stylus_radius_of(in.tools.at(static_cast<std::size_t>(tool)).tool);
-  ho.loop.rate_hz = args.haptic_rate;
-  ho.loop.filter_window = args.haptic_filter;
-  ho.loop.frame = haptics::DeviceFrame(patient_frame);
-  ho.loop.on_thread_start = request_haptic_thread_priority;
-  return std::make_unique<viewer::LiveHaptics>(std::move(device), ho);
-}
-
-/// The loop's statistics for a report.
-nlohmann::json haptics_json(viewer::LiveHaptics* h, bool live) {
-  if (h == nullptr) return nullptr;
-  nlohmann::json j = {{"model", haptics::to_string(h->options().model)},
-                      {"device", h->device().describe()},
-                      {"rate_hz_target", h->options().loop.rate_hz},
-                      {"filter_window", h->options().loop.filter_window},
-                      {"max_force_un", h->max_force_seen_un()},
-                      {"live", live}};
-  if (!live) {
-    j["ticks"] = h->ticks();
-    return j;
-  }
-  j.update(loop_statistics_json(h->statistics()));
-  return j;
-}
-
 void run_view(const ViewArguments& args) {
   // Cheap checks first (scene, tools, script, display, output folder), then the tissue model.
   ViewInputs in = read_view_inputs(args);
@@ -538,7 +539,7 @@ void run_view(const ViewArguments& args) {
   viewer::ViewOptions o = in.script.options;
   o.close_after_frames = args.frames;
   o.close_after_s = args.seconds;
-  if (live) o.on_simulation_thread_start = lower_thread_priority;
+  if (live) o.on_haptics_started = lower_other_threads_priority;
   if (!args.quiet) std::printf("%s\n", viewer::kViewerKeyHelp);
   viewer::Viewer v(session, slices, o);
   Stopwatch window_clock;
@@ -630,8 +631,9 @@ void add_view_command(CLI::App& app) {
                   "keys), scripted (the view script's or scene script's first hand; offscreen "
                   "always), or a driver's NAME[:KEY=VALUE,…] (docs/haptics.md)");
   sub->add_option("--haptics", args->haptics,
-                  "Haptic force model of the live loop: lattice (default: the tool's contact "
-                  "reaction), voxel, mesh, or off")
+                  "Haptic force model of the live loop: lattice (the tool's contact reaction; "
+                  "the window's default), voxel, mesh, or off (the offscreen default; offscreen "
+                  "a model takes one haptic tick per frame)")
       ->check(CLI::IsMember({"lattice", "voxel", "mesh", "off"}));
   sub->add_option("--haptic-rate", args->haptic_rate, "Haptic loop rate, Hz (default 1000)")
       ->check(CLI::Range(1.0, 20000.0));

@@ -7,10 +7,15 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
+#include <thread>
 
 #include "tsf/common/error.h"
 #include "tsf/haptics/input_device.h"
@@ -50,12 +55,68 @@ haptics::DeviceRegistry haptic_devices(const DeviceContext& context) {
   return r;
 }
 
+namespace {
+
+/// Linux's sched_attr (SCHED_ATTR_SIZE_VER0).
+struct SchedAttr {
+  std::uint32_t size;
+  std::uint32_t sched_policy;
+  std::uint64_t sched_flags;
+  std::int32_t sched_nice;
+  std::uint32_t sched_priority;
+  std::uint64_t sched_runtime, sched_deadline, sched_period;
+};
+
+/// A fair-scheduled thread asks for a 0.1 ms time slice: on EEVDF kernels (Linux ≥ 6.12) a short
+/// slice lets it preempt the running task as soon as it wakes. Unprivileged; false when refused.
+bool request_short_slice() {
+#ifdef SYS_sched_setattr
+  SchedAttr a{};
+  a.size = sizeof a;
+  a.sched_policy = SCHED_OTHER;
+  a.sched_runtime = 100'000;  // ns
+  return ::syscall(SYS_sched_setattr, 0, &a, 0) == 0;
+#else
+  return false;
+#endif
+}
+
+/// The haptic thread's id (Linux tid), once it started.
+std::atomic<long> g_haptic_tid{0};
+
+}  // namespace
+
+void lower_other_threads_priority() {
+  // The haptic thread records its id as it starts: wait for it (a moment) so it is spared.
+  for (int i = 0; i < 200 && g_haptic_tid.load() == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const long keep = g_haptic_tid.load();
+  if (keep == 0) return;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/task", ec)) {
+    char* end = nullptr;
+    const long tid = std::strtol(entry.path().filename().c_str(), &end, 10);
+    if (end == nullptr || *end != '\0' || tid == keep) continue;
+    errno = 0;
+    const int now = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
+    if (errno == 0 && now < 5) (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 5);
+  }
+}
+
 std::string request_haptic_thread_priority() {
-  sched_param p{};
-  p.sched_priority = std::min(10, sched_get_priority_max(SCHED_FIFO));
-  if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0)
-    return "SCHED_FIFO priority " + std::to_string(p.sched_priority);
-  return "normal scheduling (SCHED_FIFO not permitted)";
+  g_haptic_tid = static_cast<long>(::syscall(SYS_gettid));
+  if (std::getenv("TSF_HAPTICS_NO_REALTIME") == nullptr) {
+    sched_param p{};
+    p.sched_priority = std::min(10, sched_get_priority_max(SCHED_FIFO));
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0)
+      return "SCHED_FIFO priority " + std::to_string(p.sched_priority);
+  }
+  const std::string why = std::getenv("TSF_HAPTICS_NO_REALTIME") != nullptr
+                              ? "TSF_HAPTICS_NO_REALTIME set"
+                              : "SCHED_FIFO not permitted";
+  return std::getenv("TSF_HAPTICS_NO_SLICE") == nullptr && request_short_slice()
+             ? "normal scheduling, 0.1 ms slice (" + why + ")"
+                               : "normal scheduling (" + why + ")";
 }
 
 void lower_thread_priority() {

@@ -35,12 +35,16 @@ struct DeviceContext {
 haptics::DeviceRegistry haptic_devices(const DeviceContext& context);
 
 /// The haptic thread's start (HapticLoopOptions::on_thread_start): asks for SCHED_FIFO (granted
-/// with CAP_SYS_NICE or an rtprio limit) and says what it got.
+/// with CAP_SYS_NICE or an rtprio limit; not asked when TSF_HAPTICS_NO_REALTIME is set) and says
+/// what it got.
 std::string request_haptic_thread_priority();
 
 /// A simulation thread's start: it steps down to nice +5 (Linux: per thread), so the haptic
 /// thread at the default priority wins the CPU when both want it. Best effort.
 void lower_thread_priority();
+/// Every thread of the process but the haptic thread (the renderer, its driver's workers, the
+/// simulation) steps down to nice +5; threads made later by them inherit it. Best effort.
+void lower_other_threads_priority();
 
 /// The stylus radius of the voxel and mesh models for a tool the device holds, mm: a sphere's or
 /// capsule's radius, half a blade's thickness (at least 0.5), half a mesh's smallest extent.

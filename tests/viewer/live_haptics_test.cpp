@@ -61,7 +61,7 @@ TEST(LiveHaptics, OffscreenFramesTakeOneTickEachAndShowTheForce) {
         exe, "view -q " + test::shell_quoted(test::source_dir() / "scenes" / "view-block.yaml") +
                  " --offscreen --script " +
                  test::shell_quoted(test::source_dir() / "scenes" / "view-block-haptics.yaml") +
-                 " --frames 60 --width 160 --height 120 --backend cpu --out " +
+                 " --frames 60 --width 160 --height 120 --backend cpu --haptics lattice --out " +
                  test::shell_quoted(out));
     EXPECT_EQ(p.status, 0) << p.output;
     return json::parse(test::read_text(out / "view-report.json"));

@@ -33,14 +33,14 @@ OffscreenResult render_offscreen(SimulationSession& session, const SliceVolume* 
   for (int f = 0; f < frames; ++f) {
     const std::vector<ToolCommand> hands = script.commands_at(f);  // empty hands: tool −1
     const Clock::time_point t0 = Clock::now();
-    session.step(options.frame_s, hands);
+    session.step_hands(options.frame_s, hands);
     // Offscreen the haptic loop takes one tick per frame, on this thread: reproducible frames.
     if (haptics != nullptr) {
       if (scripted != nullptr) scripted->set_time(f);
       haptics->tick_now();
     }
     const Clock::time_point t1 = Clock::now();
-    viewer.render(hands);
+    viewer.render_hands(hands);
     const Clock::time_point t2 = Clock::now();
     simulate_s += std::chrono::duration<double>(t1 - t0).count();
     render_s += std::chrono::duration<double>(t2 - t1).count();

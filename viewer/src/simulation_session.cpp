@@ -41,7 +41,7 @@ void SimulationSession::publish_initial() {
   edited_since_publish_ = false;
 }
 
-void SimulationSession::step(double dt_display, const std::vector<ToolCommand>& hands) {
+void SimulationSession::step_hands(double dt_display, const std::vector<ToolCommand>& hands) {
   if (!stats_.error.empty()) return;
   const double now = wall_seconds();
   if (wall_start_ < 0) wall_start_ = now;
@@ -139,7 +139,7 @@ void SimulationThread::run() {
       hands.front().pose = d.pose;
       if (!d.pressing) hands.front().mode = interaction::ToolMode::kIdle;
     }
-    session_.step(frame_s_, hands);
+    session_.step_hands(frame_s_, hands);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       applied_ = hands;

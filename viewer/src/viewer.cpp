@@ -884,8 +884,11 @@ int Viewer::run_window(const ViewScript* script) {
   v.script = script != nullptr && !script->hands.empty() ? script : nullptr;
   v.window_start = Clock::now();
   if (v.input != nullptr) v.input->set_pressing(false);  // lifted until space engages it
-  if (v.haptics != nullptr) v.haptics->start();
-  SimulationThread thread(*v.session, options_.frame_s, options_.on_simulation_thread_start);
+  if (v.haptics != nullptr) {
+    v.haptics->start();
+    if (options_.on_haptics_started) options_.on_haptics_started();
+  }
+  SimulationThread thread(*v.session, options_.frame_s);
   v.thread = &thread;
   v.push_command();
   if (v.script != nullptr) thread.set_hands(v.scripted_hands());
@@ -942,7 +945,7 @@ void Viewer::render(const ToolCommand& command) {
   impl_->update_frame({command});
 }
 
-void Viewer::render(const std::vector<ToolCommand>& hands) {
+void Viewer::render_hands(const std::vector<ToolCommand>& hands) {
   impl_->update_frame(hands);
 }
 

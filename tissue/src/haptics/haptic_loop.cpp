@@ -62,6 +62,7 @@ void HapticLoop::start() {
   max_late_us_ = 0;
   stop_ = false;
   running_ = true;
+  device_.on_loop_start();
   thread_ = std::thread([this] { run(); });
 }
 

@@ -44,6 +44,10 @@ class HapticDevice {
   virtual PoseFrame frame() const { return PoseFrame::kPatient; }
   /// What it is, for reports ("scripted", "mouse", a driver's name and address).
   virtual std::string describe() const { return "device"; }
+  /// The loop is about to start ticking in wall-clock time (HapticLoop::start, on the caller's
+  /// thread): a scripted path starts its clock, a driver may connect. Not called for ticks taken
+  /// one at a time (HapticLoop::tick_now).
+  virtual void on_loop_start() {}
 };
 
 }  // namespace tsf::haptics

@@ -24,6 +24,8 @@ class ScriptedDevice final : public HapticDevice {
   void apply_force(const Vec3d& force_un) override { last_force_.store(force_un); }
   PoseFrame frame() const override { return PoseFrame::kTissue; }
   std::string describe() const override { return "scripted"; }
+  /// A live loop plays the path in wall-clock time from its start.
+  void on_loop_start() override { start_clock(); }
   Vec3d last_force() const { return last_force_.load(); }
   const interaction::Trajectory& trajectory() const { return trajectory_; }
 

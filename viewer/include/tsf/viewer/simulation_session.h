@@ -53,9 +53,10 @@ class SimulationSession {
   /// attached, captures the haptic frame around the first hand's tool. A tool error (e.g. cut
   /// with a sphere) or an instability is reported in stats().error and the model stops
   /// advancing; never throws for those.
-  void step(double dt_display, const std::vector<ToolCommand>& hands);
+  void step_hands(double dt_display, const std::vector<ToolCommand>& hands);
+  /// One hand.
   void step(double dt_display, const ToolCommand& command) {
-    step(dt_display, std::vector<ToolCommand>{command});
+    step_hands(dt_display, std::vector<ToolCommand>{command});
   }
   /// Live haptics for the first hand (null: none); it must outlive the session's stepping.
   void attach_haptics(LiveHaptics* haptics) { haptics_ = haptics; }

@@ -58,9 +58,9 @@ struct ViewOptions {
   int close_after_frames = -1;
   /// Window: close by itself after this many seconds of wall time (≤ 0: when the user quits).
   double close_after_s = 0;
-  /// Window: runs first on the simulation thread (tsf view lowers its priority below the haptic
-  /// thread's there).
-  std::function<void()> on_simulation_thread_start;
+  /// Window: runs once the haptic loop has started, on the render thread, before the simulation
+  /// thread starts (tsf view lowers every other thread's priority below the haptic thread's).
+  std::function<void()> on_haptics_started;
 
   /// Throws tsf::Error naming the field when a value is out of range.
   void validate() const;

@@ -75,7 +75,7 @@ class Viewer {
   /// Renders the latest published state without simulating.
   void render(const ToolCommand& command);
   /// The same with every hand's tool drawn (an empty hand: tool −1).
-  void render(const std::vector<ToolCommand>& hands);
+  void render_hands(const std::vector<ToolCommand>& hands);
   /// |force| shown in the HUD and plot by the last render: the haptic force with live haptics,
   /// else the tools' contact force, µN.
   double shown_force_un() const;
