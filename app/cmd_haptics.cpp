@@ -8,7 +8,8 @@
 // as in a live session, on one thread. `--live SECONDS` runs the same loop for real instead: its
 // own thread in wall-clock time, a device (--device, default the scripted trajectory) driving the
 // stylus, the simulation pumped on another thread; it reports the achieved rate and the tick
-// latency percentiles beside the same samples, metrics and plot. Trajectory files are YAML (scenes/trajectories/*.yaml):
+// latency percentiles beside the same samples, metrics and plot. Trajectory files are YAML
+// (scenes/trajectories/*.yaml):
 //
 //   stylus: {radius: 2.5, voxel_resolution: 16, sphere_resolution: 1, sampling: trilinear}
 //   force_law: {c1: 1.0e4, c2: 1.0, cutoff: 0.5, taper: 0.5}
@@ -38,8 +39,8 @@
 #include <thread>
 
 #include "commands.h"
-#include "output/output_folder.h"
 #include "output/interrupt.h"
+#include "output/output_folder.h"
 #include "scene/haptic_devices.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
@@ -50,9 +51,9 @@
 #include "tsf/common/stopwatch.h"
 #include "tsf/haptics/force_models.h"
 #include "tsf/haptics/frame_capture.h"
+#include "tsf/haptics/haptic_loop.h"
 #include "tsf/haptics/haptic_metrics.h"
 #include "tsf/haptics/haptic_playback.h"
-#include "tsf/haptics/haptic_loop.h"
 #include "tsf/haptics/haptic_trajectory.h"
 #include "tsf/haptics/scripted_device.h"
 #include "tsf/imt/extract_surface.h"
@@ -366,7 +367,8 @@ struct LiveRun {
 /// SECONDS of wall time (Ctrl-C stops it early).
 LiveRun play_live(const HapticsArguments& args, const HapticRunFile& run,
                   haptics::FrameSource& source, const haptics::ForceModel& model,
-                  const VolumeGeometry* patient_frame, std::vector<haptics::HapticSample>& samples) {
+                  const VolumeGeometry* patient_frame,
+                  std::vector<haptics::HapticSample>& samples) {
   DeviceContext context;
   context.trajectory = &run.trajectory;
   std::unique_ptr<haptics::HapticDevice> device =
@@ -479,12 +481,11 @@ void run_haptics(const HapticsArguments& args) {
   const std::filesystem::path out = folder.path();
   const std::filesystem::path csv = out / "samples.csv";
   write_text_atomically(csv, samples_csv(samples));
-  const std::string title = (run.target ? "rigid " + run.target->shape : scene.name) + " · " +
-                            std::filesystem::path(args.trajectory).stem().string() + " · " +
-                            haptics::to_string(kind) + " model · " +
-                            fmt(run.playback.haptic_rate_hz) + " Hz, filter " +
-                            std::to_string(run.playback.filter_window) +
-                            (live ? " · live, wall clock" : "");
+  const std::string title =
+      (run.target ? "rigid " + run.target->shape : scene.name) + " · " +
+      std::filesystem::path(args.trajectory).stem().string() + " · " + haptics::to_string(kind) +
+      " model · " + fmt(run.playback.haptic_rate_hz) + " Hz, filter " +
+      std::to_string(run.playback.filter_window) + (live ? " · live, wall clock" : "");
   bool any_direction = false;
   for (double a : angles_to_motion(samples)) any_direction = any_direction || std::isfinite(a);
   const double duration_ms =

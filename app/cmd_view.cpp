@@ -59,7 +59,7 @@ struct ViewArguments {
   bool force = false;
   bool no_slices = false;
   bool quiet = false;
-  std::string device;            ///< --device (window: mouse; offscreen: scripted)
+  std::string device;   ///< --device (window: mouse; offscreen: scripted)
   std::string haptics;  ///< --haptics MODEL | off (default: lattice in a window, off offscreen)
   double haptic_rate = 1000;
   int haptic_filter = 1;
@@ -97,14 +97,14 @@ viewer::ViewScript hand_from_scene_script(const Scene& scene, const viewer::View
   std::vector<int> first_use;  // tools in the order they appear: their hands
   auto tool_index = [&](const std::string& name) {
     const int t = scene_tool_slot(scene, name);
-    if (std::find(first_use.begin(), first_use.end(), t) == first_use.end())
-      first_use.push_back(t);
+    if (std::find(first_use.begin(), first_use.end(), t) == first_use.end()) first_use.push_back(t);
     return static_cast<std::size_t>(t);
   };
   auto frame_of = [&](double t) { return std::round(t / frame_s); };
   for (const SceneTrajectory& t : scene.script.trajectories) {
     const std::size_t tool = tool_index(t.tool);
-    for (const interaction::Keyframe& k : t.keyframes) by_tool[tool].push_back({frame_of(k.time_s), k});
+    for (const interaction::Keyframe& k : t.keyframes)
+      by_tool[tool].push_back({frame_of(k.time_s), k});
     interaction::Keyframe lift = t.keyframes.back();
     lift.mode = interaction::ToolMode::kIdle;
     by_tool[tool].push_back({frame_of(t.keyframes.back().time_s) + 1, lift});
@@ -384,10 +384,9 @@ int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
   const viewer::ViewOptions& o = in.script.options;
   if (in.scene_script)
     return std::max(1, static_cast<int>(std::ceil(in.scene->script.played_s() / o.frame_s - 1e-9)));
-  return in.script.last_keyframe() < 0
-             ? 60
-             : static_cast<int>(in.script.last_keyframe()) + 1 +
-                   static_cast<int>(std::ceil(0.05 / o.frame_s));
+  return in.script.last_keyframe() < 0 ? 60
+                                       : static_cast<int>(in.script.last_keyframe()) + 1 +
+                                             static_cast<int>(std::ceil(0.05 / o.frame_s));
 }
 
 /// The live haptic loop of the view: the device named by --device drives the first hand's tool,
@@ -396,7 +395,9 @@ int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
 std::unique_ptr<viewer::LiveHaptics> build_live_haptics(const ViewArguments& args,
                                                         const ViewInputs& in,
                                                         const VolumeGeometry& patient_frame) {
-  const std::string model = !args.haptics.empty() ? args.haptics : args.offscreen ? "off" : "lattice";
+  const std::string model = !args.haptics.empty() ? args.haptics
+                            : args.offscreen      ? "off"
+                                                  : "lattice";
   if (model == "off") return nullptr;
   const viewer::ViewOptions& o = in.script.options;
   const haptics::DeviceRequest request =
@@ -407,11 +408,10 @@ std::unique_ptr<viewer::LiveHaptics> build_live_haptics(const ViewArguments& arg
   if (args.offscreen && (in.script.hands.empty() || in.script.hands.front().path.empty()))
     return nullptr;  // nothing in hand to drive
   // Offscreen the device follows the frame clock (frame index); in a window, wall-clock seconds.
-  const interaction::Trajectory path = args.offscreen
-                                           ? (in.script.hands.empty()
-                                                  ? interaction::Trajectory{}
-                                                  : in.script.hands.front().path)
-                                           : hand_in_seconds(in.script, o.frame_s);
+  const interaction::Trajectory path =
+      args.offscreen
+          ? (in.script.hands.empty() ? interaction::Trajectory{} : in.script.hands.front().path)
+          : hand_in_seconds(in.script, o.frame_s);
   DeviceContext context;
   context.trajectory = &path;
   context.window = !args.offscreen;
@@ -556,22 +556,21 @@ void run_view(const ViewArguments& args) {
         st.latency_max_us, st.scheduling.c_str());
   }
   if (!args.report.empty())
-    write_text_atomically(
-        args.report,
-        nlohmann::json{{"tsf_version", TSF_VERSION_STRING},
-                       {"input", absolute_path(args.input).string()},
-                       {"frame", "patient (LPS), mm"},
-                       {"window", true},
-                       {"frames", frames},
-                       {"seconds", window_s},
-                       {"render_fps", window_s > 0 ? frames / window_s : 0.0},
-                       {"simulated_s", session.model().totals().simulated_s},
-                       {"steps", session.model().totals().steps},
-                       {"session", vm.session},
-                       {"stability", stability_json(session.model().stability())},
-                       {"haptics", haptics_json(live.get(), true)}}
-                .dump(2) +
-            "\n");
+    write_text_atomically(args.report,
+                          nlohmann::json{{"tsf_version", TSF_VERSION_STRING},
+                                         {"input", absolute_path(args.input).string()},
+                                         {"frame", "patient (LPS), mm"},
+                                         {"window", true},
+                                         {"frames", frames},
+                                         {"seconds", window_s},
+                                         {"render_fps", window_s > 0 ? frames / window_s : 0.0},
+                                         {"simulated_s", session.model().totals().simulated_s},
+                                         {"steps", session.model().totals().steps},
+                                         {"session", vm.session},
+                                         {"stability", stability_json(session.model().stability())},
+                                         {"haptics", haptics_json(live.get(), true)}}
+                                  .dump(2) +
+                              "\n");
   if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
   // The window played `frames` frames: its last state is the final one.
   outputs.frame(session.model(), frames, frames * o.frame_s, true);
@@ -640,8 +639,7 @@ void add_view_command(CLI::App& app) {
   sub->add_option("--haptic-filter", args->haptic_filter,
                   "Moving-average window of the haptic force, ticks (default 1)")
       ->check(CLI::Range(1, 1000));
-  sub->add_option("--seconds", args->seconds,
-                  "Window: close after this many seconds of wall time")
+  sub->add_option("--seconds", args->seconds, "Window: close after this many seconds of wall time")
       ->check(CLI::Range(0.001, 1e6));
   sub->add_option("--report", args->report,
                   "Window: write a JSON report at close (frames, simulation, the haptic loop's "

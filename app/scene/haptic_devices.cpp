@@ -8,8 +8,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -31,9 +31,10 @@ haptics::DeviceRegistry haptic_devices(const DeviceContext& context) {
           [path](const haptics::DeviceRequest& q) -> std::unique_ptr<haptics::HapticDevice> {
             q.expect_only({});
             if (path.empty())
-              throw Error("--device " + q.text + ": there is no scripted path to play (give a "
-                                                 "view script with keyframes, or a scene with a "
-                                                 "script)");
+              throw Error("--device " + q.text +
+                          ": there is no scripted path to play (give a "
+                          "view script with keyframes, or a scene with a "
+                          "script)");
             return std::make_unique<haptics::ScriptedDevice>(path);
           });
   }
@@ -116,7 +117,7 @@ std::string request_haptic_thread_priority() {
                               : "SCHED_FIFO not permitted";
   return std::getenv("TSF_HAPTICS_NO_SLICE") == nullptr && request_short_slice()
              ? "normal scheduling, 0.1 ms slice (" + why + ")"
-                               : "normal scheduling (" + why + ")";
+             : "normal scheduling (" + why + ")";
 }
 
 void lower_thread_priority() {

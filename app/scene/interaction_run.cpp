@@ -170,8 +170,8 @@ ContactSample advance_instances(const Scene& scene, const InteractionRunOptions&
     const collision::ContactForce& c = model.contact();
     if (!contacts.pushers[i].empty()) {
       const collision::ToolReaction& b = model.pusher_contact();
-      r.body_contact.push_back({t_end, b.force_un, b.torque_un_mm,
-                                static_cast<std::int64_t>(b.nodes_held), {}});
+      r.body_contact.push_back(
+          {t_end, b.force_un, b.torque_un_mm, static_cast<std::int64_t>(b.nodes_held), {}});
     }
     r.max_tool_force_un = std::max(r.max_tool_force_un, length(c.force_un));
     std::vector<ToolShare> shares;

@@ -155,7 +155,8 @@ MeshFile read_stl(const std::filesystem::path& p, const std::string& data, doubl
   while (in >> word) {
     if (word == "vertex") {
       double x, y, z;
-      if (!(in >> x >> y >> z)) fail(p, "facet " + std::to_string(facet) + ": expected `vertex x y z`");
+      if (!(in >> x >> y >> z))
+        fail(p, "facet " + std::to_string(facet) + ": expected `vertex x y z`");
       corners.push_back(weld.add(m, p, x, y, z, scale, "facet " + std::to_string(facet)));
     } else if (word == "endloop") {
       add_polygon(m, p, corners, "facet " + std::to_string(facet));
@@ -180,8 +181,7 @@ struct PlyElement {
 std::size_t ply_type_size(const std::string& t) {
   if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
   if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" ||
-      t == "float32")
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32")
     return 4;
   if (t == "double" || t == "float64") return 8;
   return 0;
@@ -286,8 +286,9 @@ MeshFile read_ply(const std::filesystem::path& p, const std::string& data, doubl
     if (vertex) {
       saw_vertices = true;
       for (const char* axis : {"x", "y", "z"})
-        if (std::none_of(e.properties.begin(), e.properties.end(),
-                         [&](const PlyProperty& q) { return q.name == axis && q.count_type.empty(); }))
+        if (std::none_of(e.properties.begin(), e.properties.end(), [&](const PlyProperty& q) {
+              return q.name == axis && q.count_type.empty();
+            }))
           fail(p, std::string("header: the vertex element has no property ") + axis);
     }
     for (std::size_t i = 0; i < e.count; ++i) {
@@ -297,7 +298,8 @@ MeshFile read_ply(const std::filesystem::path& p, const std::string& data, doubl
       for (const PlyProperty& q : e.properties) {
         if (!q.count_type.empty()) {
           const double n = read.value(q.count_type, where);
-          if (!(n >= 0 && n <= 1000)) fail(p, where + ": a list of " + std::to_string(n) + " items");
+          if (!(n >= 0 && n <= 1000))
+            fail(p, where + ": a list of " + std::to_string(n) + " items");
           for (int k = 0; k < static_cast<int>(n); ++k) {
             const double v = read.value(q.type, where);
             if (face && (q.name == "vertex_indices" || q.name == "vertex_index"))
@@ -327,7 +329,7 @@ MeshFile read_mesh_file(const std::filesystem::path& path, double scale) {
   if (ext != ".obj" && ext != ".stl" && ext != ".ply")
     fail(path, "expected a mesh file .obj, .stl or .ply");
   const std::string data = read_all(path);
-  MeshFile m = ext == ".obj" ? read_obj(path, data, scale)
+  MeshFile m = ext == ".obj"   ? read_obj(path, data, scale)
                : ext == ".stl" ? read_stl(path, data, scale)
                                : read_ply(path, data, scale);
   if (m.triangles.empty()) fail(path, "the mesh has no triangles");

@@ -260,7 +260,7 @@ InstanceContacts build_instance_contacts(const Scene& scene,
       } catch (const Error& e) {
         throw Error(scene.instance_prefix(i) + "contact.pushed_by: '" + by + "': " + e.what());
       }
-      field->set_rest_allowance(models.at(i)->solver().lattice());
+      field->set_rest_allowance(*models.at(i));
       c.pushers[i].push_back({j, field});
       fields.push_back(field);
     }

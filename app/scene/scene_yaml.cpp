@@ -424,8 +424,7 @@ std::shared_ptr<const interaction::ToolMesh> read_tool_mesh(const Field& t,
   std::filesystem::path file = t["file"].text();
   if (file.is_relative()) file = folder / file;
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec))
-    t["file"].fail("no such file: " + file.string());
+  if (!std::filesystem::is_regular_file(file, ec)) t["file"].fail("no such file: " + file.string());
   const double scale = t["scale"].number(1.0, 0.0, 1e4, true);
   MeshFile mesh;
   try {
@@ -451,7 +450,8 @@ std::shared_ptr<const interaction::ToolMesh> read_tool_mesh(const Field& t,
   }
 }
 
-void read_tools(const Field& f, const std::filesystem::path& folder, std::vector<SceneTool>& tools) {
+void read_tools(const Field& f, const std::filesystem::path& folder,
+                std::vector<SceneTool>& tools) {
   if (!f.defined()) return;
   for (std::size_t i = 0; i < f.size(); ++i) {
     const Field t = f.at(i);
@@ -470,7 +470,8 @@ void read_tools(const Field& f, const std::filesystem::path& folder, std::vector
     const bool mesh = tool.tool.shape == ToolShape::kMesh;
     for (const char* k : {"file", "scale", "grid"})
       if (!mesh && t[k].defined()) t[k].fail("only for a mesh tool");
-    const bool round = tool.tool.shape == ToolShape::kSphere || tool.tool.shape == ToolShape::kCapsule;
+    const bool round =
+        tool.tool.shape == ToolShape::kSphere || tool.tool.shape == ToolShape::kCapsule;
     if (mesh) {
       for (const char* k : {"radius", "size"})
         if (t[k].defined()) t[k].fail("not for a mesh tool (its file gives its shape)");
@@ -549,8 +550,8 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
         if (s.trajectories[j].tool == out.tool &&
             out.keyframes.front().time_s <= o.back().time_s + 1.0 / s.frame_rate_hz &&
             o.front().time_s <= out.keyframes.back().time_s + 1.0 / s.frame_rate_hz)
-          tr.fail("overlaps trajectories[" + std::to_string(j) + "] of the same tool '" +
-                  out.tool + "' in time: a tool is in one place at a time (give another tool "
+          tr.fail("overlaps trajectories[" + std::to_string(j) + "] of the same tool '" + out.tool +
+                  "' in time: a tool is in one place at a time (give another tool "
                   "for a second hand)");
       }
       s.trajectories.push_back(out);

@@ -162,7 +162,8 @@ int main(int argc, char** argv) {
       };
       std::vector<std::array<std::uint32_t, 3>> next;
       for (const auto& f : t) {
-        const std::uint32_t ab = middle(f[0], f[1]), bc = middle(f[1], f[2]), ca = middle(f[2], f[0]);
+        const std::uint32_t ab = middle(f[0], f[1]), bc = middle(f[1], f[2]),
+                            ca = middle(f[2], f[0]);
         next.insert(next.end(), {{f[0], ab, ca}, {ab, f[1], bc}, {ca, bc, f[2]}, {ab, bc, ca}});
       }
       t.swap(next);
@@ -205,8 +206,8 @@ int main(int argc, char** argv) {
         "grid: %d × %d × %d samples, %.1f MB, built in %.0f ms)\n",
         one, bench::percentile(two_us, 0.5), bench::percentile(two_us, 0.5) / one,
         bench::percentile(mesh_us, 0.5), bench::percentile(mesh_us, 0.5) / one,
-        mesh_ball.mesh->grid.dims().x, mesh_ball.mesh->grid.dims().y,
-        mesh_ball.mesh->grid.dims().z, mesh_ball.mesh->grid.bytes() / 1e6, build_ms);
+        mesh_ball.mesh->grid.dims().x, mesh_ball.mesh->grid.dims().y, mesh_ball.mesh->grid.dims().z,
+        mesh_ball.mesh->grid.bytes() / 1e6, build_ms);
   }
   std::printf(
       "\ncontact = one apply_tool(press): gather + node tests + narrow phase on coupled vertices "

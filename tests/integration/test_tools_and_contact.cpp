@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "support/test_data.h"
 #include "support/tsf_process.h"
@@ -58,6 +59,20 @@ fs::path edited(const std::string& scene, const std::string& tag, const std::str
   return dir / scene;
 }
 
+/// One edit of a shipped scene that `tsf simulate` must refuse, naming `expect`.
+struct Refusal {
+  std::string name, from, to, expect;
+};
+
+void expect_refused(const std::string& scene, const std::vector<Refusal>& cases) {
+  for (const Refusal& c : cases) {
+    const Simulated s = simulate(edited(scene, c.name, c.from, c.to), "bad-" + c.name);
+    EXPECT_NE(s.process.status, 0) << c.name;
+    EXPECT_NE(s.process.output.find(c.expect), std::string::npos)
+        << c.name << ": expected '" << c.expect << "' in: " << s.process.output;
+  }
+}
+
 #define TSF_NEED_EXE()                          \
   if (!fs::exists(test::tsf_executable_path())) \
   GTEST_SKIP() << "not run: the tsf executable is not built at " << test::tsf_executable_path()
@@ -70,8 +85,8 @@ TEST(TwoTools, TheEndoscopePressesWhileTheWandAblatesInTheSameFrames) {
   // Frames in which the wand removed tissue (edit times: the frame's start)…
   std::map<long, double> ablated;
   for (const json& e : r["edits"])
-    if (e["tool"] == "wand") ablated[std::lround(e["time_s"].get<double>() * 200)] +=
-                             e["removed_mm3"].get<double>();
+    if (e["tool"] == "wand")
+      ablated[std::lround(e["time_s"].get<double>() * 200)] += e["removed_mm3"].get<double>();
   // …and frames in which the endoscope held tissue (contact samples: the frame's end).
   int both = 0;
   double scope_force = 0;
@@ -94,7 +109,8 @@ TEST(TwoTools, AMeshToolPressesTheTissueAndKeepsItOut) {
   // The endoscope alone: the scene without the wand's trajectory.
   const fs::path scene = edited("two-tools.yaml", "scope-only", "", "");
   std::string text = test::read_text(scene);
-  text = text.substr(0, text.find("    - tool: wand          #")) + text.substr(text.find("outputs:\n"));
+  text = text.substr(0, text.find("    - tool: wand          #")) +
+         text.substr(text.find("outputs:\n"));
   std::ofstream(scene) << text;
   const Simulated s = simulate(scene, "scope");
   ASSERT_EQ(s.process.status, 0) << s.process.output;
@@ -112,9 +128,6 @@ TEST(TwoTools, AMeshToolPressesTheTissueAndKeepsItOut) {
 
 TEST(TwoTools, BadToolFilesAndShapesAreRefusedByName) {
   TSF_NEED_EXE();
-  struct Case {
-    std::string name, from, to, expect;
-  };
   const fs::path dir = test::scratch_dir("tools-contact-bad-meshes");
   // A 4 mm cube with its top face missing.
   std::ofstream(dir / "open.obj") << "v -2 -2 -2\nv 2 -2 -2\nv -2 2 -2\nv 2 2 -2\n"
@@ -124,26 +137,22 @@ TEST(TwoTools, BadToolFilesAndShapesAreRefusedByName) {
   std::ofstream(dir / "broken.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
                                        "end_header\n0\n1\n";
   std::ofstream(dir / "tool.gltf") << "{}";
-  const std::vector<Case> cases = {
-      {"missing", "file: tools/endoscope.stl", "file: tools/nowhere.stl",
-       "tools[0].file: no such file"},
-      {"open", "file: tools/endoscope.stl", "file: " + (dir / "open.obj").string(),
-       "the mesh is not closed"},
-      {"broken-ply", "file: tools/endoscope.stl", "file: " + (dir / "broken.ply").string(),
-       "has no property y"},
-      {"format", "file: tools/endoscope.stl", "file: " + (dir / "tool.gltf").string(),
-       "expected a mesh file .obj, .stl or .ply"},
-      {"radius", "    grid: 0.2 ", "    radius: 2\n    grid: 0.2 ",
-       "tools[0].radius: not for a mesh tool"},
-      {"ablate", "mode: press}\n        - {time: 0.04", "mode: ablate}\n        - {time: 0.04",
-       "cannot ablate"},
-  };
-  for (const Case& c : cases) {
-    const Simulated s = simulate(edited("two-tools.yaml", c.name, c.from, c.to), "bad-" + c.name);
-    EXPECT_NE(s.process.status, 0) << c.name;
-    EXPECT_NE(s.process.output.find(c.expect), std::string::npos)
-        << c.name << ": expected '" << c.expect << "' in: " << s.process.output;
-  }
+  expect_refused(
+      "two-tools.yaml",
+      {
+          {"missing", "file: tools/endoscope.stl", "file: tools/nowhere.stl",
+           "tools[0].file: no such file"},
+          {"open", "file: tools/endoscope.stl", "file: " + (dir / "open.obj").string(),
+           "the mesh is not closed"},
+          {"broken-ply", "file: tools/endoscope.stl", "file: " + (dir / "broken.ply").string(),
+           "has no property y"},
+          {"format", "file: tools/endoscope.stl", "file: " + (dir / "tool.gltf").string(),
+           "expected a mesh file .obj, .stl or .ply"},
+          {"radius", "    grid: 0.2 ", "    radius: 2\n    grid: 0.2 ",
+           "tools[0].radius: not for a mesh tool"},
+          {"ablate", "mode: press}\n        - {time: 0.04", "mode: ablate}\n        - {time: 0.04",
+           "cannot ablate"},
+      });
 }
 
 double lowest_z(const fs::path& ply) {
@@ -184,36 +193,27 @@ TEST(InstanceContact, ASoftBlockRestsOnTheBoneInsteadOfPassingThrough) {
   EXPECT_NE(soft["stability"]["verdict"], "unstable");
 
   // Without the contact the same block falls through the bone.
-  const Simulated through =
-      simulate(edited("rest-on-bone.yaml", "no-contact",
-                      "    contact: {pushed_by: [bone]}", ""),
-               "through");
+  const Simulated through = simulate(
+      edited("rest-on-bone.yaml", "no-contact", "    contact: {pushed_by: [bone]}", ""), "through");
   ASSERT_EQ(through.process.status, 0) << through.process.output;
   EXPECT_LT(lowest_z(through.out / "final-soft.ply"), 0.0) << "no contact: it falls through";
 }
 
 TEST(InstanceContact, ContactKeysAreCheckedByName) {
   TSF_NEED_EXE();
-  struct Case {
-    std::string name, from, to, expect;
-  };
-  const std::vector<Case> cases = {
-      {"unknown", "    contact: {pushed_by: [bone]}", "    contact: {pushed_by: [skull]}",
-       "tissues[0].contact.pushed_by[0]: no instance named 'skull'"},
-      {"self", "    contact: {pushed_by: [bone]}", "    contact: {pushed_by: [soft]}",
-       "an instance does not push itself"},
-      {"circle", "    tissue: {voxels_per_node: 2}\nscript:",
-       "    tissue: {voxels_per_node: 2}\n    contact: {pushed_by: [soft]}\nscript:",
-       "contact is one way"},
-      {"key", "    contact: {pushed_by: [bone]}", "    contact: {pushed: [bone]}",
-       "tissues[0].contact.pushed: unknown key"},
-  };
-  for (const Case& c : cases) {
-    const Simulated s = simulate(edited("rest-on-bone.yaml", c.name, c.from, c.to), "key-" + c.name);
-    EXPECT_NE(s.process.status, 0) << c.name;
-    EXPECT_NE(s.process.output.find(c.expect), std::string::npos)
-        << c.name << ": expected '" << c.expect << "' in: " << s.process.output;
-  }
+  expect_refused(
+      "rest-on-bone.yaml",
+      {
+          {"unknown", "    contact: {pushed_by: [bone]}", "    contact: {pushed_by: [skull]}",
+           "tissues[0].contact.pushed_by[0]: no instance named 'skull'"},
+          {"self", "    contact: {pushed_by: [bone]}", "    contact: {pushed_by: [soft]}",
+           "an instance does not push itself"},
+          {"circle", "    tissue: {voxels_per_node: 2}\nscript:",
+           "    tissue: {voxels_per_node: 2}\n    contact: {pushed_by: [soft]}\nscript:",
+           "contact is one way"},
+          {"key", "    contact: {pushed_by: [bone]}", "    contact: {pushed: [bone]}",
+           "tissues[0].contact.pushed: unknown key"},
+      });
 }
 
 }  // namespace

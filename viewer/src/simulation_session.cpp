@@ -50,8 +50,8 @@ void SimulationSession::step_hands(double dt_display, const std::vector<ToolComm
     for (const ToolCommand& c : hands) {
       if (c.tool == -1) continue;
       if (c.tool < 0 || c.tool >= static_cast<int>(tools_.size()))
-        throw Error("viewer: tool index " + std::to_string(c.tool) + " out of range (the scene has " +
-                    std::to_string(tools_.size()) + " tools)");
+        throw Error("viewer: tool index " + std::to_string(c.tool) +
+                    " out of range (the scene has " + std::to_string(tools_.size()) + " tools)");
       if (c.mode != interaction::ToolMode::kIdle) by_tool[static_cast<std::size_t>(c.tool)] = &c;
     }
     for (std::size_t t = 0; t < tools_.size(); ++t) {

@@ -353,7 +353,7 @@ struct Viewer::Impl {
   haptics::InputDevice* input = nullptr;  // its device, when the mouse and keys are the device
   const ViewScript* script = nullptr;     // window: hands played in wall-clock time
   Clock::time_point window_start;
-  Vec3d shown_force{0, 0, 0};  // the force in the HUD and plot this frame
+  Vec3d shown_force{0, 0, 0};       // the force in the HUD and plot this frame
   std::deque<double> render_times;  // seconds, recent renders
   std::deque<Clock::time_point> render_stamps;
   int frames_rendered = 0;
@@ -416,8 +416,7 @@ void ToolInteractorStyle::OnKeyPress() {
   const std::string key = GetInteractor()->GetKeySym() ? GetInteractor()->GetKeySym() : "";
   const bool shift = GetInteractor()->GetShiftKey() != 0;
   double step = shift ? 2.0 : 0.5;  // mm
-  if ((key == "Up" || key == "Prior" || key == "Down" || key == "Next") &&
-      impl->input != nullptr) {
+  if ((key == "Up" || key == "Prior" || key == "Down" || key == "Next") && impl->input != nullptr) {
     // The device: the tool moves along the view direction while the key is held.
     impl->input->key(2, key == "Down" || key == "Next" ? -1 : 1, true);
   } else if (key == "Up" || key == "Prior" || key == "Down" || key == "Next") {
@@ -436,7 +435,8 @@ void ToolInteractorStyle::OnKeyPress() {
 void ToolInteractorStyle::OnKeyRelease() {
   if (impl == nullptr || impl->input == nullptr) return;
   const std::string key = GetInteractor()->GetKeySym() ? GetInteractor()->GetKeySym() : "";
-  if (key == "Up" || key == "Prior" || key == "Down" || key == "Next") impl->input->key(2, 0, false);
+  if (key == "Up" || key == "Prior" || key == "Down" || key == "Next")
+    impl->input->key(2, 0, false);
 }
 
 void ToolInteractorStyle::OnChar() {
@@ -697,8 +697,8 @@ void Viewer::Impl::sync_orientation_cube() {
 
 void Viewer::Impl::update_hud(const std::vector<ToolCommand>& hands) {
   if (!options.show_hud) return;
-  const ToolCommand shown = hands.empty() ? ToolCommand{-1, {}, interaction::ToolMode::kIdle}
-                                          : hands.front();
+  const ToolCommand shown =
+      hands.empty() ? ToolCommand{-1, {}, interaction::ToolMode::kIdle} : hands.front();
   double fps = 0;
   if (render_stamps.size() >= 2)
     fps = static_cast<double>(render_stamps.size() - 1) /
@@ -738,11 +738,10 @@ void Viewer::Impl::update_hud(const std::vector<ToolCommand>& hands) {
   if (haptics != nullptr) {
     const LiveHapticsOptions& ho = haptics->options();
     if (haptics->running())
-      std::snprintf(buf, sizeof buf,
-                    "\nhaptics  %s model, %s at %.0f Hz (%.0f achieved)   |F| = %s uN",
-                    haptics::to_string(ho.model), haptics->device().describe().c_str(),
-                    ho.loop.rate_hz, haptics->recent_rate_hz(),
-                    thousands(length(shown_force)).c_str());
+      std::snprintf(
+          buf, sizeof buf, "\nhaptics  %s model, %s at %.0f Hz (%.0f achieved)   |F| = %s uN",
+          haptics::to_string(ho.model), haptics->device().describe().c_str(), ho.loop.rate_hz,
+          haptics->recent_rate_hz(), thousands(length(shown_force)).c_str());
     else
       std::snprintf(buf, sizeof buf, "\nhaptics  %s model, %s, one tick per frame   |F| = %s uN",
                     haptics::to_string(ho.model), haptics->device().describe().c_str(),

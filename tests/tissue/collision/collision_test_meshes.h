@@ -54,7 +54,8 @@ inline Mesh sphere_mesh(double radius, int levels, const Vec3d& centre = {0, 0, 
 inline Mesh box_mesh(const Vec3d& lo, const Vec3d& hi) {
   Mesh m;
   for (int c = 0; c < 8; ++c)
-    m.vertices.push_back(to_float(Vec3d{c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z}));
+    m.vertices.push_back(
+        to_float(Vec3d{c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z}));
   m.triangles = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
                  {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
   return m;

@@ -17,7 +17,8 @@ namespace {
 TEST(DistanceGrid, ASphereMeshGivesTheSphereDistanceAndOutwardNormals) {
   const double r = 5.0;
   const test::Mesh m = test::sphere_mesh(r, 4);  // 2048 triangles: facets within 0.02 mm
-  const SignedDistanceGrid g = SignedDistanceGrid::from_closed_mesh(m.vertices, m.triangles, 0.25, 1.0);
+  const SignedDistanceGrid g =
+      SignedDistanceGrid::from_closed_mesh(m.vertices, m.triangles, 0.25, 1.0);
   std::mt19937 rng(7);
   // Within the grid's 1 mm margin (beyond it the distance only grows with the distance to the box).
   std::uniform_real_distribution<double> u(-1.0, 1.0), depth(-2.0, 0.9);
@@ -41,7 +42,8 @@ TEST(DistanceGrid, ASphereMeshGivesTheSphereDistanceAndOutwardNormals) {
 
 TEST(DistanceGrid, APosedMeshToolIsTheGridTurnedAndMoved) {
   const test::Mesh m = test::box_mesh({-1, -2, -4}, {1, 2, 4});
-  const SignedDistanceGrid g = SignedDistanceGrid::from_closed_mesh(m.vertices, m.triangles, 0.1, 0.5);
+  const SignedDistanceGrid g =
+      SignedDistanceGrid::from_closed_mesh(m.vertices, m.triangles, 0.1, 0.5);
   WorldTool t;
   t.shape = ToolShape::kMesh;
   t.grid = &g;

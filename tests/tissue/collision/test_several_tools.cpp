@@ -100,8 +100,8 @@ TEST(SeveralTools, OneHandAblatesWhileTheOtherPressesInTheSameFrame) {
   double removed = 0;
   for (int frame = 0; frame < 8; ++frame) {
     model.apply_tool(0, ball(4.0), {{32.5, 12.5, 21.0}, {}}, ToolMode::kPress);
-    const EditReport e = model.apply_tool(
-        1, wand, {{10.0, 6.0 + frame, 18.0}, along_y}, ToolMode::kAblate);
+    const EditReport e =
+        model.apply_tool(1, wand, {{10.0, 6.0 + frame, 18.0}, along_y}, ToolMode::kAblate);
     removed += e.removed_mm3;
     model.advance(1e-3);
     if (frame > 0) {
@@ -150,9 +150,9 @@ TEST(SeveralTools, AMeshToolPressesLikeTheShapeItWasMadeFrom) {
 
 TEST(SeveralTools, ASlotOutOfRangeIsAnError) {
   TissueModel model(test::block_volume({12, 12, 12}, {2, 2, 2}, {10, 10, 10}), held_bottom());
-  EXPECT_THROW(model.apply_tool(TissueModel::kMaxToolSlots, ball(1.0), {{5, 5, 15}, {}},
-                                ToolMode::kPress),
-               Error);
+  EXPECT_THROW(
+      model.apply_tool(TissueModel::kMaxToolSlots, ball(1.0), {{5, 5, 15}, {}}, ToolMode::kPress),
+      Error);
   EXPECT_THROW(model.apply_tool(-1, ball(1.0), {{5, 5, 15}, {}}, ToolMode::kPress), Error);
 }
 

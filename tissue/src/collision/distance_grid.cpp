@@ -44,7 +44,7 @@ void row_parity(const std::vector<Vec3d>& v, const std::vector<std::array<std::u
         const double d0 = (p1[b] - p0[b]) * (z - p0[c]) - (p1[c] - p0[c]) * (y - p0[b]);
         const double d1 = (p2[b] - p1[b]) * (z - p1[c]) - (p2[c] - p1[c]) * (y - p1[b]);
         const double d2 = (p0[b] - p2[b]) * (z - p2[c]) - (p0[c] - p2[c]) * (y - p2[b]);
-        const bool neg = d0 < 0 || d1 < 0 || d2 < 0, pos = d0 > 0 || d1 > 0 || d2 > 0;
+        const bool neg = d0 < 0 || d1 < 0 || d2<0, pos = d0> 0 || d1 > 0 || d2 > 0;
         if (neg && pos) continue;
         const double area = d0 + d1 + d2;
         if (!(std::fabs(area) > 0)) continue;  // the triangle is edge-on to the row
@@ -54,7 +54,8 @@ void row_parity(const std::vector<Vec3d>& v, const std::vector<std::array<std::u
   }
   for (int k = 0; k < nc; ++k)
     for (int j = 0; j < nb; ++j) {
-      std::vector<double>& row = rows[static_cast<std::size_t>(j) + static_cast<std::size_t>(nb) * k];
+      std::vector<double>& row =
+          rows[static_cast<std::size_t>(j) + static_cast<std::size_t>(nb) * k];
       std::sort(row.begin(), row.end());
       std::size_t crossed = 0;
       for (int i = 0; i < dims[axis]; ++i) {
@@ -135,8 +136,8 @@ SignedDistanceGrid SignedDistanceGrid::from_closed_mesh(
     const Vec3d size = hi - lo + Vec3d{2 * margin, 2 * margin, 2 * margin};
     const double fit = std::cbrt(size.x * size.y * size.z / static_cast<double>(kMaxSamples));
     std::ostringstream s;
-    s << "distance grid: a body of " << size.x << " × " << size.y << " × " << size.z
-      << " mm at " << h << " mm needs more than " << kMaxSamples << " samples; use a spacing of at"
+    s << "distance grid: a body of " << size.x << " × " << size.y << " × " << size.z << " mm at "
+      << h << " mm needs more than " << kMaxSamples << " samples; use a spacing of at"
       << " least " << fit << " mm";
     throw Error(s.str());
   }
@@ -159,7 +160,8 @@ SignedDistanceGrid SignedDistanceGrid::from_closed_mesh(
     for (int ax = 0; ax < 3; ++ax) {
       const double tmin = std::min({a[ax], b[ax], c[ax]}), tmax = std::max({a[ax], b[ax], c[ax]});
       r0[ax] = std::max(0, static_cast<int>(std::floor((tmin - g.origin_[ax]) / h)) - band);
-      r1[ax] = std::min(dims[ax] - 1, static_cast<int>(std::ceil((tmax - g.origin_[ax]) / h)) + band);
+      r1[ax] =
+          std::min(dims[ax] - 1, static_cast<int>(std::ceil((tmax - g.origin_[ax]) / h)) + band);
     }
     for (int k = r0[2]; k <= r1[2]; ++k)
       for (int j = r0[1]; j <= r1[1]; ++j)
@@ -219,7 +221,8 @@ SignedDistanceGrid SignedDistanceGrid::from_closed_mesh(
 }
 
 Vec3d SignedDistanceGrid::hi() const {
-  return origin_ + Vec3d{(dims_.x - 1) * spacing_, (dims_.y - 1) * spacing_, (dims_.z - 1) * spacing_};
+  return origin_ +
+         Vec3d{(dims_.x - 1) * spacing_, (dims_.y - 1) * spacing_, (dims_.z - 1) * spacing_};
 }
 
 double SignedDistanceGrid::inside_volume_mm3() const {

@@ -361,14 +361,11 @@ class NarrowPhase {
 /// Step 5. Constrains the moved nodes where `overrides` puts them (zero velocity) and releases the
 /// let-go ones that did not move again; writes out.nodes_released and returns the nodes held now
 /// (keep ∪ moved, ascending).
-std::vector<std::int64_t> hold_moved_nodes(crms::Solver& solver, NodeGatherer& gatherer,
-                                           const ContactScene& scene,
-                                           const std::vector<Vec3f>& overrides,
-                                           const std::vector<std::uint8_t>& moved,
-                                           const std::vector<std::int64_t>& keep,
-                                           const std::vector<std::int64_t>& release,
-                                           const std::vector<std::int64_t>& held_elsewhere,
-                                           ContactForce& out) {
+std::vector<std::int64_t> hold_moved_nodes(
+    crms::Solver& solver, NodeGatherer& gatherer, const ContactScene& scene,
+    const std::vector<Vec3f>& overrides, const std::vector<std::uint8_t>& moved,
+    const std::vector<std::int64_t>& keep, const std::vector<std::int64_t>& release,
+    const std::vector<std::int64_t>& held_elsewhere, ContactForce& out) {
   std::vector<std::int64_t> hold;
   std::vector<Vec3d> targets;
   for (std::size_t i = 0; i < scene.nb.size(); ++i)
@@ -416,7 +413,8 @@ ToolContact::ToolContact(const crms::LatticeGeometry& geometry, std::vector<std:
           "tool contact: the anchored flags must have one entry per lattice node");
 }
 
-void ToolContact::release_all(crms::Solver& solver, const std::vector<std::int64_t>& held_elsewhere) {
+void ToolContact::release_all(crms::Solver& solver,
+                              const std::vector<std::int64_t>& held_elsewhere) {
   std::vector<std::int64_t> mine;
   std::set_difference(held_.begin(), held_.end(), held_elsewhere.begin(), held_elsewhere.end(),
                       std::back_inserter(mine));
@@ -481,8 +479,8 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   }
 
   // 5: hold the moved nodes where they now are, release the rest of the let-go ones.
-  held_ = hold_moved_nodes(solver, gatherer, scene, overrides, moved, keep, release,
-                           held_elsewhere, out);
+  held_ = hold_moved_nodes(solver, gatherer, scene, overrides, moved, keep, release, held_elsewhere,
+                           out);
 
   // 6: what the tool feels.
   out.nodes_held = held_.size();

@@ -26,8 +26,8 @@ void DeviceRequest::expect_only(const std::vector<std::string>& known) const {
     if (std::find(known.begin(), known.end(), key) == known.end()) {
       std::string list;
       for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
-      throw Error("--device " + text + ": device '" + name + "' takes no parameter '" + key +
-                  "'" + (known.empty() ? " (it takes none)" : " (it takes: " + list + ")"));
+      throw Error("--device " + text + ": device '" + name + "' takes no parameter '" + key + "'" +
+                  (known.empty() ? " (it takes none)" : " (it takes: " + list + ")"));
     }
 }
 
@@ -58,8 +58,7 @@ DeviceRequest parse_device_request(const std::string& text) {
   return r;
 }
 
-void DeviceRegistry::add(const std::string& name, const std::string& description,
-                         Factory factory) {
+void DeviceRegistry::add(const std::string& name, const std::string& description, Factory factory) {
   require(word(name), "device registry: bad device name '" + name + "'");
   require(static_cast<bool>(factory), "device registry: no factory for '" + name + "'");
   devices_[name] = {description, std::move(factory)};
@@ -83,8 +82,7 @@ std::vector<std::pair<std::string, std::string>> DeviceRegistry::list() const {
 
 std::string DeviceRegistry::describe() const {
   std::string s;
-  for (const auto& [name, e] : devices_)
-    s += (s.empty() ? "" : "; ") + name + ": " + e.description;
+  for (const auto& [name, e] : devices_) s += (s.empty() ? "" : "; ") + name + ": " + e.description;
   return s.empty() ? "none" : s;
 }
 

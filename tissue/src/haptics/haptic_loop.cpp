@@ -16,9 +16,9 @@ void HapticLoopOptions::validate() const {
           "haptic rate: expected (0, 20000] Hz, got " + std::to_string(rate_hz));
   require(filter_window >= 1 && filter_window <= 1000,
           "filter window: expected 1..1000 samples, got " + std::to_string(filter_window));
-  require(std::isfinite(max_force_un) && max_force_un >= 0,
-          "haptic max force: expected ≥ 0 µN (0: the device's), got " +
-              std::to_string(max_force_un));
+  require(
+      std::isfinite(max_force_un) && max_force_un >= 0,
+      "haptic max force: expected ≥ 0 µN (0: the device's), got " + std::to_string(max_force_un));
 }
 
 double percentile(std::vector<float> values, double p) {
@@ -180,7 +180,10 @@ void HapticFrame::stamp_now() {
 SimulationPump::SimulationPump(FrameSource& source, TripleBuffer<HapticFrame>& frames,
                                const HapticLoop& loop, double rate_hz,
                                std::function<void()> on_start)
-    : source_(source), frames_(frames), loop_(loop), rate_hz_(rate_hz),
+    : source_(source),
+      frames_(frames),
+      loop_(loop),
+      rate_hz_(rate_hz),
       on_start_(std::move(on_start)) {
   require(std::isfinite(rate_hz) && rate_hz > 0,
           "simulation rate: expected a finite number > 0 Hz, got " + std::to_string(rate_hz));

@@ -108,9 +108,9 @@ collision::ContactForce TissueModel::latest_contact() const {
 }
 
 TissueModel::ToolSlot& TissueModel::slot_at(int slot) {
-  require(slot >= 0 && slot < kMaxToolSlots,
-          "tissue model: tool slot " + std::to_string(slot) + " out of range (0 … " +
-              std::to_string(kMaxToolSlots - 1) + ")");
+  require(slot >= 0 && slot < kMaxToolSlots, "tissue model: tool slot " + std::to_string(slot) +
+                                                 " out of range (0 … " +
+                                                 std::to_string(kMaxToolSlots - 1) + ")");
   while (static_cast<std::size_t>(slot) >= slots_.size()) slots_.emplace_back();
   ToolSlot& s = slots_[static_cast<std::size_t>(slot)];
   if (!s.contact)
@@ -387,7 +387,8 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
   if (tool.shape == collision::ToolShape::kBlade)
     changed = slot.stroke.cut_blade(volume_, blade, pose_from, pose_to, options_.removal);
   else if (tool.shape == collision::ToolShape::kSphere)
-    changed = slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, options_.removal);
+    changed =
+        slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, options_.removal);
   else
     changed = slot.stroke.ablate_wand(volume_, cap_from, cap_to, options_.removal);
   r.edit_us = micros(clock);

@@ -40,9 +40,10 @@ class DistanceField {
   virtual double distance(const Vec3d& p, Vec3d& normal) const = 0;
   /// Axis-aligned bounds of the body in the world, mm.
   virtual void bounds(Vec3d& lo, Vec3d& hi) const = 0;
-  /// How deep (mm, ≤ 0) lattice node `node` of the pushed tissue may lie inside the body: a body
-  /// that overlaps the tissue at rest keeps that overlap instead of kicking the tissue at the
-  /// first step. 0 for tools.
+  /// Where the surface lies for lattice node `node` of the pushed tissue: the signed distance,
+  /// mm, the node keeps from the body (0 for tools). A body keeps the outer node layer about half a
+  /// spacing off its surface, where the pushed tissue's own surface is, and lets a node that
+  /// overlapped it at rest keep that overlap.
   virtual double allowance_mm(std::int64_t node) const {
     (void)node;
     return 0.0;
@@ -54,11 +55,11 @@ class DistanceField {
 
 struct WorldTool {
   ToolShape shape = ToolShape::kSphere;
-  Vec3d a{0, 0, 0};             ///< sphere centre, or capsule end, mm
-  Vec3d b{0, 0, 0};             ///< capsule end, mm
-  double radius = 0;            ///< sphere, capsule, mm
-  ToolPose pose;                ///< blade (and field tool) centre and orientation
-  Vec3d half_extents{0, 0, 0};  ///< blade, mm
+  Vec3d a{0, 0, 0};                          ///< sphere centre, or capsule end, mm
+  Vec3d b{0, 0, 0};                          ///< capsule end, mm
+  double radius = 0;                         ///< sphere, capsule, mm
+  ToolPose pose;                             ///< blade (and field tool) centre and orientation
+  Vec3d half_extents{0, 0, 0};               ///< blade, mm
   const SignedDistanceGrid* grid = nullptr;  ///< mesh: its grid (owned by the tool), host only
   const DistanceField* field = nullptr;      ///< field: the body (owned elsewhere), host only
 

@@ -12,10 +12,13 @@
 // displacement), so what lies against a moving body is pushed with it; farther away the body is
 // taken at rest.
 //
-// Bodies that overlap at rest (two instances segmented from one CT share their boundary voxels,
-// and a lattice node sits up to half a cell inside its neighbour's surface) keep their overlap:
-// each node of the pushed lattice may lie as deep inside the body as it did at rest
-// (allowance_mm), so the first step does not kick the tissue off the bone.
+// The pushed tissue's surface does not lie at its nodes: an outer node sits up to half a spacing
+// inside or outside it. Each node keeps the distance from the body at which its own surface
+// (along the body's normal, where the tissue's density crosses the iso-level) touches the body,
+// so the tissue's surface, not its nodes, rests on the body. Bodies that overlap at rest (two
+// instances segmented from one CT share their boundary voxels) keep their overlap: a node that lay
+// closer at rest keeps that distance (allowance_mm), so the first step does not kick the tissue
+// off the bone.
 //
 // Threading: the owner thread of both models (follow() between advance() calls).
 #pragma once
@@ -27,7 +30,6 @@
 #include "tsf/collision/distance_grid.h"
 #include "tsf/collision/world_tool.h"
 #include "tsf/coupler/local_warp.h"
-#include "tsf/crms/lattice.h"
 
 namespace tsf::interaction {
 
@@ -42,9 +44,10 @@ class BodyField final : public collision::DistanceField {
   /// Follows the body's deformation now (its lattice positions), and rebuilds the grid when an
   /// edit changed its surface since the last call.
   void follow(const TissueModel& body);
-  /// Records each node's rest overlap with the body as it is now (call once, before the pushed
-  /// tissue steps): its allowance.
-  void set_rest_allowance(const crms::Lattice& pushed);
+  /// Records for each node of the pushed tissue the distance it keeps from the body: where its
+  /// own surface touches the body, or less where it lay closer at rest (call once, with the body
+  /// as it is now, before the pushed tissue steps).
+  void set_rest_allowance(const TissueModel& pushed);
 
   double distance(const Vec3d& p, Vec3d& normal) const override;
   void bounds(Vec3d& lo, Vec3d& hi) const override;
@@ -56,7 +59,7 @@ class BodyField final : public collision::DistanceField {
   bool keeps_vertices_out() const override { return false; }
 
   const collision::SignedDistanceGrid& grid() const { return *grid_; }
-  /// Nodes of the pushed lattice that overlap the body at rest.
+  /// Nodes of the pushed tissue that lay closer to the body at rest than their surface allows.
   std::size_t nodes_overlapping_at_rest() const { return overlapping_; }
 
  private:

@@ -97,8 +97,7 @@ class SimulationThread {
   /// ahead of wall-clock time (it runs behind when the solver is slower than real time).
   /// `on_start` runs first on the thread (the viewer lowers its priority below the haptic
   /// thread's there).
-  SimulationThread(SimulationSession& session, double frame_s,
-                   std::function<void()> on_start = {});
+  SimulationThread(SimulationSession& session, double frame_s, std::function<void()> on_start = {});
   ~SimulationThread();  ///< stops and joins
   SimulationThread(const SimulationThread&) = delete;
   SimulationThread& operator=(const SimulationThread&) = delete;
