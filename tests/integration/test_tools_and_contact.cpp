@@ -155,6 +155,75 @@ TEST(TwoTools, BadToolFilesAndShapesAreRefusedByName) {
       });
 }
 
+TEST(TwoTools, AMeshToolReadsTheSameFromObjStlAndPly) {
+  TSF_NEED_EXE();
+  // One 4 mm cube written five ways; the same press with each gives the same contact.
+  const fs::path dir = test::scratch_dir("tools-contact-formats");
+  const double v[8][3] = {{-2, -2, -2}, {2, -2, -2}, {-2, 2, -2}, {2, 2, -2},
+                          {-2, -2, 2},  {2, -2, 2},  {-2, 2, 2},  {2, 2, 2}};
+  const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  {
+    std::ofstream obj(dir / "cube.obj");
+    for (const auto& p : v) obj << "v " << p[0] << " " << p[1] << " " << p[2] << "\n";
+    for (const auto& t : f) obj << "f " << t[0] + 1 << "/1 " << t[1] + 1 << "/1 " << t[2] + 1 << "/1\n";
+    std::ofstream stl(dir / "cube.stl");
+    stl << "solid cube\n";
+    for (const auto& t : f) {
+      stl << " facet normal 0 0 0\n  outer loop\n";
+      for (int k : t) stl << "   vertex " << v[k][0] << " " << v[k][1] << " " << v[k][2] << "\n";
+      stl << "  endloop\n endfacet\n";
+    }
+    stl << "endsolid cube\n";
+    std::ofstream ply(dir / "cube.ply");
+    ply << "ply\nformat ascii 1.0\ncomment a cube\nelement vertex 8\nproperty double x\n"
+           "property double y\nproperty double z\nproperty uchar red\nelement face 12\n"
+           "property list uchar int vertex_indices\nend_header\n";
+    for (const auto& p : v) ply << p[0] << " " << p[1] << " " << p[2] << " 7\n";
+    for (const auto& t : f) ply << "3 " << t[0] << " " << t[1] << " " << t[2] << "\n";
+    std::ofstream bin(dir / "cube-binary.ply", std::ios::binary);
+    bin << "ply\nformat binary_big_endian 1.0\nelement vertex 8\nproperty float x\n"
+           "property float y\nproperty float z\nelement face 12\n"
+           "property list uchar int vertex_indices\nend_header\n";
+    auto put = [&](const void* data, std::size_t n) {
+      const auto* b = static_cast<const unsigned char*>(data);
+      for (std::size_t i = n; i-- > 0;) bin.put(static_cast<char>(b[i]));  // big endian
+    };
+    for (const auto& p : v)
+      for (double c : p) {
+        const float x = static_cast<float>(c);
+        put(&x, 4);
+      }
+    for (const auto& t : f) {
+      bin.put(3);
+      for (int k : t) put(&k, 4);
+    }
+    // The same cube as quads (OBJ polygons are fanned into triangles).
+    std::ofstream quads(dir / "cube-quads.obj");
+    for (const auto& p : v) quads << "v " << p[0] << " " << p[1] << " " << p[2] << "\n";
+    quads << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+  }
+  std::vector<double> forces;
+  for (const char* file : {"cube.obj", "cube.stl", "cube.ply", "cube-binary.ply", "cube-quads.obj"}) {
+    std::ofstream(dir / "scene.yaml")
+        << "lattice: {source: box, size: [12, 8, 8], spacing: 2}\n"
+           "material: {youngs_modulus: 30000, viscosity: 2, density: 0.001}\n"
+           "solver: {backend: cpu, dt: auto}\n"
+           "anchors: [{box: {min: [-1, -1, -1], max: [13, 9, 1]}}]\n"
+           "tools: [{name: cube, shape: mesh, file: " << file << ", grid: 0.25}]\n"
+           "script: {frame_rate: 500, duration: 0.01, trajectories: [{tool: cube, keyframes: "
+           "[{time: 0, position: [6, 4, 10], mode: press}, {time: 0.008, position: [6, 4, 9], "
+           "mode: press}]}]}\n"
+           "outputs: {report: report.json}\n";
+    const Simulated s = simulate(dir / "scene.yaml", std::string("format-") + file);
+    ASSERT_EQ(s.process.status, 0) << file << ": " << s.process.output;
+    forces.push_back(s.report["max_tool_force_un"].get<double>());
+  }
+  EXPECT_GT(forces[0], 0.0);
+  for (std::size_t i = 1; i < forces.size(); ++i)
+    EXPECT_NEAR(forces[i], forces[0], 1e-3 * forces[0]) << "format " << i;
+}
+
 double lowest_z(const fs::path& ply) {
   const imt::SurfaceMesh m = imt::read_surface_ply(ply);
   double z = 1e9;
