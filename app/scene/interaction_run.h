@@ -60,6 +60,19 @@ struct ToolShare {
   std::int64_t nodes_held = 0;
 };
 
+/// An exposure event (interaction/exposure.h) with the tool whose edit raised it.
+struct ExposureRecord {
+  double time_s = 0;
+  std::string tool;
+  interaction::ExposureEvent event;
+};
+
+/// What tearing did during one frame (TissueModel::advance), at the frame's end.
+struct TearRecord {
+  double time_s = 0;
+  interaction::TearReport report;
+};
+
 struct ContactSample {
   double time_s = 0;
   Vec3d force_un, torque_un_mm;
@@ -87,6 +100,8 @@ struct InstanceResult {
   std::int64_t steps = 0;
   interaction::InteractionTotals totals;
   std::vector<EditRecord> edits;
+  std::vector<TearRecord> tears;
+  std::vector<ExposureRecord> exposures;
   std::vector<ContactSample> contact;
   /// What the pushing instances exert on this one (tissues[i].contact), per frame.
   std::vector<ContactSample> body_contact;

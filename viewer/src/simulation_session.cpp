@@ -65,8 +65,12 @@ void SimulationSession::step_hands(double dt_display, const std::vector<ToolComm
           model_->apply_tool(slot, tools_[t].tool, by_tool[t]->pose, by_tool[t]->mode);
       holding_[t] = true;
       if (r.edited) edited_since_publish_ = true;
+      for (const interaction::ExposureEvent& e : r.exposures)
+        stats_.warning = interaction::describe_exposure(
+            e.hit, tools_[t].name, e.time_s);
     }
     const interaction::AdvanceReport a = model_->advance(dt_display);
+    if (a.tear.layers.edited) edited_since_publish_ = true;  // a tear re-meshed the surface
     if (a.instability) stats_.error = "unstable: " + a.instability->describe();
     if (haptics_ != nullptr && !hands.empty()) {
       const ToolCommand& h = hands.front();

@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <string>
 
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/interaction/lattice_components.h"
 #include "tsf/interaction/lattice_topology_edit.h"
+#include "tsf/interaction/tear_separation.h"
 
 namespace tsf::interaction {
 namespace {
@@ -55,6 +57,15 @@ void TissueModelOptions::validate() const {
           "tissue model: contact_passes_per_advance must be in [1, 1000]");
   require(std::isfinite(removal.strength) && removal.strength >= 0.0f && removal.strength <= 1.0f,
           "tissue model: removal.strength must be in [0, 1]");
+  for (int l = 0; l < 256; ++l)
+    require(
+        std::isfinite(cut_rates.rate[l]) && cut_rates.rate[l] >= 0.0f && cut_rates.rate[l] <= 1.0f,
+        "tissue model: the cut rate of label " + std::to_string(l) + " must be in [0, 1]");
+  require(std::isfinite(feather_force_un) && feather_force_un >= 0.0 && feather_force_un <= 1e12,
+          "tissue model: feather_force must be in [0, 1e12] µN (0 = ablation without contact)");
+  require(std::isfinite(exposure.distance_mm) && exposure.distance_mm >= 0.0 &&
+              exposure.distance_mm <= 100.0,
+          "tissue model: exposure.distance_mm must be in [0, 100] (0 = off)");
   require(contact.margin_spacings >= 1.0 && contact.margin_spacings <= 100.0 &&
               contact.max_narrow_iterations >= 0 && contact.max_narrow_iterations <= 1000 &&
               contact.vertex_tolerance_spacings >= 0.0,
@@ -66,6 +77,7 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
       volume_(std::move(volume)),
       surface_(options_.surface, options_.surface_headroom) {
   options_.validate();
+  exposure_nearest_mm_.fill(std::numeric_limits<double>::infinity());
   require(volume_.voxel_count() > 0, "tissue model: the volume is empty");
   if (!volume_.brick_ranges_current()) volume_.mark_all_modified();
   surface_.build(volume_);
@@ -113,6 +125,7 @@ TissueModel::ToolSlot& TissueModel::slot_at(int slot) {
                                                  std::to_string(kMaxToolSlots - 1) + ")");
   while (static_cast<std::size_t>(slot) >= slots_.size()) slots_.emplace_back();
   ToolSlot& s = slots_[static_cast<std::size_t>(slot)];
+  s.ablation_presses = ablation_presses();
   if (!s.contact)
     s.contact = std::make_unique<collision::ToolContact>(solver_->lattice().geometry(), anchored_,
                                                          options_.contact);
@@ -282,7 +295,7 @@ EditReport TissueModel::apply_tool(int slot_index, const Tool& tool, const ToolP
     // A pressing tool that has not moved keeps its contact as the last pass left it (advance()
     // re-resolves it between steps): resolving again at once would let go of the nodes the
     // narrow phase holds off the tool's surface, for nothing.
-    if (slot.pressing() && same_tool(tool, slot.spec) &&
+    if (slot.pressing() && slot.mode == ToolMode::kPress && same_tool(tool, slot.spec) &&
         length(pose.position - slot.last->pose.position) == 0.0 &&
         pose.orientation.normalized().angle_to(slot.last->pose.orientation) < 1e-7) {
       report.contact = contact_;
@@ -302,25 +315,39 @@ EditReport TissueModel::apply_tool(int slot_index, const Tool& tool, const ToolP
     report.total_us = micros(total);
     return report;
   }
-  if (slot.pressing()) {
-    // This hand stops pressing: the others (and the bodies) keep theirs.
+  // Force-dependent ablation presses as it ablates: the hand keeps what it holds (unless it took
+  // another tool) and its force before the move sets the rate. Otherwise editing lets go (this
+  // hand only: the others and the bodies keep theirs).
+  const bool presses = mode == ToolMode::kAblate && ablation_presses();
+  if (slot.pressing() && (!presses || !same_tool(tool, slot.spec))) {
     stop_pressing(slot);
     slot.mode = ToolMode::kIdle;
     publish_contacts();
   }
   const bool sweep = slot.last && slot.mode == mode && same_tool(tool, slot.spec);
   if (!sweep) slot.stroke.end();
-  report = edit(slot, tool, sweep ? *slot.last : world, world, mode);
+  const double scale =
+      presses ? -std::expm1(-length(slot.last_contact.force_un) / options_.feather_force_un) : 1.0;
+  report = edit(slot, tool, sweep ? *slot.last : world, world, mode, scale);
   slot.last = world;
   slot.spec = tool;
   slot.mode = mode;
+  if (presses) {
+    Stopwatch clock;
+    resolve_contact(slot_index);
+    const collision::ContactForce c = publish_contacts();
+    report.contact = c;
+    report.tissue_near = report.tissue_near || slot.last_contact.nodes_gathered > 0;
+    report.total_us += micros(clock);
+  }
   return report;
 }
 
 EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::WorldTool& from,
-                             const collision::WorldTool& to, ToolMode mode) {
+                             const collision::WorldTool& to, ToolMode mode, double rate_scale) {
   EditReport r;
   r.mode = mode;
+  r.rate_scale = rate_scale;
   Stopwatch total, clock;
   const crms::LatticeGeometry& g = solver_->lattice().geometry();
   const VolumeGeometry& vg = volume_.geometry();
@@ -384,15 +411,26 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
   DensitySnapshot before;
   before.capture(volume_, voxels_near_box(vg, rest_lo, rest_hi, reach));
   VoxelBox changed{};
-  if (tool.shape == collision::ToolShape::kBlade)
-    changed = slot.stroke.cut_blade(volume_, blade, pose_from, pose_to, options_.removal);
-  else if (tool.shape == collision::ToolShape::kSphere)
-    changed =
-        slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, options_.removal);
-  else
-    changed = slot.stroke.ablate_wand(volume_, cap_from, cap_to, options_.removal);
+  RemovalOptions removal = options_.removal;
+  removal.strength = static_cast<float>(static_cast<double>(removal.strength) * rate_scale);
+  if (tool.shape == collision::ToolShape::kBlade) {
+    removal.rates = options_.cut_rates;
+    changed = slot.stroke.cut_blade(volume_, blade, pose_from, pose_to, removal);
+  } else if (tool.shape == collision::ToolShape::kSphere) {
+    changed = slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, removal);
+  } else {
+    changed = slot.stroke.ablate_wand(volume_, cap_from, cap_to, removal);
+  }
   r.edit_us = micros(clock);
   r.changed_voxels = changed;
+  const double voxel_mm3 = vg.spacing.x * vg.spacing.y * vg.spacing.z;
+  for (int l = 0; l < 256; ++l) {
+    const double reached = slot.stroke.last_reached()[static_cast<std::size_t>(l)] * voxel_mm3;
+    if (reached > 0.0) {
+      r.reached_by_label.emplace_back(static_cast<std::uint8_t>(l), reached);
+      totals_.reached_by_label_mm3[static_cast<std::size_t>(l)] += reached;
+    }
+  }
   if (changed.empty()) {
     r.total_us = micros(total);
     return r;
@@ -401,8 +439,23 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
           "tissue model: an edit changed voxels outside the region saved before it (internal)");
   r.edited = true;
   r.removed_mm3 = before.removed_volume_mm3(volume_, changed);
+  r.removed_by_label = before.removed_by_label_mm3(volume_, changed);
+  propagate_voxel_change(before, changed, {}, r);
+  r.total_us = micros(total);
+  record_exposures(before, r);
 
-  clock.restart();
+  ++totals_.edits;
+  totals_.removed_mm3 += r.removed_mm3;
+  for (const auto& [label, mm3] : r.removed_by_label) totals_.removed_by_label_mm3[label] += mm3;
+  totals_.nodes_deleted += r.nodes_deleted;
+  totals_.springs_broken += r.springs_broken;
+  totals_.vertices_rebound += r.vertices_rebound;
+  return r;
+}
+
+void TissueModel::propagate_voxel_change(const DensitySnapshot& before, const VoxelBox& changed,
+                                         const std::vector<crms::SpringRef>& torn, EditReport& r) {
+  Stopwatch clock;
   surface_.update(volume_, changed);
   const imt::SurfaceChanges changes = surface_.take_changes();
   r.remesh_us = micros(clock);
@@ -428,8 +481,10 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
   r.topology_us = micros(clock);
 
   clock.restart();
-  const coupler::RebindReport rebind = coupler_->apply_changes(
-      surface_, changes, solver_->lattice(), topo.deleted_nodes, topo.broken_springs);
+  std::vector<crms::SpringRef> broken = topo.broken_springs;
+  broken.insert(broken.end(), torn.begin(), torn.end());
+  const coupler::RebindReport rebind =
+      coupler_->apply_changes(surface_, changes, solver_->lattice(), topo.deleted_nodes, broken);
   r.vertices_rebound = rebind.rebound;
   r.vertices_rebound_for_topology = rebind.from_topology;
   r.rebind_us = micros(clock);
@@ -440,14 +495,67 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
   else
     coupler_->couple_slots(*solver_, coupler_->last_rebound());
   r.couple_us = micros(clock);
-  r.total_us = micros(total);
+}
 
-  ++totals_.edits;
-  totals_.removed_mm3 += r.removed_mm3;
-  totals_.nodes_deleted += r.nodes_deleted;
-  totals_.springs_broken += r.springs_broken;
+void TissueModel::record_exposures(const DensitySnapshot& before, EditReport& r) {
+  if (!options_.exposure.enabled()) return;
+  for (const ExposureHit& hit :
+       find_exposures(volume_, before, r.changed_voxels, options_.surface.iso, options_.exposure)) {
+    double& nearest = exposure_nearest_mm_[hit.label];
+    if (!(hit.distance_mm < nearest - 1e-9)) continue;
+    ExposureEvent e;
+    e.time_s = totals_.simulated_s;
+    e.hit = hit;
+    e.first = !std::isfinite(nearest);
+    nearest = hit.distance_mm;
+    if (e.first) solver_->raise_event(exposure_event_name(hit.label));
+    r.exposures.push_back(e);
+    exposure_events_.push_back(e);
+  }
+}
+
+TearReport TissueModel::separate_torn() {
+  TearReport t;
+  const std::vector<crms::SpringRef> torn = solver_->take_torn_springs();
+  if (torn.empty()) return t;
+  Stopwatch total;
+  t.springs_torn = torn.size();
+  const TornVoxels voxels =
+      torn_voxels(solver_->lattice(), torn, options_.lattice.node_spacing_voxels, volume_.dims());
+  t.nodes_masked = voxels.masked_nodes.size();
+  EditReport& r = t.layers;
+  r.mode = ToolMode::kIdle;
+  Stopwatch clock;
+  DensitySnapshot before;
+  VoxelBox changed{};
+  if (!voxels.bounds.empty()) {
+    before.capture(volume_, voxels.bounds);
+    changed = clear_voxels(volume_, voxels.boxes);
+  }
+  r.edit_us = micros(clock);
+  r.changed_voxels = changed;
+  if (!changed.empty()) {
+    r.edited = true;
+    r.removed_mm3 = before.removed_volume_mm3(volume_, changed);
+    r.removed_by_label = before.removed_by_label_mm3(volume_, changed);
+    t.cleared_mm3 = r.removed_mm3;
+    propagate_voxel_change(before, changed, torn, r);
+  } else {
+    // No tissue between the nodes (it was cut or torn before): re-bind their cubes alone.
+    clock.restart();
+    const coupler::RebindReport rebind =
+        coupler_->apply_changes(surface_, imt::SurfaceChanges{}, solver_->lattice(), {}, torn);
+    r.vertices_rebound = rebind.rebound;
+    r.rebind_us = micros(clock);
+  }
+  r.total_us = micros(total);
+  totals_.springs_torn += t.springs_torn;
+  totals_.nodes_masked += t.nodes_masked;
+  totals_.tear_cleared_mm3 += t.cleared_mm3;
+  totals_.tear_nodes_deleted += r.nodes_deleted;
+  totals_.tear_springs_broken += r.springs_broken;
   totals_.vertices_rebound += r.vertices_rebound;
-  return r;
+  return t;
 }
 
 AdvanceReport TissueModel::advance(double dt_display) {
@@ -476,6 +584,8 @@ AdvanceReport TissueModel::advance(double dt_display) {
     }
   }
   r.simulated_s = static_cast<double>(r.steps) * dt_;
+  // What tearing did during these steps, through the voxels, surface and coupler.
+  if (!r.instability) r.tear = separate_torn();
   Stopwatch clock;
   coupler_->couple(*solver_);
   r.couple_us = micros(clock);

@@ -1,5 +1,5 @@
 // Haptic devices picked by name. A command that drives a haptic loop builds a registry of the
-// devices it can offer (app/haptics/devices.h registers tsf's own: `scripted`, `mouse`) and a
+// devices it can offer (app/scene/haptic_devices.h registers tsf's own: `scripted`, `mouse`) and a
 // user picks one with `--device NAME[:KEY=VALUE,…]`; a driver (a haptic arm's SDK, a network
 // link) adds itself with add() and is then offered by every command the same way.
 //
