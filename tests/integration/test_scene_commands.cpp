@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cube_mesh.h"
 #include "support/test_data.h"
 #include "support/tsf_process.h"
 
@@ -312,10 +313,7 @@ TEST(SceneKeysByCommand, AMeshToolPressesInEveryCommandThatPlaysTools) {
   TSF_NEED_EXE();
   // The ball of kTools as a closed mesh file (a 4 mm cube in its own frame, OBJ).
   const fs::path dir = test::scratch_dir("mesh-tool-file");
-  std::ofstream(dir / "cube.obj") << "v -2 -2 -2\nv 2 -2 -2\nv -2 2 -2\nv 2 2 -2\n"
-                                     "v -2 -2 2\nv 2 -2 2\nv -2 2 2\nv 2 2 2\n"
-                                     "f 1 3 2\nf 2 3 4\nf 5 6 7\nf 6 8 7\nf 1 2 5\nf 2 6 5\n"
-                                     "f 3 7 4\nf 4 7 8\nf 1 5 3\nf 3 5 7\nf 2 4 6\nf 4 8 6\n";
+  std::ofstream(dir / "cube.obj") << test::cube_obj();
   std::string tools = kTools;
   const std::string sphere = "{name: ball, shape: sphere, radius: 2}";
   tools.replace(tools.find(sphere), sphere.size(),

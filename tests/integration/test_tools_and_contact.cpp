@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cube_mesh.h"
 #include "support/test_data.h"
 #include "support/tsf_process.h"
 #include "tsf/imt/surface_ply.h"
@@ -130,10 +131,7 @@ TEST(TwoTools, BadToolFilesAndShapesAreRefusedByName) {
   TSF_NEED_EXE();
   const fs::path dir = test::scratch_dir("tools-contact-bad-meshes");
   // A 4 mm cube with its top face missing.
-  std::ofstream(dir / "open.obj") << "v -2 -2 -2\nv 2 -2 -2\nv -2 2 -2\nv 2 2 -2\n"
-                                     "v -2 -2 2\nv 2 -2 2\nv -2 2 2\nv 2 2 2\n"
-                                     "f 1 3 2\nf 2 3 4\nf 1 2 5\nf 2 6 5\n"
-                                     "f 3 7 4\nf 4 7 8\nf 1 5 3\nf 3 5 7\nf 2 4 6\nf 4 8 6\n";
+  std::ofstream(dir / "open.obj") << test::cube_obj(/*without_top=*/true);
   std::ofstream(dir / "broken.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
                                        "end_header\n0\n1\n";
   std::ofstream(dir / "tool.gltf") << "{}";
@@ -159,14 +157,13 @@ TEST(TwoTools, AMeshToolReadsTheSameFromObjStlAndPly) {
   TSF_NEED_EXE();
   // One 4 mm cube written five ways; the same press with each gives the same contact.
   const fs::path dir = test::scratch_dir("tools-contact-formats");
-  const double v[8][3] = {{-2, -2, -2}, {2, -2, -2}, {-2, 2, -2}, {2, 2, -2},
-                          {-2, -2, 2},  {2, -2, 2},  {-2, 2, 2},  {2, 2, 2}};
-  const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                        {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  const auto& v = test::kCubeVertices;
+  const auto& f = test::kCubeTriangles;
   {
     std::ofstream obj(dir / "cube.obj");
     for (const auto& p : v) obj << "v " << p[0] << " " << p[1] << " " << p[2] << "\n";
-    for (const auto& t : f) obj << "f " << t[0] + 1 << "/1 " << t[1] + 1 << "/1 " << t[2] + 1 << "/1\n";
+    for (const auto& t : f)
+      obj << "f " << t[0] + 1 << "/1 " << t[1] + 1 << "/1 " << t[2] + 1 << "/1\n";
     std::ofstream stl(dir / "cube.stl");
     stl << "solid cube\n";
     for (const auto& t : f) {
@@ -204,13 +201,16 @@ TEST(TwoTools, AMeshToolReadsTheSameFromObjStlAndPly) {
     quads << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
   }
   std::vector<double> forces;
-  for (const char* file : {"cube.obj", "cube.stl", "cube.ply", "cube-binary.ply", "cube-quads.obj"}) {
+  for (const char* file :
+       {"cube.obj", "cube.stl", "cube.ply", "cube-binary.ply", "cube-quads.obj"}) {
     std::ofstream(dir / "scene.yaml")
         << "lattice: {source: box, size: [12, 8, 8], spacing: 2}\n"
            "material: {youngs_modulus: 30000, viscosity: 2, density: 0.001}\n"
            "solver: {backend: cpu, dt: auto}\n"
            "anchors: [{box: {min: [-1, -1, -1], max: [13, 9, 1]}}]\n"
-           "tools: [{name: cube, shape: mesh, file: " << file << ", grid: 0.25}]\n"
+           "tools: [{name: cube, shape: mesh, file: "
+        << file
+        << ", grid: 0.25}]\n"
            "script: {frame_rate: 500, duration: 0.01, trajectories: [{tool: cube, keyframes: "
            "[{time: 0, position: [6, 4, 10], mode: press}, {time: 0.008, position: [6, 4, 9], "
            "mode: press}]}]}\n"

@@ -66,8 +66,7 @@ void SimulationSession::step_hands(double dt_display, const std::vector<ToolComm
       holding_[t] = true;
       if (r.edited) edited_since_publish_ = true;
       for (const interaction::ExposureEvent& e : r.exposures)
-        stats_.warning = interaction::describe_exposure(
-            e.hit, tools_[t].name, e.time_s);
+        stats_.warning = interaction::describe_exposure(e.hit, tools_[t].name, e.time_s);
     }
     const interaction::AdvanceReport a = model_->advance(dt_display);
     if (a.tear.layers.edited) edited_since_publish_ = true;  // a tear re-meshed the surface

@@ -108,8 +108,8 @@ double density_at(const VoxelVolume& v, const Vec3d& p) {
 
 /// How far the tissue's own surface lies from rest point p along u (mm; negative: p is already
 /// outside its tissue, the surface behind it), within ±reach; 0 when none is found.
-double surface_along(const VoxelVolume& v, double iso, const Vec3d& p, const Vec3d& u,
-                     double reach, double step) {
+double surface_along(const VoxelVolume& v, double iso, const Vec3d& p, const Vec3d& u, double reach,
+                     double step) {
   const double f0 = density_at(v, p) - iso;
   const double dir = f0 >= 0 ? 1.0 : -1.0;  // inside: toward the body; outside: back into it
   double prev_t = 0, prev_f = f0;
