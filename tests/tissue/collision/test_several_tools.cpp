@@ -114,6 +114,46 @@ TEST(SeveralTools, OneHandAblatesWhileTheOtherPressesInTheSameFrame) {
   ASSERT_TRUE(test::all_finite(model));
 }
 
+TEST(SeveralTools, AFeatherAblatingHandFollowsItsOwnForceNotTheOtherHands) {
+  // Force-dependent ablation (feather force 20 mN) in hand 1 while hand 0 presses firmly 20 mm
+  // away: the wand's first touch removes nothing (its own force is still zero, however hard the
+  // other hand presses), then each move's rate is 1 − exp(−F/F0) of the wand's own force, and
+  // the wand holds its own nodes: lifting the pressing hand leaves the wand's grip.
+  auto o = held_bottom();
+  o.feather_force_un = 20e3;
+  TissueModel model(test::block_volume({44, 24, 20}, {2, 2, 2}, {42, 22, 18}), std::move(o));
+  const Tool wand = ball(2.0);
+  for (int frame = 0; frame < 4; ++frame) {
+    model.apply_tool(0, ball(4.0), {{32.5, 12.5, 21.0}, {}}, ToolMode::kPress);
+    model.advance(1e-3);
+  }
+  ASSERT_GT(length(model.tool_contact(0).force_un), 20e3) << "hand 0 presses firmly";
+  double removed = 0;
+  bool lifted = false;
+  for (int frame = 0; frame < 8; ++frame) {
+    const double own_force = length(model.tool_contact(1).force_un);
+    const EditReport e =
+        model.apply_tool(1, wand, {{10.5, 12.5, 20.5 - 0.5 * frame}, {}}, ToolMode::kAblate);
+    EXPECT_NEAR(e.rate_scale, 1.0 - std::exp(-own_force / 20e3), 1e-9) << "frame " << frame;
+    if (frame == 0) {
+      EXPECT_EQ(e.rate_scale, 0.0) << "no force of its own yet";
+      EXPECT_EQ(e.removed_mm3, 0.0);
+    }
+    removed += e.removed_mm3;
+    model.advance(1e-3);
+    const std::size_t wand_held = model.tool_contact(1).nodes_held;
+    if (!lifted && wand_held > 0 && model.tool_contact(0).nodes_held > 0) {
+      model.release_tool(0);
+      lifted = true;
+      EXPECT_EQ(model.tool_contact(0).nodes_held, 0u);
+      EXPECT_EQ(model.tool_contact(1).nodes_held, wand_held) << "lifting hand 0 keeps the wand's";
+    }
+  }
+  EXPECT_TRUE(lifted) << "the feather-ablating wand never held nodes beside the pressing hand";
+  EXPECT_GT(removed, 1.0) << "pressing, the wand ablates";
+  ASSERT_TRUE(test::all_finite(model));
+}
+
 TEST(SeveralTools, AMeshToolPressesLikeTheShapeItWasMadeFrom) {
   // A 4 mm sphere as a closed mesh (2048 triangles, 0.2 mm grid) against the analytic sphere,
   // pressed 1 mm into the same block: the same nodes held within 25 % and the same force within
