@@ -129,6 +129,35 @@ TEST(ExtractSurface, TissueCutByTheBorderHasNoZeroAreaTriangles) {
   }
 }
 
+TEST(ExtractSurface, BinaryVolumeWithMergingHasNoZeroAreaTriangles) {
+  // Density exactly 1 inside a box and 0 outside: the body centres of the cubes across each face
+  // average to exactly the iso-level, and every edge ending at one emits its vertex there. With
+  // merging, all of them merge (neighbours included), so no two vertices coincide; without, the
+  // surface keeps the zero-area triangles (the cut-block scene's box was 64 % of them).
+  VoxelVolume v(cube_geometry({20, 14, 14}));
+  for (int k = 2; k < 12; ++k)
+    for (int j = 2; j < 12; ++j)
+      for (int i = 2; i < 18; ++i) v.density_data()[v.index(i, j, k)] = 1.0f;
+  v.mark_all_modified();
+  SurfaceOptions merged, plain;
+  plain.snap_epsilon = 0.0f;
+  const SurfaceMesh with = extract_surface(v, merged), without = extract_surface(v, plain);
+  expect_closed_manifold(with, "binary box, merging");
+  EXPECT_EQ(measure_quality(with).zero_area, 0u);
+  EXPECT_GT(measure_quality(without).zero_area, without.triangle_count() / 4)
+      << "the case must be hard without merging for the test to mean anything";
+  // Same enclosed volume: merging exact points moves nothing.
+  const auto volume = [](const SurfaceMesh& m) {
+    double s = 0;
+    for (const auto& t : m.triangles)
+      s += dot(to_double(m.positions[t[0]]),
+               cross(to_double(m.positions[t[1]]), to_double(m.positions[t[2]]))) /
+           6.0;
+    return s;
+  };
+  EXPECT_NEAR(volume(with), volume(without), 1e-6 * volume(without));
+}
+
 TEST(ExtractSurface, RejectsBadOptions) {
   VoxelVolume v(cube_geometry({4, 4, 4}));
   SurfaceOptions o;
