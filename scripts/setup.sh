@@ -20,7 +20,8 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev      # app
   libinsighttoolkit5-dev libgdcm-dev libgdcm-tools libdcmtk-dev                 # import, segment
   libvtk9-dev libtbb-dev xvfb xauth                                            # viewer
-  libassimp-dev zlib1g-dev nodejs                                              # export (nodejs runs the glTF validator in tests)
+  libassimp-dev zlib1g-dev libmeshoptimizer-dev nodejs                         # export (nodejs runs the glTF validator in tests)
+  chromium                                                                     # export: three.js renders exported glTF in tests
   gnuplot-nox                                                                  # report plots
   dpkg-dev file                                                                # the .deb (cpack: dpkg-shlibdeps)
   snakemake                                                                    # the cohort workflow (scripts/cohort)
