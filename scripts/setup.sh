@@ -62,6 +62,15 @@ configure_and_build() {
   cmake --build "$BUILD_DIR" -j "$JOBS" "${targets[@]}"
 }
 
+# three.js for the browser test of exported glTF, pinned by tools/threejs/package-lock.json
+# (npm ci). Without npm the test says it was not run.
+install_threejs() {
+  [ "${TSF_SKIP_INSTALL:-0}" = "1" ] && return 0
+  command -v npm >/dev/null || { echo "tsf setup: npm not found: three.js not installed (the browser test will say it was not run)"; return 0; }
+  "$ROOT/tools/threejs/install.sh" || echo "tsf setup: installing three.js failed (the browser test will fail and say why)" >&2
+}
+
 install_missing_packages
+install_threejs
 mkdir -p "$BUILD_DIR"
 configure_and_build
