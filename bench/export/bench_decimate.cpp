@@ -3,7 +3,7 @@
 // (mesh_decimation.h), on real tissue surfaces.
 //
 //   bench_decimate --density PREFIX-density.nrrd [--density ...] [--budgets N1,N2,...]
-//                  [--repeat N] [--threads T]
+//                  [--repeat N] [--threads T] [--max-error MM]
 //
 // Per density volume: the IMT surface with the defaults of `tsf surface` (iso 0.5, merge-eps
 // 0.1), cleaned as every export is (mesh_cleanup.h); then per budget and method the median wall
@@ -11,8 +11,13 @@
 // the tissue-border split, meshoptimizer, compaction) and the distance of the result to the
 // cleaned full surface (surface_deviation.h: two-sided, mm; mean and max, and each direction).
 // "× one call": the slab time over the one-call time of the same budget in the same run.
+// --max-error adds a row per budget with the measured error bound (mesh_decimation.h: vertices
+// farther than MM are kept and meshoptimizer runs again). "cpu s" is the process CPU time of
+// the decimation (all threads), the time on an idle machine for one thread.
 // Budgets default to 1,000,000, 300,000, 100,000 and 30,000 triangles (those at or above the
 // surface's own count are skipped). Output: one Markdown table on stdout.
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -37,6 +42,13 @@ using namespace tsf;
 using namespace tsf::exporter;
 
 namespace {
+
+double cpu_seconds() {
+  rusage r{};
+  getrusage(RUSAGE_SELF, &r);
+  return static_cast<double>(r.ru_utime.tv_sec + r.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(r.ru_utime.tv_usec + r.ru_stime.tv_usec);
+}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -71,6 +83,7 @@ int main(int argc, char** argv) {
   std::vector<fs::path> densities;
   std::vector<std::size_t> budgets = {1'000'000, 300'000, 100'000, 30'000};
   int repeat = 3, threads = 0;
+  double max_error = 0.0;
   for (int a = 1; a < argc; ++a) {
     if (!std::strcmp(argv[a], "--density") && a + 1 < argc) {
       densities.push_back(argv[++a]);
@@ -82,12 +95,14 @@ int main(int argc, char** argv) {
       }
     } else if (!std::strcmp(argv[a], "--repeat") && a + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++a]));
+    } else if (!std::strcmp(argv[a], "--max-error") && a + 1 < argc) {
+      max_error = std::atof(argv[++a]);
     } else if (!std::strcmp(argv[a], "--threads") && a + 1 < argc) {
       threads = std::max(1, std::atoi(argv[++a]));
     } else {
       std::fprintf(stderr,
                    "usage: bench_decimate --density PREFIX-density.nrrd [--density ...] "
-                   "[--budgets N1,N2,...] [--repeat N] [--threads T]\n");
+                   "[--budgets N1,N2,...] [--repeat N] [--threads T] [--max-error MM]\n");
       return 2;
     }
   }
@@ -126,32 +141,46 @@ int main(int argc, char** argv) {
       for (std::size_t budget : budgets) {
         if (budget >= full.triangle_count()) continue;
         double one_call_s = 0;
-        for (const int t : {1, threads}) {
-          if (t == threads && threads == 1) break;
+        struct Method {
+          int threads;
+          double max_error;
+        };
+        std::vector<Method> methods = {{1, 0.0}};
+        if (threads > 1) methods.push_back({threads, 0.0});
+        if (max_error > 0.0) methods.push_back({threads, max_error});
+        for (const Method& m : methods) {
           DecimationOptions o;
           o.target_triangles = budget;
-          o.threads = t;
-          std::vector<double> times;
+          o.threads = m.threads;
+          o.max_error_mm = m.max_error;
+          std::vector<double> times, cpu;
           DecimatedMesh d;
           for (int r = 0; r < repeat; ++r) {
+            const double c0 = cpu_seconds();
             d = decimate(full, o);
+            cpu.push_back(cpu_seconds() - c0);
             times.push_back(d.seconds);
           }
           const double s = median(times);
-          if (t == 1) one_call_s = s;
+          if (m.threads == 1 && m.max_error == 0.0) one_call_s = s;
           const imt::SurfaceMesh out = decimated_surface(full, d);
           const SurfaceDeviation dev = measure_deviation({&full.positions, &full.triangles},
                                                          {&out.positions, &out.triangles});
-          const std::string method = d.slabs == 1
-                                         ? "meshoptimizer, one call"
-                                         : "meshoptimizer, " + std::to_string(d.slabs) +
-                                               " slabs on " + std::to_string(t) + " threads";
+          std::string method = d.slabs == 1
+                                   ? "meshoptimizer, one call"
+                                   : "meshoptimizer, " + std::to_string(d.slabs) + " slabs on " +
+                                         std::to_string(m.threads) + " threads";
+          if (m.max_error > 0.0) {
+            char b[96];
+            std::snprintf(b, sizeof(b), ", max error %g mm (%d runs)", m.max_error, d.rounds);
+            method += b;
+          }
           std::printf(
-              "| %s | %s | %s | %s | %s | %.2f | %.2f | %.3f | %.3f | %.3f / %.3f | "
-              "%.3f / %.3f |\n",
+              "| %s | %s | %s | %s | %s | %.2f | %.2f | %.2f | %.3f | %.3f | %.3f / %.3f "
+              "| %.3f / %.3f |\n",
               density.filename().c_str(), thousands(full.triangle_count()).c_str(),
               thousands(budget).c_str(), method.c_str(), thousands(d.triangles.size()).c_str(), s,
-              one_call_s > 0 ? s / one_call_s : 1.0, dev.mean_mm(), dev.max_mm(),
+              median(cpu), one_call_s > 0 ? s / one_call_s : 1.0, dev.mean_mm(), dev.max_mm(),
               dev.from_full_mean_mm, dev.from_full_max_mm, dev.to_full_mean_mm, dev.to_full_max_mm);
           std::fflush(stdout);
         }

@@ -11,6 +11,7 @@
 #include "tsf/common/stopwatch.h"
 #include "tsf/export/export_normals.h"
 #include "tsf/export/mesh_cleanup.h"
+#include "tsf/export/surface_deviation.h"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -243,11 +244,16 @@ std::vector<std::uint32_t> nonmanifold_sources(const Buffer& b,
   return out;
 }
 
-/// Locks in `in` every copy of the source vertices `sources` and of their neighbours in `in`.
-void lock_around(Buffer& in, const std::vector<std::uint32_t>& sources) {
+/// Locks in `in` every copy of the source vertices `sources` (and of their neighbours in `in`).
+void lock_around(Buffer& in, const std::vector<std::uint32_t>& sources, bool neighbours = true) {
   std::vector<char> hit(*std::max_element(in.origin.begin(), in.origin.end()) + 1u, 0);
   for (std::uint32_t s : sources)
     if (s < hit.size()) hit[s] = 1;
+  if (!neighbours) {
+    for (std::size_t v = 0; v < in.vertices(); ++v)
+      if (hit[in.origin[v]]) in.locked[v] = 1;
+    return;
+  }
   std::vector<char> near(hit.size(), 0);
   for (std::size_t t = 0; t < in.indices.size(); t += 3) {
     bool touches = false;
@@ -287,30 +293,11 @@ void lock_small_components(Buffer& in, std::size_t target_triangles, std::size_t
   }
 }
 
-/// Decimates `in` (ids index the caller's vertices): small pieces locked, meshoptimizer, then
-/// the repairs meshoptimizer 0.18 needs (see the header); the result's `origin`/`labels` are
-/// `in`'s.
-DecimatedMesh run(const Buffer& input, const DecimationOptions& o, bool one_surface) {
-  Stopwatch clock;
-  DecimatedMesh d;
-  Buffer in = input;
-  lock_small_components(in, o.target_triangles, 48);
-  if (!o.locked_sources.empty()) lock_around(in, o.locked_sources);
-  Buffer result;
-  for (int round = 0;; ++round) {
-    d.meshopt_error_mm = 0.0;
-    result = attempt(in, o, d);
-    d.rounds = round + 1;
-    if (round + 1 >= o.manifold_runs) break;
-    const std::vector<std::uint32_t> bad =
-        nonmanifold_sources(result, vertex_keys(result, one_surface));
-    if (bad.empty()) break;
-    lock_around(in, bad);  // and again, keeping meshoptimizer away from there
-  }
-  d.meshopt_error_mm *= o.mm_per_unit;
-  // meshoptimizer can fold two triangles onto each other (a zero-volume fin on an edge, which
-  // then has four triangles) and leave collinear triangles: drop fins and exact duplicates
-  // (compared by source vertex, and part when parts are surfaces of their own), flip caps.
+/// meshoptimizer can fold two triangles onto each other (a zero-volume fin on an edge, which
+/// then has four triangles; what a thin plate collapses to) and leave collinear triangles: drop
+/// fins and exact duplicates (compared by source vertex, and part when parts are surfaces of
+/// their own), flip caps.
+void repair(Buffer& result, bool one_surface, DecimatedMesh& d) {
   {
     std::vector<std::array<std::uint32_t, 3>> tris(result.indices.size() / 3);
     for (std::size_t t = 0; t < tris.size(); ++t)
@@ -330,6 +317,58 @@ DecimatedMesh run(const Buffer& input, const DecimationOptions& o, bool one_surf
       result = compact(result, indices);
     }
   }
+}
+
+/// Decimates `in` (ids index the caller's vertices): small pieces locked, meshoptimizer, then
+/// the repairs meshoptimizer 0.18 needs (see the header); the result's `origin`/`labels` are
+/// `in`'s.
+DecimatedMesh run(Buffer in, const DecimationOptions& o, bool one_surface, Stopwatch clock) {
+  DecimatedMesh d;
+  lock_small_components(in, o.target_triangles, 48);
+  if (!o.locked_sources.empty()) lock_around(in, o.locked_sources);
+  Buffer result;
+  const int runs = std::max(o.manifold_runs, o.max_error_mm > 0.0 ? o.error_runs : 1);
+  for (int round = 0;; ++round) {
+    d.meshopt_error_mm = 0.0;
+    result = attempt(in, o, d);
+    repair(result, one_surface, d);
+    d.rounds = round + 1;
+    if (round + 1 >= runs) break;
+    bool again = false;
+    // Measured error bound: the input vertices farther than max_error from the result are kept
+    // in the next run (a kept vertex is on the result, distance 0).
+    if (o.max_error_mm > 0.0 && round + 1 < o.error_runs) {
+      std::vector<Vec3f> points(in.vertices()), result_points(result.vertices());
+      for (std::size_t v = 0; v < points.size(); ++v)
+        points[v] = {in.xyz[3 * v], in.xyz[3 * v + 1], in.xyz[3 * v + 2]};
+      for (std::size_t v = 0; v < result_points.size(); ++v)
+        result_points[v] = {result.xyz[3 * v], result.xyz[3 * v + 1], result.xyz[3 * v + 2]};
+      std::vector<std::array<std::uint32_t, 3>> tris(result.indices.size() / 3);
+      for (std::size_t t = 0; t < tris.size(); ++t)
+        tris[t] = {result.indices[3 * t], result.indices[3 * t + 1], result.indices[3 * t + 2]};
+      const std::vector<double> dist = distances_to_surface({&result_points, &tris}, points);
+      // A far vertex that was kept already lost its triangles (a collapse around it, or a fold
+      // dropped as a fin): keep its neighbours too.
+      std::vector<std::uint32_t> far, far_kept;
+      const double bound = o.max_error_mm / o.mm_per_unit;
+      for (std::size_t v = 0; v < dist.size(); ++v)
+        if (dist[v] > bound) (in.locked[v] ? far_kept : far).push_back(in.origin[v]);
+      d.error_locked += far.size();
+      if (!far.empty()) lock_around(in, far, false);
+      if (!far_kept.empty()) lock_around(in, far_kept, true);
+      again = !far.empty() || !far_kept.empty();
+    }
+    if (round + 1 < o.manifold_runs) {
+      const std::vector<std::uint32_t> bad =
+          nonmanifold_sources(result, vertex_keys(result, one_surface));
+      if (!bad.empty()) {
+        lock_around(in, bad);  // and again, keeping meshoptimizer away from there
+        again = true;
+      }
+    }
+    if (!again) break;
+  }
+  d.meshopt_error_mm *= o.mm_per_unit;
   d.nonmanifold_vertices = nonmanifold_sources(result, vertex_keys(result, one_surface)).size();
   for (std::size_t v = 0; v < in.vertices(); ++v) d.locked_vertices += in.locked[v] != 0;
   d.one_surface = one_surface;
@@ -353,7 +392,7 @@ void DecimationOptions::validate() const {
   require(std::isfinite(max_error_mm) && max_error_mm >= 0.0,
           "maximum error " + std::to_string(max_error_mm) + " mm must be finite and positive");
   require(threads >= 0, "decimation threads must be 0 (all) or more");
-  require(manifold_runs >= 1, "decimation: manifold_runs must be 1 or more");
+  require(manifold_runs >= 1 && error_runs >= 1, "decimation: runs must be 1 or more");
   require(std::isfinite(mm_per_unit) && mm_per_unit > 0.0, "decimation: mm per unit must be > 0");
 }
 
@@ -361,14 +400,18 @@ DecimatedMesh decimate_parts(const std::vector<Vec3f>& positions,
                              const std::vector<std::array<std::uint32_t, 3>>& triangles,
                              const std::vector<std::uint32_t>& triangle_part,
                              const DecimationOptions& options, bool one_surface) {
+  Stopwatch clock;
   options.validate();
   require(triangle_part.size() == triangles.size(), "decimate_parts: a part per triangle");
-  // One copy of each vertex per part of its triangles: part borders become seams.
+  // One copy of each vertex per part of its triangles: part borders become seams. Triangles in
+  // part order (a counting sort: parts are small numbers).
+  const std::uint32_t parts =
+      triangle_part.empty() ? 0 : *std::max_element(triangle_part.begin(), triangle_part.end()) + 1;
+  std::vector<std::uint32_t> start(static_cast<std::size_t>(parts) + 1, 0);
+  for (std::uint32_t p : triangle_part) ++start[p + 1];
+  for (std::size_t p = 0; p < parts; ++p) start[p + 1] += start[p];
   std::vector<std::uint32_t> order(triangles.size());
-  for (std::uint32_t t = 0; t < order.size(); ++t) order[t] = t;
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return triangle_part[a] < triangle_part[b];
-  });
+  for (std::uint32_t t = 0; t < order.size(); ++t) order[start[triangle_part[t]]++] = t;
   Buffer in;
   in.indices.reserve(3 * triangles.size());
   std::vector<std::uint32_t> copy_of(positions.size(), UINT32_MAX);
@@ -388,7 +431,7 @@ DecimatedMesh decimate_parts(const std::vector<Vec3f>& positions,
       in.indices.push_back(copy_of[v]);
     }
   }
-  return run(in, options, one_surface);
+  return run(std::move(in), options, one_surface, clock);
 }
 
 DecimatedMesh decimate(const imt::SurfaceMesh& mesh, const DecimationOptions& options) {
@@ -403,13 +446,14 @@ DecimatedMesh decimate(const imt::SurfaceMesh& mesh, const DecimationOptions& op
 
 DecimatedMesh decimate_further(const imt::SurfaceMesh& mesh, const DecimatedMesh& level,
                                const DecimationOptions& options) {
+  Stopwatch clock;
   options.validate();
   Buffer in;
   for (std::uint32_t v = 0; v < level.origin.size(); ++v)
     in.add_vertex(mesh.positions[level.origin[v]], v, level.origin[v],
                   level.part.empty() ? level.labels[v] : level.part[v]);
   for (const auto& t : level.triangles) in.indices.insert(in.indices.end(), t.begin(), t.end());
-  return run(in, options, level.one_surface);
+  return run(std::move(in), options, level.one_surface, clock);
 }
 
 imt::SurfaceMesh decimated_surface(const imt::SurfaceMesh& mesh, const DecimatedMesh& d) {

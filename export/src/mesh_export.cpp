@@ -402,7 +402,10 @@ void add_file(OutputFileSet& set, const std::vector<GroupInput>& groups,
     sg.name = g.name;
     sg.mesh_suffix = g.mesh_suffix;
     sg.base = g.base;
-    sg.parts = partition_by_label(*g.base);
+    // Formats without materials keep the surface whole (no vertex copies on tissue borders).
+    sg.parts = context.info->materials
+                   ? partition_by_label(*g.base)
+                   : std::vector<LabelPart>{whole_mesh_part(*g.base, g.base->labels.front())};
     sg.targets = g.targets;
     sg.target_names = g.target_names;
     meshes += sg.parts.size();

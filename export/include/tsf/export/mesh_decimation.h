@@ -27,6 +27,12 @@
 //     their neighbours are locked and the decimation runs again; what is left is counted.
 //   * clean triangles: folded pairs (fins) and duplicates are dropped and collinear triangles
 //     flipped away (mesh_cleanup.h).
+//   * a measured error bound: its estimate is a quadric sum, not a distance, and thin features
+//     (a bony plate, a small spur) can lie several times max_error from the result. With
+//     max_error_mm set, every input vertex farther than it from the result (exact distance,
+//     surface_deviation.h) is locked and the decimation runs again (at most error_runs runs):
+//     kept vertices lie on the result, so the bound holds for them, and the budget goes to the
+//     rest.
 //
 // Error: meshoptimizer's own estimate (`meshopt_error_mm`) is a quadric bound, not a distance;
 // the distance to the full surface is measured by surface_deviation.h.
@@ -44,7 +50,11 @@ namespace tsf::exporter {
 
 struct DecimationOptions {
   std::size_t target_triangles = 0;  ///< stop at this many triangles (0: no count target)
-  double max_error_mm = 0.0;  ///< stop before meshoptimizer's error estimate exceeds this (0: none)
+  /// The largest distance allowed (0: none): meshoptimizer stops before its estimate exceeds it,
+  /// and input vertices measured farther than it from the result are kept in a further run (at
+  /// most error_runs runs; see the top).
+  double max_error_mm = 0.0;
+  int error_runs = 4;
   bool keep_tissue_borders = true;  ///< split vertices per tissue (see the top of this file)
   double mm_per_unit = 1.0;         ///< millimetres per coordinate unit of the mesh (metres: 1000)
   int threads = 0;                  ///< 0: OpenMP's default; 1: one unsplit meshoptimizer call
@@ -73,6 +83,7 @@ struct DecimatedMesh {
   std::size_t fins_removed = 0;  ///< folded or duplicate triangles meshoptimizer left, dropped
   std::size_t caps_flipped = 0, caps_removed = 0;  ///< collinear triangles it left (flip_caps)
   std::size_t locked_vertices = 0;       ///< kept in place: small pieces, non-manifold repairs
+  std::size_t error_locked = 0;          ///< input vertices kept for the measured error bound
   int rounds = 1;                        ///< meshoptimizer runs (a rerun locks non-manifold spots)
   std::size_t nonmanifold_vertices = 0;  ///< on edges of more than two triangles, left
   bool one_surface = true;               ///< the parts are regions of one surface (decimate_parts)
