@@ -4,8 +4,9 @@
 // right way up, and (animations) different at different times.
 //
 //   node tools/threejs/render-gltf.js MODEL.glb --out DIR [--name NAME] [--size 800x600]
-//        [--yaw DEG] [--pitch DEG] [--times first,last|SECONDS,...] [--timeout S]
+//        [--yaw DEG] [--pitch DEG] [--times first,last|SECONDS,...] [--section] [--timeout S]
 //
+// --section cuts the model open along the sagittal plane (page/render.mjs).
 // Writes DIR/NAME-<i>.png for the i-th time and prints one JSON report on stdout: three.js
 // revision, the loaded scene's nodes, materials (colour, roughness, metalness, vertexColors) and
 // animations, the model's bounds, and per time the PNG and pixel statistics (page/render.mjs).
@@ -30,7 +31,8 @@ function fail(message, status = 2) {
 }
 
 function parseArgs(argv) {
-  const a = { size: '800x600', yaw: 0, pitch: 0, times: 'first', timeout: 240, name: null };
+  const a = { size: '800x600', yaw: 0, pitch: 0, times: 'first', timeout: 240, name: null,
+              section: false };
   const rest = [];
   for (let i = 0; i < argv.length; ++i) {
     const k = argv[i];
@@ -44,9 +46,10 @@ function parseArgs(argv) {
     else if (k === '--yaw') a.yaw = Number(value());
     else if (k === '--pitch') a.pitch = Number(value());
     else if (k === '--times') a.times = value();
+    else if (k === '--section') a.section = true;
     else if (k === '--timeout') a.timeout = Number(value());
     else if (k === '--help' || k === '-h') {
-      process.stdout.write(fs.readFileSync(__filename, 'utf8').split('\n').slice(1, 16)
+      process.stdout.write(fs.readFileSync(__filename, 'utf8').split('\n').slice(1, 17)
         .map((l) => l.replace(/^\/\/ ?/, '')).join('\n') + '\n');
       process.exit(0);
     } else rest.push(k);
@@ -168,7 +171,7 @@ function main() {
     const port = server.address().port;
     const query = new URLSearchParams({ model: '/model' + path.extname(args.model), w: args.w,
                                         h: args.h, yaw: args.yaw, pitch: args.pitch,
-                                        times: args.times });
+                                        times: args.times, section: args.section ? 1 : 0 });
     const flags = ['--headless', '--no-sandbox', '--disable-gpu', '--use-angle=swiftshader',
                    '--enable-unsafe-swiftshader', '--disable-background-networking',
                    '--disable-component-update', '--disable-sync', '--no-first-run',

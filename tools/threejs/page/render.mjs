@@ -1,10 +1,12 @@
 // Loads one glTF/GLB with three.js's GLTFLoader, renders it at the requested animation times and
 // reports what the pixels show (render-gltf.js serves this page and collects the report).
 //
-// Query: ?model=URL&w=800&h=600&yaw=0&pitch=0&times=first,last
+// Query: ?model=URL&w=800&h=600&yaw=0&pitch=0&times=first,last&section=0
 //   The camera orbits the model's bounding box centre: yaw 0 looks from +Z (the glTF front; in
 //   tsf's y-up axes the patient's anterior) toward −Z with +Y (superior) up; yaw 90 looks from +X.
 //   times: seconds or "first" / "last" (the first and last keyframe of the longest clip).
+//   section=1: cut away the +X half (in tsf's y-up axes the patient's left) through the model's
+//   centre, drawing both sides of every surface, to show what lies inside.
 // The report is POSTed to /result as JSON: the scene (nodes, materials, animations, bounds) and,
 // per time, the PNG (data URL) and pixel statistics (see stats()).
 import * as THREE from 'three';
@@ -142,6 +144,10 @@ async function main() {
   camera.position.copy(centre).addScaledVector(dir, distance);
   camera.up.set(0, 1, 0);
   camera.lookAt(centre);
+  if (q.get('section') === '1') {
+    renderer.clippingPlanes = [new THREE.Plane(new THREE.Vector3(-1, 0, 0), centre.x)];
+    for (const m of materials.values()) m.side = THREE.DoubleSide;
+  }
   const light = new THREE.DirectionalLight(0xffffff, 1.8);
   light.position.copy(camera.position).add(new THREE.Vector3(0, radius, 0));
   light.target.position.copy(centre);
