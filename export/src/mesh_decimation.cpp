@@ -7,6 +7,8 @@
 #include <limits>
 #include <string>
 
+#include <time.h>
+
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/export/export_normals.h"
@@ -101,6 +103,13 @@ Buffer simplify(const Buffer& in, std::size_t target_index_count, float error_re
   return compact(in, out);
 }
 
+/// CPU time of the calling thread, s.
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 int thread_count(int requested) {
 #ifdef _OPENMP
   return requested > 0 ? requested : omp_get_max_threads();
@@ -165,9 +174,10 @@ Buffer attempt(const Buffer& in, const DecimationOptions& o, DecimatedMesh& d) {
   const int slabs = threads;
   const auto cut = slab_triangles(in, slabs);
   std::vector<Buffer> parts(cut.size());
-  std::vector<double> errors(cut.size(), 0.0);
+  std::vector<double> errors(cut.size(), 0.0), slab_cpu(cut.size(), 0.0);
 #pragma omp parallel for num_threads(slabs) schedule(static, 1)
   for (int s = 0; s < slabs; ++s) {
+    const double cpu0 = thread_cpu_seconds();
     const auto& tris = cut[static_cast<std::size_t>(s)];
     std::vector<std::uint32_t> indices;
     indices.reserve(3 * tris.size());
@@ -182,7 +192,11 @@ Buffer attempt(const Buffer& in, const DecimationOptions& o, DecimatedMesh& d) {
     part = simplify(local, target_indices(target, tris.size()), error_rel, scale,
                     meshopt_SimplifyLockBorder, errors[static_cast<std::size_t>(s)]);
     for (std::uint32_t& id : part.id) id = local.id[id];  // slab-local -> `in`
+    slab_cpu[static_cast<std::size_t>(s)] = thread_cpu_seconds() - cpu0;
   }
+  // Slab 0 ran on this thread (schedule static, 1), the others beside it: the critical path
+  // has the longest slab where this thread's time has slab 0.
+  d.critical_path_cpu_s += *std::max_element(slab_cpu.begin(), slab_cpu.end()) - slab_cpu[0];
   // Stitch, then simplify the whole once more, unlocked (the slab cuts go there).
   std::vector<std::uint32_t> merged;
   for (const Buffer& part : parts)
@@ -401,6 +415,7 @@ DecimatedMesh decimate_parts(const std::vector<Vec3f>& positions,
                              const std::vector<std::uint32_t>& triangle_part,
                              const DecimationOptions& options, bool one_surface) {
   Stopwatch clock;
+  const double cpu0 = thread_cpu_seconds();
   options.validate();
   require(triangle_part.size() == triangles.size(), "decimate_parts: a part per triangle");
   // One copy of each vertex per part of its triangles: part borders become seams. Triangles in
@@ -431,7 +446,9 @@ DecimatedMesh decimate_parts(const std::vector<Vec3f>& positions,
       in.indices.push_back(copy_of[v]);
     }
   }
-  return run(std::move(in), options, one_surface, clock);
+  DecimatedMesh d = run(std::move(in), options, one_surface, clock);
+  d.critical_path_cpu_s += thread_cpu_seconds() - cpu0;
+  return d;
 }
 
 DecimatedMesh decimate(const imt::SurfaceMesh& mesh, const DecimationOptions& options) {
@@ -447,13 +464,16 @@ DecimatedMesh decimate(const imt::SurfaceMesh& mesh, const DecimationOptions& op
 DecimatedMesh decimate_further(const imt::SurfaceMesh& mesh, const DecimatedMesh& level,
                                const DecimationOptions& options) {
   Stopwatch clock;
+  const double cpu0 = thread_cpu_seconds();
   options.validate();
   Buffer in;
   for (std::uint32_t v = 0; v < level.origin.size(); ++v)
     in.add_vertex(mesh.positions[level.origin[v]], v, level.origin[v],
                   level.part.empty() ? level.labels[v] : level.part[v]);
   for (const auto& t : level.triangles) in.indices.insert(in.indices.end(), t.begin(), t.end());
-  return run(std::move(in), options, level.one_surface, clock);
+  DecimatedMesh d = run(std::move(in), options, level.one_surface, clock);
+  d.critical_path_cpu_s += thread_cpu_seconds() - cpu0;
+  return d;
 }
 
 imt::SurfaceMesh decimated_surface(const imt::SurfaceMesh& mesh, const DecimatedMesh& d) {

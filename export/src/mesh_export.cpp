@@ -249,9 +249,19 @@ struct Level {
   TriangleDefects defects;  ///< in the base state (file frame)
 };
 
+/// measure_deviation in mm, for surfaces in the file's units (`mm` per unit).
+SurfaceDeviation deviation_mm(const TriangleSet& full, const TriangleSet& level, double mm) {
+  SurfaceDeviation d = measure_deviation(full, level);
+  for (double* x :
+       {&d.to_full_mean_mm, &d.to_full_max_mm, &d.from_full_mean_mm, &d.from_full_max_mm})
+    *x *= mm;
+  return d;
+}
+
 void fill_decimation_report(LevelReport& r, const DecimatedMesh& d) {
   r.decimated = true;
   r.decimate_s = d.seconds;
+  r.decimate_idle_s = d.critical_path_cpu_s;
   r.meshopt_error_mm = d.meshopt_error_mm;
   r.slabs = d.slabs;
   r.rounds = d.rounds;
@@ -323,12 +333,8 @@ std::vector<Level> prepare_run(const imt::SurfaceMesh& base,
     level.defects = count_triangle_defects(surface);
     if (o.measure_error && first) {
       clock.restart();
-      SurfaceDeviation dev = measure_deviation({&cleaned.positions, &cleaned.triangles},
-                                               {&surface.positions, &surface.triangles});
-      for (double* x : {&dev.to_full_mean_mm, &dev.to_full_max_mm, &dev.from_full_mean_mm,
-                        &dev.from_full_max_mm})
-        *x *= mm;
-      level.report.deviation = dev;
+      level.report.deviation = deviation_mm({&cleaned.positions, &cleaned.triangles},
+                                            {&surface.positions, &surface.triangles}, mm);
       report.measure_s += clock.seconds();
     }
     levels.push_back(std::move(level));
@@ -824,12 +830,8 @@ ExportReport export_bodies(const VoxelVolume& volume, float iso, const fs::path&
     report.decimate_s += d.seconds;
     if (options.measure_error) {
       Stopwatch measure;
-      SurfaceDeviation dev = measure_deviation({&full.positions, &full.triangles},
-                                               {&full.positions, &level.complex.triangles});
-      for (double* x : {&dev.to_full_mean_mm, &dev.to_full_max_mm, &dev.from_full_mean_mm,
-                        &dev.from_full_max_mm})
-        *x *= mm;
-      level.report.deviation = dev;
+      level.report.deviation = deviation_mm({&full.positions, &full.triangles},
+                                            {&full.positions, &level.complex.triangles}, mm);
       report.measure_s += measure.seconds();
     }
     levels.push_back(std::move(level));

@@ -100,21 +100,7 @@ TEST(GltfValidator, LevelsOfDetailBodiesAndCutAnimationsHaveNoErrors) {
   expect_valid(node, dir / "bodies.glb");
 
   // A sequence across a cut: two nodes switched by STEP scale keys.
-  io::MeshSequence s;
-  s.geometry = oblique_geometry();
-  s.rest = labelled_sphere(s.geometry);
-  io::MeshFrame pose;
-  pose.time_s = 0.05;
-  for (const Vec3f& p : s.rest.positions) pose.positions.push_back(p + Vec3f{0.0f, 0.0f, 0.3f});
-  s.frames.push_back(pose);
-  const imt::SurfaceMesh cut = labelled_sphere(s.geometry, 4.0, {1.0, 0.0, 0.0});
-  io::MeshFrame remeshed;
-  remeshed.time_s = 0.1;
-  remeshed.topology_changed = true;
-  remeshed.positions = cut.positions;
-  remeshed.labels = cut.labels;
-  remeshed.triangles = cut.triangles;
-  s.frames.push_back(remeshed);
+  const io::MeshSequence s = sphere_with_a_cut(1);
   ASSERT_TRUE(export_sequence(s, FrameSelection::parse("all"), dir / "cut.glb", {}).animated);
   expect_valid(node, dir / "cut.glb");
 }

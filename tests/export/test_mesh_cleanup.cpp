@@ -8,6 +8,7 @@
 #include "tsf/export/mesh_cleanup.h"
 #include "tsf/imt/extract_surface.h"
 #include "tsf/imt/mesh_quality.h"
+#include "tsf/imt/mesh_smoothing.h"
 #include "tsf/imt/mesh_topology.h"
 
 namespace tsf::exporter {
@@ -20,15 +21,6 @@ imt::SurfaceMesh cleaned_mesh(const imt::SurfaceMesh& in, const CleanTopology& c
   m.labels = c.labels;
   m.triangles = c.triangles;
   return m;
-}
-
-double enclosed_volume(const imt::SurfaceMesh& m) {
-  double v = 0;
-  for (const auto& t : m.triangles)
-    v += dot(to_double(m.positions[t[0]]),
-             cross(to_double(m.positions[t[1]]), to_double(m.positions[t[2]]))) /
-         6.0;
-  return v;
 }
 
 /// A box of density exactly 1 in a volume of 0 surfaced without vertex merging: body centres of
@@ -70,8 +62,9 @@ TEST(MeshCleanup, BinaryBoxLosesEveryZeroAreaTriangleAndStaysClosed) {
   EXPECT_EQ(topo.degenerate_triangles, 0u);
   EXPECT_EQ(topo.unreferenced_vertices, 0u);
   // Same shape: the same enclosed volume (positive: still facing out).
-  EXPECT_GT(enclosed_volume(out), 100.0);
-  EXPECT_NEAR(enclosed_volume(out), enclosed_volume(in), 1e-6 * std::fabs(enclosed_volume(in)));
+  EXPECT_GT(imt::enclosed_volume(out), 100.0);
+  EXPECT_NEAR(imt::enclosed_volume(out), imt::enclosed_volume(in),
+              1e-6 * std::fabs(imt::enclosed_volume(in)));
   // Labels come from the vertices kept.
   for (std::size_t v = 0; v < c.origin.size(); ++v) EXPECT_EQ(c.labels[v], in.labels[c.origin[v]]);
 }
@@ -107,7 +100,7 @@ TEST(MeshCleanup, CollinearCapIsFlippedIntoItsNeighbour) {
   const imt::SurfaceMesh out = cleaned_mesh(m, clean);
   EXPECT_EQ(count_triangle_defects(out).zero_area, 0u);
   EXPECT_TRUE(imt::analyse_topology(out).closed_oriented_manifold());
-  EXPECT_NEAR(enclosed_volume(out), enclosed_volume(m), 1e-9);
+  EXPECT_NEAR(imt::enclosed_volume(out), imt::enclosed_volume(m), 1e-9);
 }
 
 TEST(MeshCleanup, SequencesWeldOnlyWhatStaysTogether) {

@@ -23,14 +23,6 @@ imt::SurfaceMesh fine_sphere() {
   return labelled_sphere(g, 10.0, {2.0, 2.0, 2.0});
 }
 
-std::string topology_text(const imt::MeshTopology& t) {
-  return "boundary " + std::to_string(t.boundary_edges) + ", non-manifold edges " +
-         std::to_string(t.nonmanifold_edges) + ", misoriented " +
-         std::to_string(t.misoriented_edges) + ", degenerate " +
-         std::to_string(t.degenerate_triangles) + ", pinched vertices " +
-         std::to_string(t.nonmanifold_vertices);
-}
-
 /// The decimated mesh with its tissue-border copies welded back by origin (for topology).
 imt::SurfaceMesh welded(const imt::SurfaceMesh& full, const DecimatedMesh& d) {
   imt::SurfaceMesh m;

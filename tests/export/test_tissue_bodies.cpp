@@ -11,28 +11,12 @@
 #include "tsf/common/error.h"
 #include "tsf/export/mesh_decimation.h"
 #include "tsf/export/tissue_bodies.h"
+#include "tsf/imt/mesh_smoothing.h"
 #include "tsf/imt/mesh_topology.h"
 
 namespace tsf::exporter {
 namespace {
 using namespace test;
-
-double enclosed_volume(const imt::SurfaceMesh& m) {
-  double v = 0;
-  for (const auto& t : m.triangles)
-    v += dot(to_double(m.positions[t[0]]),
-             cross(to_double(m.positions[t[1]]), to_double(m.positions[t[2]]))) /
-         6.0;
-  return v;
-}
-
-std::string topology_text(const imt::MeshTopology& t) {
-  return "boundary " + std::to_string(t.boundary_edges) + ", non-manifold edges " +
-         std::to_string(t.nonmanifold_edges) + ", misoriented " +
-         std::to_string(t.misoriented_edges) + ", degenerate " +
-         std::to_string(t.degenerate_triangles) + ", pinched vertices " +
-         std::to_string(t.nonmanifold_vertices);
-}
 
 /// Triangles as sorted corner-position keys (orientation dropped).
 std::multiset<std::array<float, 9>> unoriented(const imt::SurfaceMesh& m) {
@@ -77,7 +61,7 @@ void expect_bodies_closed_and_shared(const InterfaceComplex& c) {
     const imt::MeshTopology topo = imt::analyse_topology(bodies[l]);
     EXPECT_TRUE(topo.closed_oriented_manifold())
         << tissue_label_name(l) << ": " << topology_text(topo);
-    EXPECT_GT(enclosed_volume(bodies[l]), 0.0) << tissue_label_name(l) << " faces inwards";
+    EXPECT_GT(imt::enclosed_volume(bodies[l]), 0.0) << tissue_label_name(l) << " faces inwards";
   }
   // Every interface triangle between two tissues is in both bodies.
   for (std::size_t t = 0; t < c.triangles.size(); ++t) {
@@ -113,7 +97,7 @@ TEST(TissueBodies, EveryTissueIsAClosedManifoldAndNeighboursShareTheirInterface)
   // Volumes: about the voxel count of each tissue (the surface runs through voxel centres and
   // midpoints, so a body is about its voxels minus half a voxel on its outer faces).
   double total = 0;
-  for (std::uint8_t l : c.tissues()) total += enclosed_volume(body_mesh(c, l));
+  for (std::uint8_t l : c.tissues()) total += imt::enclosed_volume(body_mesh(c, l));
   const double voxel = 0.8 * 0.8 * 0.8;
   const double block = 22.0 * 14.0 * 13.0 * voxel;
   EXPECT_GT(total, 0.8 * block);

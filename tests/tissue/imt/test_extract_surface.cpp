@@ -9,6 +9,7 @@
 #include "tsf/common/error.h"
 #include "tsf/imt/extract_surface.h"
 #include "tsf/imt/mesh_quality.h"
+#include "tsf/imt/mesh_smoothing.h"
 #include "tsf/volume/analytic_volumes.h"
 
 namespace tsf::imt {
@@ -147,15 +148,7 @@ TEST(ExtractSurface, BinaryVolumeWithMergingHasNoZeroAreaTriangles) {
   EXPECT_GT(measure_quality(without).zero_area, without.triangle_count() / 4)
       << "the case must be hard without merging for the test to mean anything";
   // Same enclosed volume: merging exact points moves nothing.
-  const auto volume = [](const SurfaceMesh& m) {
-    double s = 0;
-    for (const auto& t : m.triangles)
-      s += dot(to_double(m.positions[t[0]]),
-               cross(to_double(m.positions[t[1]]), to_double(m.positions[t[2]]))) /
-           6.0;
-    return s;
-  };
-  EXPECT_NEAR(volume(with), volume(without), 1e-6 * volume(without));
+  EXPECT_NEAR(enclosed_volume(with), enclosed_volume(without), 1e-6 * enclosed_volume(without));
 }
 
 TEST(ExtractSurface, RejectsBadOptions) {

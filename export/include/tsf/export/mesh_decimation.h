@@ -79,6 +79,9 @@ struct DecimatedMesh {
   std::vector<std::array<std::uint32_t, 3>> triangles;  ///< output vertex indices
   double meshopt_error_mm = 0.0;  ///< meshoptimizer's error estimate (largest over passes)
   double seconds = 0.0;
+  /// CPU time on the critical path: this thread's, with the longest slab in place of the one it
+  /// ran (thread CPU clocks): the wall time on an idle machine with a core per slab.
+  double critical_path_cpu_s = 0.0;
   int slabs = 1;                 ///< 1 when simplified in one call
   std::size_t fins_removed = 0;  ///< folded or duplicate triangles meshoptimizer left, dropped
   std::size_t caps_flipped = 0, caps_removed = 0;  ///< collinear triangles it left (flip_caps)

@@ -84,6 +84,7 @@ struct LevelReport {
   std::size_t vertices = 0, triangles = 0;
   bool decimated = false;
   double decimate_s = 0.0;
+  double decimate_idle_s = 0.0;   ///< CPU time on its critical path (DecimatedMesh)
   double meshopt_error_mm = 0.0;  ///< meshoptimizer's own estimate
   int slabs = 1;                  ///< slabs simplified in parallel (mesh_decimation.h)
   int rounds = 1;                 ///< meshoptimizer runs (reruns lock non-manifold spots)
@@ -150,6 +151,9 @@ nlohmann::json export_report_json(const ExportReport& report);
 /// The report in a few lines for people: triangles in and out with the cleaning counts, and
 /// per level its triangles and distance to the full surface.
 std::vector<std::string> export_summary_lines(const ExportReport& report);
+
+/// A count with its digits grouped by commas (1,798,678), as the summary prints counts.
+std::string thousands(std::size_t n);
 
 /// STEM-KKKK.EXT beside `path` (at least 4 digits, more when `state_count` needs them).
 std::filesystem::path numbered_path(const std::filesystem::path& path, std::size_t state,
