@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "tsf/common/error.h"
 
@@ -366,6 +367,44 @@ std::vector<std::uint32_t> body_nonmanifold_vertices(const InterfaceComplex& c) 
     }
     i = j;
   }
+  // Per body, vertices whose triangles form more than one fan (pinched: two sheets touching at a
+  // point). Two triangles around a vertex are in one fan when they share another vertex.
+  std::vector<std::tuple<std::uint16_t, std::uint32_t, std::uint32_t>> around;
+  around.reserve(6 * c.triangles.size());
+  for (std::size_t t = 0; t < c.triangles.size(); ++t)
+    for (std::uint16_t region : {c.behind[t], c.front[t]}) {
+      if (region == kAirRegion) continue;
+      for (std::uint32_t v : c.triangles[t])
+        around.emplace_back(region, v, static_cast<std::uint32_t>(t));
+    }
+  std::sort(around.begin(), around.end());
+  for (std::size_t i = 0; i < around.size();) {
+    std::size_t j = i;
+    while (j < around.size() && std::get<0>(around[j]) == std::get<0>(around[i]) &&
+           std::get<1>(around[j]) == std::get<1>(around[i]))
+      ++j;
+    const std::size_t k = j - i;
+    std::vector<std::size_t> fan(k);
+    for (std::size_t a = 0; a < k; ++a) fan[a] = a;
+    const auto find = [&](std::size_t x) {
+      while (fan[x] != x) x = fan[x] = fan[fan[x]];
+      return x;
+    };
+    const std::uint32_t v = std::get<1>(around[i]);
+    for (std::size_t a = 0; a < k; ++a)
+      for (std::size_t b = a + 1; b < k; ++b) {
+        const Tri& ta = c.triangles[std::get<2>(around[i + a])];
+        const Tri& tb = c.triangles[std::get<2>(around[i + b])];
+        bool share = false;
+        for (std::uint32_t x : ta)
+          for (std::uint32_t y : tb) share |= x == y && x != v;
+        if (share) fan[find(a)] = find(b);
+      }
+    std::size_t fans = 0;
+    for (std::size_t a = 0; a < k; ++a) fans += find(a) == a;
+    if (fans > 1) out.push_back(v);
+    i = j;
+  }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
@@ -378,13 +417,21 @@ InterfaceComplex decimate_interfaces(const InterfaceComplex& complex,
   const std::vector<std::uint32_t> parts = interface_parts(complex);
   InterfaceComplex out;
   DecimatedMesh d;
-  for (int round = 0; round < 3; ++round) {
+  for (int round = 0; round < 8; ++round) {
     d = decimate_parts(complex.positions, complex.triangles, parts, o, false);
     out = decimated_complex(complex, d);
     const std::vector<std::uint32_t> bad = body_nonmanifold_vertices(out);
     d.nonmanifold_vertices = bad.size();
     if (bad.empty()) break;
-    o.locked_sources.insert(o.locked_sources.end(), bad.begin(), bad.end());
+    // Lock the spots with two rings around them (decimate_parts adds the second): one ring
+    // mostly moves the problem next door.
+    std::vector<char> hit(complex.positions.size(), 0), ring(complex.positions.size(), 0);
+    for (std::uint32_t v : bad) hit[v] = 1;
+    for (const Tri& t : complex.triangles)
+      if (hit[t[0]] || hit[t[1]] || hit[t[2]])
+        for (std::uint32_t v : t) ring[v] = 1;
+    for (std::uint32_t v = 0; v < ring.size(); ++v)
+      if (ring[v]) o.locked_sources.push_back(v);
   }
   if (report) *report = std::move(d);
   return out;

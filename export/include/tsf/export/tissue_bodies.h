@@ -68,13 +68,14 @@ InterfaceComplex decimated_complex(const InterfaceComplex& complex, const Decima
                                    std::size_t* squeezed = nullptr);
 
 /// Decimates the complex (decimate_parts, one part per interface) and returns the decimated
-/// complex; where a body came out with an edge of more than two triangles, the decimation runs
-/// again with those vertices locked (at most three runs). `d` (optional) receives the last
-/// decimation's report.
+/// complex; where a body came out with an edge of more than two triangles or a pinched vertex,
+/// the decimation runs again with those vertices and two rings of neighbours locked (at most
+/// eight runs). `d` (optional) receives the last decimation's report.
 InterfaceComplex decimate_interfaces(const InterfaceComplex& complex,
                                      const DecimationOptions& options, DecimatedMesh* d = nullptr);
 
-/// Vertices (of the complex's numbering) on edges of more than two triangles of some body.
+/// Vertices (of the complex's numbering) on edges of more than two triangles of some body, or
+/// where a body's triangles form more than one fan (pinched).
 std::vector<std::uint32_t> body_nonmanifold_vertices(const InterfaceComplex& complex);
 
 /// The closed body of `tissue`: its triangles (those it faces reversed), its vertices shared and
