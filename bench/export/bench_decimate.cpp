@@ -165,7 +165,8 @@ int main(int argc, char** argv) {
           std::string method =
               d.slabs > 1 ? "meshoptimizer, " + std::to_string(d.slabs) + " slabs on " +
                                 std::to_string(m.threads) + " threads"
-              : m.threads > 1 ? "meshoptimizer, one call (budget too large to split)"
+              : m.threads > 1 ? "meshoptimizer, one call (not split: under 2 M triangles, or a "
+                                "budget over a quarter)"
                               : "meshoptimizer, one call";
           if (m.max_error > 0.0) {
             char b[96];
