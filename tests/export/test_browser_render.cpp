@@ -4,7 +4,8 @@
 // tissue colours, the right way up; the animation's first and last frames differ.
 //
 // Needs Node.js (`node`), Chromium (Debian `chromium`) and three.js (tools/threejs/install.sh,
-// npm ci from the lockfile; run here when missing). Each test skips saying which is absent.
+// npm ci from the lockfile; run here when missing). Each test skips saying which is absent, or,
+// with TSF_REQUIRE_BROWSER_TEST=1 (as .ci/run sets it), fails saying so.
 // The rendered pictures stay in the test's scratch folder; docs/export.md shows them.
 #include <gtest/gtest.h>
 
@@ -32,19 +33,38 @@ std::optional<std::string> chromium_executable() {
   return std::nullopt;
 }
 
-/// Skips unless node, Chromium and three.js are there (installing three.js when npm can).
+/// CI sets TSF_REQUIRE_BROWSER_TEST=1 (.ci/run): there a missing prerequisite fails the test.
+bool browser_test_required() {
+  const char* env = std::getenv("TSF_REQUIRE_BROWSER_TEST");
+  return env && std::string(env) == "1";
+}
+
+/// Skips, saying which is absent, unless node, Chromium and three.js are there (installing
+/// three.js when npm can); fails instead where the browser test is required.
 #define TSF_BROWSER_OR_SKIP(node)                                                               \
-  TSF_NODE_OR_SKIP(node);                                                                       \
-  if (!chromium_executable())                                                                   \
-    GTEST_SKIP() << "not run: Chromium is not installed (Debian package chromium; "             \
-                    "scripts/setup.sh installs it), so three.js cannot render in a browser";    \
-  {                                                                                             \
+  const auto node##_opt = ::tsf::exporter::test::node_executable();                             \
+  std::string node##_missing;                                                                   \
+  if (!node##_opt)                                                                              \
+    node##_missing =                                                                            \
+        "Node.js ('node') is not installed (Debian package nodejs; scripts/setup.sh "           \
+        "installs it)";                                                                         \
+  else if (!chromium_executable())                                                              \
+    node##_missing =                                                                            \
+        "Chromium is not installed (Debian package chromium; scripts/setup.sh "                 \
+        "installs it), so three.js cannot render in a browser";                                 \
+  else {                                                                                        \
     const fs::path install = tsf::test::source_dir() / "tools" / "threejs" / "install.sh";      \
     const ProcessRun r =                                                                        \
         run_logged(shell_quoted(install), tsf::test::scratch_dir("three-install") / "log.txt"); \
-    if (r.status == 2) GTEST_SKIP() << "not run: " << r.output;                                 \
-    ASSERT_EQ(r.status, 0) << "installing three.js failed: " << r.output;                       \
-  }
+    if (r.status == 2)                                                                          \
+      node##_missing = r.output;                                                                \
+    else                                                                                        \
+      ASSERT_EQ(r.status, 0) << "installing three.js failed: " << r.output;                     \
+  }                                                                                             \
+  if (!node##_missing.empty() && browser_test_required())                                       \
+    FAIL() << "TSF_REQUIRE_BROWSER_TEST=1 but " << node##_missing;                              \
+  if (!node##_missing.empty()) GTEST_SKIP() << "not run: " << node##_missing;                   \
+  const std::string node = *node##_opt
 
 /// Renders `model` with tools/threejs/render-gltf.js; the report (null on failure).
 nlohmann::json render(const std::string& node, const fs::path& model, const fs::path& out,

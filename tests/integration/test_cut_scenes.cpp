@@ -153,10 +153,9 @@ TEST(CutScenes, SceneTyposNameTheirKeyPath) {
         Case{"  - tool: wand ", "  - tool: knife ", "script.trajectories[1].tool"},
         Case{"{time: 0.02, position", "{time: 0.0, position",
              "script.trajectories[0].keyframes[1].time"},
-        Case{"  report: report.json\n", "  report: report.json\n  states: cut-block.ply\n",
+        Case{"  states: states.tsfmesh", "  states: cut-block.ply",
              "outputs.states: expected a .tsfmesh"},
-        Case{"  report: report.json\n", "  report: report.json\n  states_every: 0\n",
-             "outputs.states_every"},
+        Case{"  states_every: 2\n", "  states_every: 0\n", "outputs.states_every"},
         // Outputs are names inside the output folder: never outside it.
         Case{"  report: report.json\n", "  report: ../report.json\n",
              "outputs.report: expected a file name inside the output folder"},
