@@ -11,17 +11,16 @@
 
 namespace tsf::exporter {
 
-namespace {
-
-using Tri = std::array<std::uint32_t, 3>;
-
-/// Twice the area against the longest edge: imt::measure_quality's zero-area test.
-bool zero_area(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+bool zero_area_triangle(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
   const Vec3d p = to_double(a), q = to_double(b), r = to_double(c);
   const double area2 = length(cross(q - p, r - p));
   const double longest = std::max({length(q - p), length(r - q), length(p - r)});
   return longest == 0.0 || area2 <= 1e-12 * longest * longest;
 }
+
+namespace {
+
+using Tri = std::array<std::uint32_t, 3>;
 
 std::size_t count_zero_area(const std::vector<Vec3f>& p, const std::vector<Tri>& tris) {
   std::size_t n = 0;
@@ -29,7 +28,7 @@ std::size_t count_zero_area(const std::vector<Vec3f>& p, const std::vector<Tri>&
 #pragma omp parallel for reduction(+ : n) schedule(static) if (count > 100000)
   for (std::int64_t i = 0; i < count; ++i) {
     const Tri& t = tris[static_cast<std::size_t>(i)];
-    n += zero_area(p[t[0]], p[t[1]], p[t[2]]);
+    n += zero_area_triangle(p[t[0]], p[t[1]], p[t[2]]);
   }
   return n;
 }
@@ -143,7 +142,7 @@ CapRemoval flip_caps(std::vector<Tri>& tris, const std::vector<Vec3f>& p) {
   for (int round = 0; round < 8; ++round) {
     std::vector<std::uint32_t> caps;
     for (std::uint32_t t = 0; t < tris.size(); ++t)
-      if (zero_area(p[tris[t][0]], p[tris[t][1]], p[tris[t][2]])) caps.push_back(t);
+      if (zero_area_triangle(p[tris[t][0]], p[tris[t][1]], p[tris[t][2]])) caps.push_back(t);
     if (caps.empty()) break;
     // The directed edge b->a opposite each cap's long edge a->b, and the middle corner c.
     struct Cap {
@@ -302,7 +301,8 @@ CleanTopology clean_topology(const imt::SurfaceMesh& mesh,
   r.after.triangles = out.triangles.size();
   const auto& p = mesh.positions;
   for (const Tri& t : out.triangles)
-    r.after.zero_area += zero_area(p[out.origin[t[0]]], p[out.origin[t[1]]], p[out.origin[t[2]]]);
+    r.after.zero_area +=
+        zero_area_triangle(p[out.origin[t[0]]], p[out.origin[t[1]]], p[out.origin[t[2]]]);
   // Step 3 left no duplicates; only a flip could make one (its new triangles).
   if (r.caps_flipped > 0) {
     std::vector<std::uint32_t> identity(out.origin.size());

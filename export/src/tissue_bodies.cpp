@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "tsf/common/error.h"
+#include "tsf/export/mesh_cleanup.h"
 
 namespace tsf::exporter {
 
@@ -420,8 +421,13 @@ InterfaceComplex decimate_interfaces(const InterfaceComplex& complex,
   for (int round = 0; round < 8; ++round) {
     d = decimate_parts(complex.positions, complex.triangles, parts, o, false);
     out = decimated_complex(complex, d);
-    const std::vector<std::uint32_t> bad = body_nonmanifold_vertices(out);
+    std::vector<std::uint32_t> bad = body_nonmanifold_vertices(out);
     d.nonmanifold_vertices = bad.size();
+    // Collinear triangles the cap flip could not pair away (two caps across one long edge):
+    // their corners are such spots too.
+    for (const Tri& t : out.triangles)
+      if (zero_area_triangle(out.positions[t[0]], out.positions[t[1]], out.positions[t[2]]))
+        bad.insert(bad.end(), t.begin(), t.end());
     if (bad.empty()) break;
     // Lock the spots with two rings around them (decimate_parts adds the second): one ring
     // mostly moves the problem next door.

@@ -34,6 +34,10 @@ struct TriangleDefects {
   std::size_t duplicates = 0;  ///< same corner positions as an earlier triangle
 };
 
+/// Whether the triangle (a, b, c) has zero area: twice its area ≤ 1e-12 × its longest edge²
+/// (imt::measure_quality's test; a repeated corner counts).
+bool zero_area_triangle(const Vec3f& a, const Vec3f& b, const Vec3f& c);
+
 /// Counts zero-area and duplicate triangles of `mesh` (positions, any frame).
 TriangleDefects count_triangle_defects(const imt::SurfaceMesh& mesh);
 

@@ -68,9 +68,9 @@ InterfaceComplex decimated_complex(const InterfaceComplex& complex, const Decima
                                    std::size_t* squeezed = nullptr);
 
 /// Decimates the complex (decimate_parts, one part per interface) and returns the decimated
-/// complex; where a body came out with an edge of more than two triangles or a pinched vertex,
-/// the decimation runs again with those vertices and two rings of neighbours locked (at most
-/// eight runs). `d` (optional) receives the last decimation's report.
+/// complex; where a body came out with an edge of more than two triangles, a pinched vertex or a
+/// zero-area triangle, the decimation runs again with those vertices and two rings of neighbours
+/// locked (at most eight runs). `d` (optional) receives the last decimation's report.
 InterfaceComplex decimate_interfaces(const InterfaceComplex& complex,
                                      const DecimationOptions& options, DecimatedMesh* d = nullptr);
 
