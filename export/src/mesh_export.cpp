@@ -48,6 +48,16 @@ struct FileContext {
   std::vector<float> lod_coverage;
 };
 
+/// The context every file of an export starts from: the format, frame, source and frame warning.
+FileContext file_context(const ExportOptions& options, const OutputFrame& frame) {
+  FileContext context;
+  context.info = &format_info(options.format);
+  context.frame = &frame;
+  context.source = options.source;
+  context.frame_warning = options.frame_warning;
+  return context;
+}
+
 std::string assimp_version() {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%u.%u.%u", aiGetVersionMajor(), aiGetVersionMinor(),
@@ -586,11 +596,7 @@ ExportReport export_surface(const imt::SurfaceMesh& mesh, const VolumeGeometry& 
   OutputFrame frame = make_output_frame(geometry, report.axes, report.units);
   if (options.centre) frame = centred_on(frame, mesh);
   report.states = {0};
-  FileContext context;
-  context.info = &format_info(options.format);
-  context.frame = &frame;
-  context.source = options.source;
-  context.frame_warning = options.frame_warning;
+  FileContext context = file_context(options, frame);
   context.content = "surface";
   context.states = report.states;
   OutputFileSet set;
@@ -622,11 +628,7 @@ ExportReport export_sequence(const io::MeshSequence& sequence, const FrameSelect
 
   OutputFrame frame = make_output_frame(sequence.geometry, report.axes, report.units);
   const ExportFormatInfo& info = format_info(options.format);
-  FileContext context;
-  context.info = &info;
-  context.frame = &frame;
-  context.source = options.source;
-  context.frame_warning = options.frame_warning;
+  FileContext context = file_context(options, frame);
 
   OutputFileSet set;
   if (states.size() == 1) {
@@ -877,11 +879,7 @@ ExportReport export_bodies(const VoxelVolume& volume, float iso, const fs::path&
   report.triangles = meshes[0].triangle_count();
   report.prepare_s += clock.seconds();
 
-  FileContext context;
-  context.info = &format_info(options.format);
-  context.frame = &frame;
-  context.source = options.source;
-  context.frame_warning = options.frame_warning;
+  FileContext context = file_context(options, frame);
   context.content = "tissue bodies";
   context.states = report.states;
   OutputFileSet set;
