@@ -235,8 +235,9 @@ void add_export_command(CLI::App& app) {
                   "distance to the full surface is reported in mm")
       ->check(CLI::PositiveNumber);
   sub->add_option("--max-error", args->max_error_mm,
-                  "Decimate as far as meshoptimizer's error stays within MM millimetres (with "
-                  "--decimate: whichever stops first)")
+                  "Bound the decimated surface's distance to the full surface by MM millimetres "
+                  "(measured; vertices farther away are kept and decimation runs again; with "
+                  "--decimate: at most N triangles within the bound)")
       ->check(CLI::PositiveNumber);
   sub->add_flag("--manifold", args->manifold,
                 "Decimation: where meshoptimizer left an edge of more than two triangles, lock "
