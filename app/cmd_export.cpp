@@ -1,6 +1,8 @@
 // `tsf export`: a density volume or a saved simulation state -> glTF/GLB, OBJ, STL, PLY or FBX.
 //
 //   tsf export INPUT -o FILE.{glb,gltf,obj,stl,ply,fbx} [--format NAME] [--split-labels]
+//              [--bodies] [--decimate N] [--max-error MM] [--manifold] [--lods N1,N2,...]
+//              [--vertex-colours]
 //              [--units mm|m] [--axes y-up|lps|ras] [--centre] [--frames all|last|rest|K|A:B]
 //              [--time-scale X] [--iso 0.5] [--smooth N] [--stats]
 //
@@ -39,9 +41,12 @@ namespace fs = std::filesystem;
 using namespace tsf::exporter;
 
 struct ExportArgs {
-  std::string input, output, format, units, axes, frames = "last";
-  bool split_labels = false, centre = false, stats = false;
+  std::string input, output, format, units, axes, frames = "last", lods;
+  bool split_labels = false, centre = false, stats = false, vertex_colours = false, bodies = false;
+  bool manifold = false;
   double time_scale = 1.0;
+  std::size_t decimate = 0;
+  double max_error_mm = 0.0;
   float iso = 0.5f;
   int smooth = 0;
   bool frames_given = false, iso_given = false, smooth_given = false;
@@ -58,8 +63,38 @@ std::string formats_help() {
        "y superior, z anterior (glTF, FBX, default for OBJ); lps or ras as is (default for STL, "
        "PLY). Units: glTF metres; others mm unless --units m.\n"
        "Sequences (--frames with more than one state): numbered files STEM-KKKK.EXT, and for "
-       "glTF/GLB with an unchanged topology FILE itself animated with morph targets.";
+       "glTF/GLB FILE itself animated: morph targets while the topology stays, one node per "
+       "topology switched by STEP scale keys where a cut re-meshed the surface.\n"
+       "Every mesh is cleaned (no zero-area, no duplicate triangles; counts in the summary and "
+       "--stats); --decimate/--max-error/--lods report each level's distance to the full surface "
+       "in mm.";
   return s;
+}
+
+std::vector<std::size_t> parse_lods(const std::string& text) {
+  std::vector<std::size_t> out;
+  std::size_t at = 0;
+  while (at <= text.size()) {
+    const std::size_t comma = text.find(',', at);
+    const std::string item =
+        text.substr(at, comma == std::string::npos ? std::string::npos : comma - at);
+    std::size_t used = 0;
+    unsigned long long value = 0;
+    try {
+      value = std::stoull(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (item.empty() || used != item.size() || item[0] == '-' || value == 0)
+      throw Error("--lods '" + text +
+                  "': expected triangle counts separated by commas, e.g. "
+                  "100000,25000,5000 (got '" +
+                  item + "')");
+    out.push_back(static_cast<std::size_t>(value));
+    if (comma == std::string::npos) break;
+    at = comma + 1;
+  }
+  return out;
 }
 
 ExportReport run_volume(const ExportArgs& a, const ExportOptions& options, double& surface_s) {
@@ -74,6 +109,18 @@ ExportReport run_volume(const ExportArgs& a, const ExportOptions& options, doubl
   Progress progress("export " + fs::path(a.output).filename().string(), 3);
   const VoxelVolume volume = import::read_tissue_volume(a.input);
   progress.advance();
+  if (a.frames_given) {
+    // A volume is one state (0); other selections name states it does not have.
+    (void)FrameSelection::parse(a.frames).states(1);
+  }
+  if (a.bodies) {
+    require(!a.smooth_given,
+            "--smooth smooths the IMT surface; --bodies surfaces each tissue "
+            "on its own: drop one of them");
+    ExportReport report = export_bodies(volume, a.iso, a.output, options);
+    progress.finish();
+    return report;
+  }
   imt::SurfaceOptions surface;
   surface.iso = a.iso;
   surface.validate();
@@ -86,10 +133,6 @@ ExportReport run_volume(const ExportArgs& a, const ExportOptions& options, doubl
   }
   surface_s = clock.seconds();
   progress.advance();
-  if (a.frames_given) {
-    // A volume is one state (0); other selections name states it does not have.
-    (void)FrameSelection::parse(a.frames).states(1);
-  }
   ExportReport report = export_surface(mesh, volume.geometry(), a.output, options);
   progress.finish();
   return report;
@@ -102,7 +145,22 @@ void run_export(const ExportArgs& a) {
   if (!a.units.empty()) options.units = unit_from_name(a.units);
   if (!a.axes.empty()) options.axes = axes_from_name(a.axes);
   options.split_labels = a.split_labels;
+  options.vertex_colours = a.vertex_colours;
   options.centre = a.centre;
+  if (a.decimate > 0 || a.max_error_mm > 0.0) {
+    DecimationOptions d;
+    d.target_triangles = a.decimate;
+    d.max_error_mm = a.max_error_mm;
+    if (a.manifold) d.manifold_runs = 3;
+    options.decimation = d;
+  }
+  if (!a.lods.empty()) options.lods = parse_lods(a.lods);
+  require(!a.manifold || options.decimation || !options.lods.empty(),
+          "--manifold applies to decimation: add --decimate, --max-error or --lods");
+  require(
+      !(a.bodies && a.split_labels),
+      "--bodies already gives one mesh per tissue; --split-labels cuts the one surface instead: "
+      "pick one");
   options.time_scale = a.time_scale;
   options.source = fs::path(a.input).filename().string();
   options.frame_warning = frame_warning_beside(a.input);
@@ -118,6 +176,8 @@ void run_export(const ExportArgs& a) {
     require(!a.iso_given && !a.smooth_given, "--iso and --smooth apply to density volumes; '" +
                                                  a.input +
                                                  "' is a mesh sequence (already surfaced)");
+    require(!a.bodies, "--bodies surfaces each tissue from the label volume; '" + a.input +
+                           "' is a mesh sequence (surfaces only): export its density volume");
     const io::MeshSequence states = io::read_mesh_sequence(a.input);
     report = export_sequence(states, selection, a.output, options);
   } else {
@@ -126,31 +186,18 @@ void run_export(const ExportArgs& a) {
   const double total_s = clock.seconds();
 
   if (a.stats) {
-    nlohmann::json j;
+    nlohmann::json j = export_report_json(report);
     j["input"] = a.input;
     j["input_kind"] = sequence ? "mesh sequence" : "density volume";
-    j["format"] = format_info(report.format).name;
-    j["units"] = unit_name(report.units);
-    j["axes"] = axes_name(report.axes);
-    j["states"] = report.states;
-    j["animated"] = report.animated;
-    if (!report.animated) j["animation_note"] = report.animation_note;
-    j["meshes_per_file"] = report.meshes_per_file;
-    j["vertices"] = report.vertices;
-    j["triangles"] = report.triangles;
-    j["repaired_normals"] = report.repaired_normals;
-    for (const auto& f : report.files)
-      j["files"].push_back({{"path", f.path.string()}, {"bytes", f.bytes}, {"content", f.content}});
-    j["times_s"] = {{"surface", surface_s},      {"prepare", report.prepare_s},
-                    {"scene", report.scene_s},   {"assimp", report.assimp_s},
-                    {"finish", report.finish_s}, {"write", report.write_s},
-                    {"total", total_s}};
+    j["times_s"]["surface"] = surface_s;
+    j["times_s"]["total"] = total_s;
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
   for (const auto& f : report.files)
     std::printf("wrote %s (%.1f kB): %s\n", f.path.string().c_str(),
                 static_cast<double>(f.bytes) / 1024.0, f.content.c_str());
+  for (const std::string& line : export_summary_lines(report)) std::printf("%s\n", line.c_str());
   if (report.states.size() > 1 && !report.animated)
     std::printf("no animated %s: %s\n", fs::path(a.output).filename().string().c_str(),
                 report.animation_note.c_str());
@@ -163,8 +210,9 @@ void add_export_command(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "export",
       "Write the tissue surface of a density volume or a saved simulation state (.tsfmesh) as "
-      "glTF/GLB, OBJ, STL, PLY or FBX: normals, per-vertex tissue colours, one material per "
-      "tissue, placed in the patient frame; every file written atomically");
+      "glTF/GLB, OBJ, STL, PLY or FBX: clean triangles, normals, one coloured PBR material per "
+      "tissue, optional decimation, levels of detail and closed per-tissue bodies, placed in "
+      "the patient frame; every file written atomically");
   sub->footer(formats_help());
   sub->add_option("input", args->input,
                   "Mesh sequence from `tsf simulate` (.tsfmesh) or density volume "
@@ -177,7 +225,30 @@ void add_export_command(CLI::App& app) {
   sub->add_option("--format", args->format,
                   "glb, gltf, obj, stl, stl-ascii, ply, ply-ascii, fbx, fbx-ascii");
   sub->add_flag("--split-labels", args->split_labels,
-                "One mesh (node, material) per tissue label instead of one mesh for the surface");
+                "One node per tissue: the one surface cut into patches by label (default: one "
+                "node whose meshes are the tissues)");
+  sub->add_flag("--bodies", args->bodies,
+                "Each tissue of the label volume as its own closed body, sharing the interface "
+                "where two tissues meet (volume inputs; STL/PLY: one file STEM-TISSUE.EXT each)");
+  sub->add_option("--decimate", args->decimate,
+                  "Decimate to at most N triangles (meshoptimizer; tissue borders kept); the "
+                  "distance to the full surface is reported in mm")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--max-error", args->max_error_mm,
+                  "Bound the decimated surface's distance to the full surface by MM millimetres "
+                  "(measured; vertices farther away are kept and decimation runs again; with "
+                  "--decimate: at most N triangles within the bound)")
+      ->check(CLI::PositiveNumber);
+  sub->add_flag("--manifold", args->manifold,
+                "Decimation: where meshoptimizer left an edge of more than two triangles, lock "
+                "the spot and decimate again (up to 3 runs; slower; --bodies always does)");
+  sub->add_option("--lods", args->lods,
+                  "Further levels of detail, triangle counts decreasing, e.g. 100000,25000,5000 "
+                  "(glTF: MSFT_lod and a scene per level; OBJ/FBX: NAME_LODk nodes; STL/PLY: "
+                  "STEM-lodK files)");
+  sub->add_flag("--vertex-colours", args->vertex_colours,
+                "Also store the tissue colour per vertex (glTF COLOR_0, with white materials; "
+                "PLY always has them)");
   sub->add_option("--units", args->units, "mm or m (default: the format's; glTF is always metres)");
   sub->add_option("--axes", args->axes,
                   "y-up (x left, y superior, z anterior), lps or ras (default: the format's)");

@@ -24,6 +24,7 @@ struct RunArguments {
   std::string backend;
   double duration_s = -1;
   double voxel_mm = -1;
+  std::int64_t states_every = 0;
   bool quiet = false;
   bool force = false;
   bool materials = false;
@@ -99,6 +100,10 @@ void add_run_command(CLI::App& app) {
                   "isotropic voxel size of the segmentation, mm (overrides the scene)")
       ->check(CLI::Range(0.05, 10.0));
   sub->add_option("--backend", args->backend, "CRMS backend: cpu, cuda or auto (default: scene)");
+  sub->add_option("--states-every", args->states_every,
+                  "save a state every N frames (outputs.states, else states.tsfmesh) and export "
+                  "them as an animated GLB beside it")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1'000'000'000}));
   sub->add_flag("--force", args->force,
                 "replace the files of an earlier tsf run in the output folder (a folder of other "
                 "files is never emptied)");
@@ -122,6 +127,7 @@ void add_run_command(CLI::App& app) {
     if (args->duration_s >= 0) o.duration_s = args->duration_s;
     if (args->voxel_mm > 0) o.voxel_mm = args->voxel_mm;
     o.backend = args->backend;
+    if (args->states_every > 0) o.states_every = args->states_every;
     o.quiet = args->quiet;
     o.force = args->force;
     if (!o.quiet) std::printf("tsf run: scene %s\n", o.scene.string().c_str());

@@ -52,6 +52,7 @@ struct SimulateArguments {
   std::string mesh;
   std::string states;
   std::int64_t steps = -1;
+  std::int64_t states_every = 0;  ///< 0: the scene's outputs.states_every
   double duration_s = -1.0;
   bool force = false;
   bool quiet = false;
@@ -66,11 +67,16 @@ void run_interactive(const Scene& scene, const SimulateArguments& args) {
   if (args.duration_s >= 0) run.duration_s = args.duration_s;
   run.quiet = args.quiet;
   InteractionOutputs& out = run.outputs;
-  out.states_every = scene.outputs.states_every;
+  out.states_every = args.states_every > 0 ? args.states_every : scene.outputs.states_every;
+  // --states-every without a states file anywhere saves them as states.tsfmesh in the folder.
+  const std::filesystem::path states_name = !scene.outputs.states.empty() ? scene.outputs.states
+                                            : args.states_every > 0
+                                                ? std::filesystem::path("states.tsfmesh")
+                                                : std::filesystem::path();
   const bool writes_folder = !scene.outputs.rest_mesh.empty() ||
                              (!scene.outputs.mesh.empty() && args.mesh.empty()) ||
                              (!scene.outputs.report.empty() && args.report.empty()) ||
-                             (!scene.outputs.states.empty() && args.states.empty());
+                             (!states_name.empty() && args.states.empty());
   OutputFolder folder;
   if (writes_folder || !args.out.empty())
     folder = OutputFolder::prepare(args.out.empty() ? std::filesystem::path("out") / scene.name
@@ -79,7 +85,7 @@ void run_interactive(const Scene& scene, const SimulateArguments& args) {
   out.mesh = args.mesh.empty() ? folder.file(scene.outputs.mesh) : absolute_path(args.mesh);
   out.rest_mesh = folder.file(scene.outputs.rest_mesh);
   out.report = args.report.empty() ? folder.file(scene.outputs.report) : absolute_path(args.report);
-  out.states = args.states.empty() ? folder.file(scene.outputs.states) : absolute_path(args.states);
+  out.states = args.states.empty() ? folder.file(states_name) : absolute_path(args.states);
   InterruptScope interrupts;
   const InteractionResult result = run_interaction_scene(scene, run);
   if (result.interrupted)
@@ -224,9 +230,10 @@ void print_lattice_summary(const Scene& scene, const LatticeRun& built, const La
 
 /// A lattice-only scene: build, step, report, summary.
 void run_lattice_only(const Scene& scene, const SimulateArguments& args) {
-  if (args.duration_s >= 0 || !args.mesh.empty() || !args.states.empty())
+  if (args.duration_s >= 0 || !args.mesh.empty() || !args.states.empty() || args.states_every > 0)
     throw Error(
-        "--duration, --mesh and --states need a scene with a script (tissue, tools, script)");
+        "--duration, --mesh, --states and --states-every need a scene with a script (tissue, "
+        "tools, script)");
   // The report: --report, else report.json in --out when an output folder is given.
   std::filesystem::path report_path = absolute_path(args.report);
   if (report_path.empty() && !args.out.empty())
@@ -287,6 +294,11 @@ void add_simulate_command(CLI::App& app) {
                   "Scripted scenes: save the rest and deformed, cut states here (.tsfmesh mesh "
                   "sequence for `tsf export`; every outputs.states_every frames and the last; "
                   "overrides outputs.states)");
+  sub->add_option("--states-every", args->states_every,
+                  "Scripted scenes: save a state every N frames (overrides outputs.states_every; "
+                  "without --states or outputs.states they go to states.tsfmesh in --out); "
+                  "`tsf export STATES --frames all -o anim.glb` plays them, cuts included")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1'000'000'000}));
   sub->add_option("--backend", args->backend, "Override the scene's backend: cpu, cuda or auto");
   sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
   sub->callback([args] {

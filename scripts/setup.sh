@@ -20,7 +20,8 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libspdlog-dev libfmt-dev      # app
   libinsighttoolkit5-dev libgdcm-dev libgdcm-tools libdcmtk-dev                 # import, segment
   libvtk9-dev libtbb-dev xvfb xauth                                            # viewer
-  libassimp-dev zlib1g-dev nodejs                                              # export (nodejs runs the glTF validator in tests)
+  libassimp-dev zlib1g-dev libmeshoptimizer-dev nodejs                         # export (nodejs runs the glTF validator in tests)
+  chromium                                                                     # export: three.js renders exported glTF in tests
   gnuplot-nox                                                                  # report plots
   dpkg-dev file                                                                # the .deb (cpack: dpkg-shlibdeps)
   snakemake                                                                    # the cohort workflow (scripts/cohort)
@@ -32,6 +33,9 @@ install_missing_packages() {
   for p in "${PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
+  # npm installs three.js for the browser test (install_threejs). Debian's nodejs leaves it to the
+  # package npm; NodeSource's nodejs carries its own and conflicts with that package.
+  command -v npm >/dev/null || missing+=(npm)
   [ ${#missing[@]} -eq 0 ] && return 0
   echo "tsf setup: installing ${#missing[@]} missing Debian package(s): ${missing[*]}"
   local sudo=""
@@ -61,6 +65,24 @@ configure_and_build() {
   cmake --build "$BUILD_DIR" -j "$JOBS" "${targets[@]}"
 }
 
+# three.js for the browser test of exported glTF, pinned by tools/threejs/package-lock.json
+# (npm ci). Without npm the test says it was not run; with TSF_REQUIRE_BROWSER_TEST=1 (CI) a
+# failed install stops the setup.
+install_threejs() {
+  [ "${TSF_SKIP_INSTALL:-0}" = "1" ] && return 0
+  local required="${TSF_REQUIRE_BROWSER_TEST:-0}"
+  if ! command -v npm >/dev/null; then
+    [ "$required" = "1" ] && { echo "tsf setup: npm not found: cannot install three.js for the browser test (TSF_REQUIRE_BROWSER_TEST=1)" >&2; exit 1; }
+    echo "tsf setup: npm not found: three.js not installed (the browser test will say it was not run)"
+    return 0
+  fi
+  if ! "$ROOT/tools/threejs/install.sh"; then
+    [ "$required" = "1" ] && { echo "tsf setup: installing three.js failed (TSF_REQUIRE_BROWSER_TEST=1)" >&2; exit 1; }
+    echo "tsf setup: installing three.js failed (the browser test will fail and say why)" >&2
+  fi
+}
+
 install_missing_packages
+install_threejs
 mkdir -p "$BUILD_DIR"
 configure_and_build

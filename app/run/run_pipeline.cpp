@@ -447,6 +447,10 @@ InteractionOutcome interaction_stage(RunContext& ctx) {
   if (!scene.outputs.rest_mesh.empty()) o.rest_mesh = ctx.folder.file(scene.outputs.rest_mesh);
   o.states = ctx.folder.file(scene.outputs.states);
   o.states_every = scene.outputs.states_every;
+  if (ctx.options.states_every) {
+    if (o.states.empty()) o.states = ctx.folder.file("states.tsfmesh");
+    o.states_every = *ctx.options.states_every;
+  }
   run.on_frame = [&](double time_s, std::size_t i, const interaction::TissueModel& model) {
     if (frames_seen[i]++ == 0) out.alive_nodes[i] = model.alive_nodes();
     if ((frames_seen[i] - 1) % energy_every == 0)
@@ -493,24 +497,41 @@ InteractionOutcome interaction_stage(RunContext& ctx) {
   return out;
 }
 
-// ---- export: GLB of each final surface in the patient frame ---------------------------------
+// ---- export: GLB of each final surface (and of the saved states) in the patient frame -------
 
 std::vector<fs::path> export_stage(RunContext& ctx, const InteractionResult& result) {
   std::vector<fs::path> files;
 #ifdef TSF_HAVE_EXPORT
   Stopwatch clock;
   for (const InstanceResult& r : result.instances) {
-    if (r.outputs.mesh.empty()) continue;
     exporter::ExportOptions eo;
     eo.format = exporter::ExportFormat::glb;
     eo.name = ctx.scene.multi_instance ? ctx.scene.name + "-" + r.name : ctx.scene.name;
     eo.source = "tsf run " + absolute_path(ctx.scene.file).string();
     if (!ctx.ct.is_null() && !ctx.ct.value("orientation_recorded", true))
       eo.frame_warning = kLeftRightUnknown;
-    const fs::path glb = r.outputs.mesh.parent_path() / (r.outputs.mesh.stem().string() + ".glb");
-    const exporter::ExportReport er =
-        exporter::export_surface(r.final_mesh, r.patient_frame, glb, eo);
-    for (const auto& f : er.files) files.push_back(absolute_path(f.path));
+    if (!r.outputs.mesh.empty()) {
+      const fs::path glb = r.outputs.mesh.parent_path() / (r.outputs.mesh.stem().string() + ".glb");
+      const exporter::ExportReport er =
+          exporter::export_surface(r.final_mesh, r.patient_frame, glb, eo);
+      for (const auto& f : er.files) files.push_back(absolute_path(f.path));
+    }
+    // Saved states: one animated GLB that plays them, cuts included (no numbered files).
+    if (!r.outputs.states.empty() && fs::exists(r.outputs.states)) {
+      const io::MeshSequence states = io::read_mesh_sequence(r.outputs.states);
+      if (!states.frames.empty()) {
+        const fs::path glb =
+            r.outputs.states.parent_path() / (r.outputs.states.stem().string() + ".glb");
+        // Slow motion: the whole run plays in 10 s of animation (the scale is in the file).
+        exporter::ExportOptions ao = eo;
+        ao.numbered_files = false;
+        const double span = states.frames.back().time_s - states.rest_time_s;
+        ao.time_scale = span > 0.0 ? std::max(1.0, 10.0 / span) : 1.0;
+        const exporter::ExportReport er =
+            exporter::export_sequence(states, exporter::FrameSelection::parse("all"), glb, ao);
+        for (const auto& f : er.files) files.push_back(absolute_path(f.path));
+      }
+    }
   }
   if (!files.empty()) {
     std::string names;

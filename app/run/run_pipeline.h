@@ -27,7 +27,10 @@ struct RunOptions {
   std::filesystem::path ct;
   std::string series;   ///< `--series UID`: replaces pipeline.source.series
   std::string backend;  ///< cpu | cuda | auto (empty: the scene's)
-  bool force = false;   ///< replace an earlier run's files in the output folder
+  /// `--states-every N`: save a state every N frames (outputs.states, else states.tsfmesh); the
+  /// export stage turns the saved states into an animated GLB.
+  std::optional<std::int64_t> states_every;
+  bool force = false;  ///< replace an earlier run's files in the output folder
   bool quiet = false;
 };
 

@@ -293,8 +293,10 @@ int main(int argc, char** argv) {
                 seq_s,
                 static_cast<double>(animated_bytes) /
                     static_cast<double>(fs::file_size(out / "cranium-glb.glb")));
-    std::printf("\nZero normals replaced per state (export_normals.h): %zu of %zu vertices.\n",
-                seq.repaired_normals / static_cast<std::size_t>(states), mesh.vertex_count());
+    std::printf(
+        "\nNormals without area around them, per state (export_normals.h): %zu of %zu "
+        "vertices.\n",
+        seq.normals_without_area / static_cast<std::size_t>(states), mesh.vertex_count());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_export: %s\n", e.what());
     return 1;

@@ -1,73 +1,58 @@
 #include "tsf/export/export_normals.h"
 
+#include <algorithm>
 #include <cmath>
-#include <vector>
+
+#include "tsf/common/error.h"
 
 namespace tsf::exporter {
 
 namespace {
-
-bool is_unit(const Vec3f& n) {
-  if (!all_finite(n)) return false;
-  const float l2 = length_squared(n);
-  return l2 > 0.98f && l2 < 1.02f;
-}
-
+using Tri = std::array<std::uint32_t, 3>;
 }  // namespace
 
-std::size_t complete_normals(imt::SurfaceMesh& mesh) {
-  const std::size_t nv = mesh.positions.size();
-  if (mesh.normals.size() != nv) {
-    // Area-weighted normals: the sum of the (unnormalised) face normals around each vertex.
-    std::vector<Vec3d> sum(nv, Vec3d{0, 0, 0});
-    for (const auto& t : mesh.triangles) {
-      const Vec3d a = to_double(mesh.positions[t[0]]);
-      const Vec3d n =
-          cross(to_double(mesh.positions[t[1]]) - a, to_double(mesh.positions[t[2]]) - a);
-      for (std::uint32_t v : t) sum[v] += n;
-    }
-    mesh.normals.assign(nv, Vec3f{0, 0, 0});
-    for (std::size_t v = 0; v < nv; ++v) {
-      const double l = length(sum[v]);
-      if (l > 0.0) mesh.normals[v] = to_float(sum[v] / l);
-    }
+std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& positions,
+                                         const std::vector<Tri>& triangles,
+                                         const std::vector<std::uint32_t>& group,
+                                         std::size_t* without_area) {
+  const std::size_t nv = positions.size();
+  require(group.empty() || group.size() == nv, "area_weighted_normals: a group per vertex");
+  std::size_t groups = nv;
+  if (!group.empty())
+    groups = static_cast<std::size_t>(*std::max_element(group.begin(), group.end())) + 1;
+  const auto g = [&](std::uint32_t v) { return group.empty() ? v : group[v]; };
+  std::vector<Vec3d> sum(groups, Vec3d{0, 0, 0});
+  for (const Tri& t : triangles) {
+    const Vec3d a = to_double(positions[t[0]]);
+    const Vec3d n = cross(to_double(positions[t[1]]) - a, to_double(positions[t[2]]) - a);
+    for (std::uint32_t v : t) sum[g(v)] += n;
   }
-  std::vector<std::size_t> bad;
-  for (std::size_t v = 0; v < nv; ++v)
-    if (!is_unit(mesh.normals[v])) {
-      const float l = all_finite(mesh.normals[v]) ? length(mesh.normals[v]) : 0.0f;
-      if (l > 1e-12f) {
-        mesh.normals[v] = mesh.normals[v] / l;  // merely not normalised: not a repair
-      } else {
-        bad.push_back(v);
-      }
-    }
-  if (bad.empty()) return 0;
-
+  std::vector<Vec3f> normals(nv, Vec3f{0, 0, 0});
+  std::vector<std::uint32_t> bad;
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    const Vec3d& s = sum[g(v)];
+    const double l = length(s);
+    if (l > 0.0 && std::isfinite(l))
+      normals[v] = to_float(s / l);
+    else
+      bad.push_back(v);
+  }
+  if (without_area) *without_area = bad.size();
+  if (bad.empty()) return normals;
+  // No area around it: the mean of the neighbours' normals.
   std::vector<char> is_bad(nv, 0);
-  for (std::size_t v : bad) is_bad[v] = 1;
-  std::vector<Vec3d> from_neighbours(nv, Vec3d{0, 0, 0}), from_faces(nv, Vec3d{0, 0, 0});
-  for (const auto& t : mesh.triangles) {
-    if (!is_bad[t[0]] && !is_bad[t[1]] && !is_bad[t[2]]) continue;
-    const Vec3d a = to_double(mesh.positions[t[0]]);
-    const Vec3d face =
-        cross(to_double(mesh.positions[t[1]]) - a, to_double(mesh.positions[t[2]]) - a);
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t v = t[static_cast<std::size_t>(k)];
-      if (!is_bad[v]) continue;
-      from_faces[v] += face;
-      for (int j = 1; j < 3; ++j) {
-        const std::uint32_t u = t[static_cast<std::size_t>((k + j) % 3)];
-        if (!is_bad[u]) from_neighbours[v] += to_double(mesh.normals[u]);
-      }
-    }
+  for (std::uint32_t v : bad) is_bad[v] = 1;
+  std::vector<Vec3d> from_neighbours(nv, Vec3d{0, 0, 0});
+  for (const Tri& t : triangles)
+    for (int k = 0; k < 3; ++k)
+      if (is_bad[t[k]])
+        for (int j = 1; j < 3; ++j)
+          if (!is_bad[t[(k + j) % 3]]) from_neighbours[t[k]] += to_double(normals[t[(k + j) % 3]]);
+  for (std::uint32_t v : bad) {
+    const double l = length(from_neighbours[v]);
+    normals[v] = l > 1e-12 ? to_float(from_neighbours[v] / l) : Vec3f{0, 0, 1};
   }
-  for (std::size_t v : bad) {
-    Vec3d n = from_neighbours[v];
-    if (!(length(n) > 1e-12)) n = from_faces[v];
-    mesh.normals[v] = length(n) > 1e-12 ? to_float(n / length(n)) : Vec3f{0, 0, 1};
-  }
-  return bad.size();
+  return normals;
 }
 
 }  // namespace tsf::exporter

@@ -210,52 +210,125 @@ void drop_unused_extensions(GltfDocument& d) {
   }
 }
 
-void add_morph_animation(GltfDocument& d, const std::vector<float>& times_s,
+std::size_t node_named(const GltfDocument& d, const std::string& name) {
+  const auto& nodes = d.json.value("nodes", nlohmann::json::array());
+  for (std::size_t n = 0; n < nodes.size(); ++n)
+    if (nodes[n].value("name", std::string()) == name) return n;
+  throw Error("glTF: no node named '" + name + "'");
+}
+
+namespace {
+
+/// `node` and every node below it.
+void subtree(const nlohmann::json& nodes, std::size_t node, std::vector<std::size_t>& out) {
+  out.push_back(node);
+  for (const auto& c : nodes[node].value("children", nlohmann::json::array()))
+    subtree(nodes, c.get<std::size_t>(), out);
+}
+
+void add_sampler(nlohmann::json& animation, int input, int output, const char* interpolation,
+                 std::size_t node, const char* path) {
+  auto& samplers = animation["samplers"];
+  samplers.push_back({{"input", input}, {"output", output}, {"interpolation", interpolation}});
+  animation["channels"].push_back(
+      {{"sampler", samplers.size() - 1}, {"target", {{"node", node}, {"path", path}}}});
+}
+
+}  // namespace
+
+void add_state_animation(GltfDocument& d, const std::vector<AnimatedGroup>& groups,
                          const std::string& name) {
-  require(times_s.size() >= 2, "morph animation needs at least two keyframes");
-  for (std::size_t k = 1; k < times_s.size(); ++k)
-    require(times_s[k] > times_s[k - 1],
-            "morph animation keyframe times must increase strictly (keyframe " + std::to_string(k) +
-                ")");
-  const std::size_t targets = times_s.size() - 1;
-
-  // Nodes whose mesh has `targets` morph targets.
-  std::vector<std::size_t> nodes;
-  auto& meshes = d.json["meshes"];
-  for (std::size_t n = 0; n < d.json["nodes"].size(); ++n) {
-    const auto& node = d.json["nodes"][n];
-    if (!node.contains("mesh")) continue;
-    auto& mesh = meshes[node["mesh"].get<std::size_t>()];
-    bool has = false;
-    for (const auto& p : mesh["primitives"]) {
-      if (!p.contains("targets")) continue;
-      require(p["targets"].size() == targets,
-              "morph animation: a primitive has " + std::to_string(p["targets"].size()) +
-                  " targets, the animation " + std::to_string(targets) +
-                  " keyframes after the base");
-      has = true;
-    }
-    if (!has) continue;
-    mesh["weights"] = std::vector<float>(targets, 0.0f);
-    nodes.push_back(n);
-  }
-  require(!nodes.empty(), "morph animation: no mesh has morph targets");
-
-  std::vector<float> weights((targets + 1) * targets, 0.0f);
-  for (std::size_t k = 1; k <= targets; ++k) weights[k * targets + (k - 1)] = 1.0f;
-  const int input = append_float_accessor(d, times_s, 1);
-  const int output = append_float_accessor(d, weights, 1);
-
+  require(!groups.empty(), "state animation: no states");
   nlohmann::json animation = {
-      {"name", name},
-      {"samplers", nlohmann::json::array(
-                       {{{"input", input}, {"output", output}, {"interpolation", "LINEAR"}}})},
-      {"channels", nlohmann::json::array()}};
-  for (std::size_t n : nodes)
-    animation["channels"].push_back(
-        {{"sampler", 0}, {"target", {{"node", n}, {"path", "weights"}}}});
+      {"name", name}, {"samplers", nlohmann::json::array()}, {"channels", nlohmann::json::array()}};
+  auto& nodes = d.json["nodes"];
+  auto& meshes = d.json["meshes"];
+  for (const AnimatedGroup& g : groups) {
+    const std::size_t root = node_named(d, g.node);
+    for (std::size_t k = 1; k < g.times.size(); ++k)
+      require(g.times[k] > g.times[k - 1],
+              "state animation of '" + g.node + "': keyframe times must increase strictly");
+    const std::size_t targets = g.times.empty() ? 0 : g.times.size() - 1;
+    if (targets > 0) {
+      std::vector<float> weights((targets + 1) * targets, 0.0f);
+      for (std::size_t k = 1; k <= targets; ++k) weights[k * targets + (k - 1)] = 1.0f;
+      int input = -1, output = -1;
+      std::vector<std::size_t> below;
+      subtree(nodes, root, below);
+      for (std::size_t n : below) {
+        if (!nodes[n].contains("mesh")) continue;
+        auto& mesh = meshes[nodes[n]["mesh"].get<std::size_t>()];
+        for (const auto& p : mesh["primitives"])
+          require(p.value("targets", nlohmann::json::array()).size() == targets,
+                  "state animation of '" + g.node + "': a primitive has " +
+                      std::to_string(p.value("targets", nlohmann::json::array()).size()) +
+                      " morph targets, the run " + std::to_string(targets) + " later states");
+        mesh["weights"] = std::vector<float>(targets, 0.0f);
+        if (input < 0) {
+          input = append_float_accessor(d, g.times, 1);
+          output = append_float_accessor(d, weights, 1);
+        }
+        add_sampler(animation, input, output, "LINEAR", n, "weights");
+      }
+      require(input >= 0, "state animation of '" + g.node + "': no mesh with morph targets");
+    }
+    if (groups.size() > 1) {
+      std::vector<float> times, scales;
+      const auto key = [&](float t, float s) {
+        times.push_back(t);
+        scales.insert(scales.end(), {s, s, s});
+      };
+      if (g.visible_from > 0.0f) key(0.0f, 0.0f);
+      key(g.visible_from, 1.0f);
+      if (g.visible_until >= 0.0f) {
+        require(g.visible_until > g.visible_from,
+                "state animation of '" + g.node + "': shown for no time");
+        key(g.visible_until, 0.0f);
+      }
+      if (g.visible_from > 0.0f) nodes[root]["scale"] = {0.0, 0.0, 0.0};
+      add_sampler(animation, append_float_accessor(d, times, 1),
+                  append_float_accessor(d, scales, 3), "STEP", root, "scale");
+    }
+  }
+  require(!animation["channels"].empty(), "state animation: nothing moves or switches");
   if (!d.json.contains("animations")) d.json["animations"] = nlohmann::json::array();
   d.json["animations"].push_back(animation);
+}
+
+void add_lods(GltfDocument& d, const std::vector<std::string>& levels,
+              const std::vector<float>& coverage) {
+  require(levels.size() >= 2 && coverage.size() == levels.size(),
+          "glTF levels of detail: two or more levels, a screen coverage for each");
+  std::vector<std::size_t> ids;
+  for (const std::string& name : levels) ids.push_back(node_named(d, name));
+  // Lower levels leave every node's children and the default scene.
+  auto& nodes = d.json["nodes"];
+  for (auto& node : nodes) {
+    if (!node.contains("children")) continue;
+    nlohmann::json kept = nlohmann::json::array();
+    for (const auto& c : node["children"])
+      if (std::find(ids.begin() + 1, ids.end(), c.get<std::size_t>()) == ids.end())
+        kept.push_back(c);
+    if (kept.empty())
+      node.erase("children");  // glTF: children has at least one item
+    else
+      node["children"] = kept;
+  }
+  for (auto& scene : d.json["scenes"]) {
+    nlohmann::json kept = nlohmann::json::array();
+    for (const auto& c : scene["nodes"])
+      if (std::find(ids.begin() + 1, ids.end(), c.get<std::size_t>()) == ids.end())
+        kept.push_back(c);
+    scene["nodes"] = kept;
+  }
+  auto& top = nodes[ids[0]];
+  top["extensions"]["MSFT_lod"] = {{"ids", std::vector<std::size_t>(ids.begin() + 1, ids.end())}};
+  top["extras"]["MSFT_screencoverage"] = coverage;
+  for (std::size_t k = 1; k < ids.size(); ++k)
+    d.json["scenes"].push_back({{"name", "LOD " + std::to_string(k)}, {"nodes", {ids[k]}}});
+  auto& used = d.json["extensionsUsed"];
+  if (used.is_null()) used = nlohmann::json::array();
+  if (std::find(used.begin(), used.end(), "MSFT_lod") == used.end()) used.push_back("MSFT_lod");
 }
 
 std::string base64_encode(std::string_view bytes) {

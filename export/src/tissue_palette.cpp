@@ -21,6 +21,31 @@ std::array<float, 3> tissue_colour_linear(std::uint8_t label) {
   return {srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2])};
 }
 
+TissueLook tissue_look(std::uint8_t label) {
+  switch (label) {
+    case kLabelSoftTissue:
+      return {0.55f, 0.0f};
+    case kLabelMucosa:
+      return {0.35f, 0.0f};
+    case kLabelFat:
+      return {0.45f, 0.0f};
+    case kLabelCartilage:
+      return {0.4f, 0.0f};
+    case kLabelCancellousBone:
+      return {0.85f, 0.0f};
+    case kLabelCorticalBone:
+      return {0.6f, 0.0f};
+    case kLabelTumour:
+      return {0.5f, 0.0f};
+    case kLabelVessel:
+      return {0.3f, 0.0f};
+    case kLabelNerve:
+      return {0.45f, 0.0f};
+    default:
+      return {};
+  }
+}
+
 std::string tissue_material_name(std::uint8_t label) {
   const std::string name = tissue_label_name(label);
   // Generic range names would collide between labels: append the number.

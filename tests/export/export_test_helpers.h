@@ -26,6 +26,8 @@
 #include "tsf/export/gltf_document.h"
 #include "tsf/export/output_frame.h"
 #include "tsf/imt/extract_surface.h"
+#include "tsf/imt/mesh_topology.h"
+#include "tsf/io/mesh_sequence.h"
 #include "tsf/volume/analytic_volumes.h"
 #include "tsf/volume/tissue_labels.h"
 
@@ -57,6 +59,55 @@ inline imt::SurfaceMesh labelled_sphere(const VolumeGeometry& g, double radius =
                                       : kLabelSoftTissue;
   }
   return mesh;
+}
+
+/// Rest state plus `poses` frames that squash the sphere along z by 4% per frame.
+inline io::MeshSequence squashing_sphere(int poses) {
+  io::MeshSequence s;
+  s.geometry = oblique_geometry();
+  s.rest = labelled_sphere(s.geometry);
+  Vec3f c{0, 0, 0};
+  for (const Vec3f& p : s.rest.positions) c += p;
+  c = c / static_cast<float>(s.rest.positions.size());
+  for (int f = 1; f <= poses; ++f) {
+    io::MeshFrame frame;
+    frame.time_s = 0.02 * f;
+    const float k = 1.0f - 0.04f * static_cast<float>(f);
+    for (const Vec3f& p : s.rest.positions)
+      frame.positions.push_back({p.x, p.y, c.z + (p.z - c.z) * k});
+    frame.normals = s.rest.normals;
+    s.frames.push_back(frame);
+  }
+  return s;
+}
+
+/// squashing_sphere(poses) and then a state in which a cut re-meshed the surface (a smaller,
+/// shifted sphere stands in for it, 0.02 s after the last pose), then a pose of that topology.
+inline io::MeshSequence sphere_with_a_cut(int poses) {
+  io::MeshSequence s = squashing_sphere(poses);
+  const imt::SurfaceMesh cut = labelled_sphere(s.geometry, 4.0, {1.0, 0.0, 0.0});
+  io::MeshFrame remeshed;
+  remeshed.time_s = 0.02 * (poses + 1);
+  remeshed.topology_changed = true;
+  remeshed.positions = cut.positions;
+  remeshed.normals = cut.normals;
+  remeshed.labels = cut.labels;
+  remeshed.triangles = cut.triangles;
+  s.frames.push_back(remeshed);
+  io::MeshFrame pose;
+  pose.time_s = 0.02 * (poses + 2);
+  for (const Vec3f& p : cut.positions) pose.positions.push_back(p + Vec3f{0.0f, 0.0f, -0.5f});
+  s.frames.push_back(pose);
+  return s;
+}
+
+/// What analyse_topology found wrong, for failure messages.
+inline std::string topology_text(const imt::MeshTopology& t) {
+  return "boundary " + std::to_string(t.boundary_edges) + ", non-manifold edges " +
+         std::to_string(t.nonmanifold_edges) + ", misoriented " +
+         std::to_string(t.misoriented_edges) + ", degenerate " +
+         std::to_string(t.degenerate_triangles) + ", pinched vertices " +
+         std::to_string(t.nonmanifold_vertices);
 }
 
 /// A triangle as its three corners, rotated so the smallest corner comes first (winding kept).

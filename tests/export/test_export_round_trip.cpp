@@ -9,6 +9,7 @@
 #include "export_test_helpers.h"
 #include "tsf/export/export_normals.h"
 #include "tsf/export/label_partition.h"
+#include "tsf/export/mesh_cleanup.h"
 #include "tsf/export/mesh_export.h"
 #include "tsf/export/tissue_palette.h"
 
@@ -29,12 +30,13 @@ std::string case_name(const ::testing::TestParamInfo<Case>& info) {
   return n;
 }
 
-/// The mesh as the file should hold it: file frame, unit normals.
+/// The mesh as the file should hold it: file frame, area-weighted unit normals (the test
+/// sphere has no zero-area or duplicate triangles, so cleaning keeps it as it is).
 imt::SurfaceMesh expected_mesh(const imt::SurfaceMesh& mesh, const VolumeGeometry& g,
                                const ExportOptions& o) {
   imt::SurfaceMesh out =
       to_output_frame(mesh, make_output_frame(g, o.resolved_axes(), o.resolved_units()));
-  complete_normals(out);
+  out.normals = area_weighted_normals(out.positions, out.triangles);
   return out;
 }
 
@@ -65,12 +67,16 @@ TEST_P(ExportRoundTrip, ImporterReadsBackTheSameSurface) {
   const imt::SurfaceMesh mesh = labelled_sphere(g);
   ExportOptions options;
   options.format = c.format;
+  options.vertex_colours = true;
   const fs::path dir = tsf::test::scratch_dir("round-trip");
   const fs::path file = dir / c.file;
   const ExportReport report = export_surface(mesh, g, file, options);
   const ExportFormatInfo& info = format_info(c.format);
   ASSERT_TRUE(fs::exists(file));
+  ASSERT_EQ(count_triangle_defects(mesh).zero_area, 0u) << "the test sphere is clean already";
   EXPECT_EQ(report.triangles, mesh.triangle_count());
+  EXPECT_EQ(report.written.zero_area, 0u);
+  EXPECT_EQ(report.written.duplicates, 0u);
 
   const imt::SurfaceMesh want = expected_mesh(mesh, g, options);
   const Imported got = import_file(file);
@@ -108,29 +114,14 @@ TEST_P(ExportRoundTrip, ImporterReadsBackTheSameSurface) {
   const float extent = hi.x - lo.x;
   EXPECT_NEAR(extent, info.default_units == LengthUnit::metre ? 0.011f : 11.0f, extent * 0.1f);
 
-  // Vertex counts: PLY and glTF keep the indexed vertices (glTF: assimp's writer joins vertices
-  // whose position, normal and colour are all identical); OBJ, STL and FBX come back unindexed.
-  std::set<std::array<std::uint32_t, 10>> distinct;
-  for (std::size_t v = 0; v < want.positions.size(); ++v) {
-    std::array<std::uint32_t, 10> key{};
-    const auto col = expected_colour(want.labels[v], c.format);
-    const float values[10] = {want.positions[v].x,
-                              want.positions[v].y,
-                              want.positions[v].z,
-                              want.normals[v].x,
-                              want.normals[v].y,
-                              want.normals[v].z,
-                              col[0],
-                              col[1],
-                              col[2],
-                              1.0f};
-    std::memcpy(key.data(), values, sizeof(values));
-    distinct.insert(key);
-  }
+  // Vertex counts: PLY keeps the indexed vertices; glTF a mesh (primitive) per tissue, vertices
+  // on tissue borders in each; OBJ, STL and FBX come back unindexed.
+  std::size_t per_tissue = 0;
+  for (const LabelPart& part : partition_by_label(want)) per_tissue += part.vertices.size();
   switch (c.format) {
     case ExportFormat::glb:
     case ExportFormat::gltf:
-      EXPECT_EQ(got.vertices, distinct.size());
+      EXPECT_EQ(got.vertices, per_tissue);
       break;
     case ExportFormat::ply:
     case ExportFormat::ply_ascii:
@@ -141,7 +132,7 @@ TEST_P(ExportRoundTrip, ImporterReadsBackTheSameSurface) {
   }
 
   EXPECT_TRUE(got.all_normals) << "normals missing";
-  EXPECT_EQ(got.all_colours, info.vertex_colours) << "vertex colours";
+  EXPECT_EQ(got.all_colours, info.vertex_colours) << "vertex colours (asked for)";
 
   // Exact per-vertex normals and colours where positions survive bit for bit.
   if (c.tolerance == 0.0f) {
@@ -244,6 +235,115 @@ INSTANTIATE_TEST_SUITE_P(MultiMeshFormats, SplitLabelsRoundTrip,
                                            Case{ExportFormat::fbx, "split.fbx", 0.0f},
                                            Case{ExportFormat::fbx_ascii, "split.fbx", 2e-5f}),
                          case_name);
+
+TEST(ExportMaterials, OneColouredPbrMaterialPerTissueAndNoVertexColoursByDefault) {
+  const VolumeGeometry g = oblique_geometry();
+  const imt::SurfaceMesh mesh = labelled_sphere(g);
+  const fs::path dir = tsf::test::scratch_dir("materials");
+  export_surface(mesh, g, dir / "plain.glb", {});
+  const GltfDocument doc = parse_glb(read_bytes(dir / "plain.glb"));
+  // One node, one mesh whose primitives are the tissues, each with its own material.
+  ASSERT_EQ(doc.json["meshes"].size(), 1u);
+  const auto& primitives = doc.json["meshes"][0]["primitives"];
+  ASSERT_EQ(primitives.size(), 3u);
+  std::set<std::string> names;
+  for (const auto& p : primitives) {
+    EXPECT_FALSE(p["attributes"].contains("COLOR_0")) << "vertex colours only on request";
+    const auto& m = doc.json["materials"][p["material"].get<std::size_t>()];
+    const std::uint8_t label = m["extras"]["tsf_label"].get<std::uint8_t>();
+    EXPECT_EQ(m["name"], tissue_material_name(label));
+    names.insert(m["name"].get<std::string>());
+    const auto linear = tissue_colour_linear(label);
+    const auto& base = m["pbrMetallicRoughness"]["baseColorFactor"];
+    for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(base[k].get<double>(), linear[k], 1e-6);
+    EXPECT_EQ(base[3].get<double>(), 1.0);
+    EXPECT_EQ(m["pbrMetallicRoughness"]["metallicFactor"].get<double>(), 0.0);
+    EXPECT_NEAR(m["pbrMetallicRoughness"]["roughnessFactor"].get<double>(),
+                tissue_look(label).roughness, 1e-6);
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"soft-tissue", "mucosa", "cortical-bone"}));
+  EXPECT_NE(tissue_look(kLabelMucosa).roughness, tissue_look(kLabelCancellousBone).roughness);
+
+  // With --vertex-colours: COLOR_0 on every primitive and white materials (glTF multiplies).
+  ExportOptions o;
+  o.vertex_colours = true;
+  export_surface(mesh, g, dir / "coloured.glb", o);
+  const GltfDocument coloured = parse_glb(read_bytes(dir / "coloured.glb"));
+  for (const auto& p : coloured.json["meshes"][0]["primitives"]) {
+    EXPECT_TRUE(p["attributes"].contains("COLOR_0"));
+    const auto& base = coloured.json["materials"][p["material"].get<std::size_t>()]
+                                    ["pbrMetallicRoughness"]["baseColorFactor"];
+    EXPECT_EQ(base, nlohmann::json({1.0, 1.0, 1.0, 1.0}));
+  }
+
+  // OBJ and FBX carry the tissue colour in their materials.
+  ExportOptions obj;
+  obj.format = ExportFormat::obj;
+  export_surface(mesh, g, dir / "plain.obj", obj);
+  const std::string mtl = read_bytes(dir / "plain.mtl");
+  const auto c = tissue_colour_srgb(kLabelMucosa);
+  const std::size_t block = mtl.find("newmtl mucosa");
+  ASSERT_NE(block, std::string::npos) << mtl;
+  const std::size_t kd = mtl.find("Kd ", block);
+  ASSERT_NE(kd, std::string::npos) << mtl;
+  float r = 0, gr = 0, b = 0;
+  ASSERT_EQ(std::sscanf(mtl.c_str() + kd, "Kd %f %f %f", &r, &gr, &b), 3);
+  EXPECT_NEAR(r, c[0] / 255.0f, 1e-3f);
+  EXPECT_NEAR(gr, c[1] / 255.0f, 1e-3f);
+  EXPECT_NEAR(b, c[2] / 255.0f, 1e-3f);
+  EXPECT_EQ(import_file(dir / "plain.obj").all_colours, false);
+}
+
+TEST(ExportRoundTrip, SlicerSpaceTokenInStlPlyAndObjHeaders) {
+  const VolumeGeometry g = oblique_geometry();
+  const imt::SurfaceMesh mesh = labelled_sphere(g);
+  const fs::path dir = tsf::test::scratch_dir("space");
+  struct Want {
+    ExportFormat format;
+    std::optional<AxisConvention> axes;
+    const char* file;
+    const char* token;  ///< expected, or nullptr for none
+  };
+  for (const Want& w :
+       {Want{ExportFormat::stl, std::nullopt, "lps.stl", "SPACE=LPS"},
+        Want{ExportFormat::stl, AxisConvention::ras, "ras.stl", "SPACE=RAS"},
+        Want{ExportFormat::stl_ascii, AxisConvention::ras, "ras-ascii.stl", "SPACE=RAS"},
+        Want{ExportFormat::ply, AxisConvention::ras, "ras.ply", "SPACE=RAS"},
+        Want{ExportFormat::ply_ascii, std::nullopt, "lps-ascii.ply", "SPACE=LPS"},
+        Want{ExportFormat::obj, AxisConvention::lps, "lps.obj", "SPACE=LPS"},
+        Want{ExportFormat::obj, std::nullopt, "yup.obj", nullptr},
+        Want{ExportFormat::stl, AxisConvention::y_up, "yup.stl", nullptr}}) {
+    ExportOptions o;
+    o.format = w.format;
+    o.axes = w.axes;
+    export_surface(mesh, g, dir / w.file, o);
+    const std::string bytes = read_bytes(dir / w.file);
+    // Where Slicer looks: the 80-byte header of a binary STL, the "solid" line of an ASCII one,
+    // PLY comment lines, OBJ comments before the data.
+    std::string header;
+    if (w.format == ExportFormat::stl)
+      header = bytes.substr(0, 80);
+    else if (w.format == ExportFormat::stl_ascii)
+      header = bytes.substr(0, bytes.find('\n'));
+    else if (w.format == ExportFormat::obj)
+      header = bytes.substr(0, bytes.find("\nv "));
+    else
+      header = bytes.substr(0, bytes.find("end_header"));
+    if (w.token) {
+      EXPECT_NE(header.find(w.token), std::string::npos) << w.file << ": " << header;
+    } else {
+      EXPECT_EQ(header.find("SPACE="), std::string::npos) << w.file << ": " << header;
+    }
+    if (w.format == ExportFormat::ply || w.format == ExportFormat::ply_ascii) {
+      EXPECT_NE(header.find("comment "), std::string::npos);
+    }
+    if (w.format == ExportFormat::stl) {
+      EXPECT_NE(header.rfind("solid", 0), 0u);
+    }
+  }
+  // And the file still reads: the ASCII STL's solid line with the token included.
+  EXPECT_EQ(import_file(dir / "ras-ascii.stl").triangles.size(), mesh.triangle_count());
+}
 
 TEST(ExportRoundTrip, MetresAndOtherAxesWhereTheFormatAllows) {
   const VolumeGeometry g = oblique_geometry();

@@ -1,5 +1,6 @@
 // glTF and GLB output passes the Khronos glTF validator (tools/gltf-validator, run with Node.js)
-// with no errors: a surface, per-tissue meshes, and a morph-target animation.
+// with no errors and no warnings: a surface, per-tissue meshes, morph-target animations, levels
+// of detail (MSFT_lod), tissue bodies and an animation across a cut.
 #include <gtest/gtest.h>
 
 #include <iostream>
@@ -65,6 +66,43 @@ TEST(GltfValidator, MorphAnimationHasNoErrors) {
     ASSERT_TRUE(export_sequence(s, FrameSelection::parse("all"), file, o).animated);
     expect_valid(node, file);
   }
+}
+
+TEST(GltfValidator, LevelsOfDetailBodiesAndCutAnimationsHaveNoErrors) {
+  TSF_NODE_OR_SKIP(node);
+  const VolumeGeometry g = cube_geometry({40, 40, 40}, 0.5);
+  const imt::SurfaceMesh mesh = labelled_sphere(g, 8.0, {1.0, 1.0, 1.0});
+  const fs::path dir = tsf::test::scratch_dir("validator");
+  ExportOptions lods;
+  lods.decimation = DecimationOptions{};
+  lods.decimation->target_triangles = 4000;
+  lods.lods = {1500, 400};
+  const ExportReport r = export_surface(mesh, g, dir / "lods.glb", lods);
+  ASSERT_EQ(r.levels.size(), 3u);
+  expect_valid(node, dir / "lods.glb");
+  lods.split_labels = true;
+  export_surface(mesh, g, dir / "lods-split.glb", lods);
+  expect_valid(node, dir / "lods-split.glb");
+
+  // Bodies of a two-tissue ball (one node per body).
+  VoxelVolume v(g);
+  for (int k = 0; k < 40; ++k)
+    for (int j = 0; j < 40; ++j)
+      for (int i = 0; i < 40; ++i) {
+        const double r2 =
+            (i - 20.0) * (i - 20.0) + (j - 20.0) * (j - 20.0) + (k - 20.0) * (k - 20.0);
+        if (r2 > 15.0 * 15.0) continue;
+        v.density_data()[v.index(i, j, k)] = 1.0f;
+        v.label_data()[v.index(i, j, k)] = r2 < 8.0 * 8.0 ? kLabelCorticalBone : kLabelSoftTissue;
+      }
+  v.mark_all_modified();
+  export_bodies(v, 0.5f, dir / "bodies.glb", {});
+  expect_valid(node, dir / "bodies.glb");
+
+  // A sequence across a cut: two nodes switched by STEP scale keys.
+  const io::MeshSequence s = sphere_with_a_cut(1);
+  ASSERT_TRUE(export_sequence(s, FrameSelection::parse("all"), dir / "cut.glb", {}).animated);
+  expect_valid(node, dir / "cut.glb");
 }
 
 TEST(GltfValidator, ValidatorCatchesABrokenAsset) {

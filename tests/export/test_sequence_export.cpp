@@ -1,35 +1,16 @@
-// Sequences: numbered files always; a glTF morph-target animation when the topology holds; the
-// deformed and cut states exported as they are (mesh_export.h).
+// Sequences: numbered files always; a glTF animation: morph targets while the topology holds,
+// a node per topology switched by STEP scale keys across cuts (mesh_export.h).
 #include <gtest/gtest.h>
+
+#include <map>
 
 #include "export_test_helpers.h"
 #include "tsf/common/error.h"
-#include "tsf/export/export_normals.h"
 #include "tsf/export/mesh_export.h"
 
 namespace tsf::exporter {
 namespace {
 using namespace test;
-
-/// Rest state plus `poses` frames that squash the sphere along z by 4% per frame.
-io::MeshSequence squashing_sphere(int poses) {
-  io::MeshSequence s;
-  s.geometry = oblique_geometry();
-  s.rest = labelled_sphere(s.geometry);
-  Vec3f c{0, 0, 0};
-  for (const Vec3f& p : s.rest.positions) c += p;
-  c = c / static_cast<float>(s.rest.positions.size());
-  for (int f = 1; f <= poses; ++f) {
-    io::MeshFrame frame;
-    frame.time_s = 0.02 * f;
-    const float k = 1.0f - 0.04f * static_cast<float>(f);
-    for (const Vec3f& p : s.rest.positions)
-      frame.positions.push_back({p.x, p.y, c.z + (p.z - c.z) * k});
-    frame.normals = s.rest.normals;
-    s.frames.push_back(frame);
-  }
-  return s;
-}
 
 std::vector<Vec3f> sorted(std::vector<Vec3f> v) {
   std::sort(v.begin(), v.end(), [](const Vec3f& a, const Vec3f& b) {
@@ -81,27 +62,33 @@ TEST(SequenceExport, ConstantTopologyGivesNumberedFilesAndAMorphAnimation) {
     for (std::size_t t = 0; t < 3; ++t)
       EXPECT_EQ(weights[k * 3 + t], (k >= 1 && t == k - 1) ? 1.0f : 0.0f);
 
-  const auto& primitive = doc.json["meshes"][0]["primitives"][0];
-  ASSERT_EQ(primitive["targets"].size(), 3u);
-  const std::vector<float> base =
-      read_float_accessor(doc, primitive["attributes"]["POSITION"].get<std::size_t>());
+  // One mesh whose primitives are the tissues; every primitive has the three targets. Tissue
+  // border vertices are in two primitives: compare distinct positions.
+  const auto& primitives = doc.json["meshes"][0]["primitives"];
+  ASSERT_EQ(primitives.size(), 3u);
   for (std::size_t t = 0; t < 3; ++t) {
-    const std::vector<float> delta =
-        read_float_accessor(doc, primitive["targets"][t]["POSITION"].get<std::size_t>());
-    ASSERT_EQ(delta.size(), base.size());
     std::vector<Vec3f> morphed;
-    for (std::size_t i = 0; i < base.size(); i += 3)
-      morphed.push_back(
-          {base[i] + delta[i], base[i + 1] + delta[i + 1], base[i + 2] + delta[i + 2]});
+    for (const auto& primitive : primitives) {
+      ASSERT_EQ(primitive["targets"].size(), 3u);
+      const std::vector<float> base =
+          read_float_accessor(doc, primitive["attributes"]["POSITION"].get<std::size_t>());
+      const std::vector<float> delta =
+          read_float_accessor(doc, primitive["targets"][t]["POSITION"].get<std::size_t>());
+      ASSERT_EQ(delta.size(), base.size());
+      for (std::size_t i = 0; i < base.size(); i += 3)
+        morphed.push_back(
+            {base[i] + delta[i], base[i + 1] + delta[i + 1], base[i + 2] + delta[i + 2]});
+    }
+    std::vector<Vec3f> got = sorted(morphed);
+    got.erase(std::unique(got.begin(), got.end()), got.end());
     const std::vector<Vec3f> want = sorted(file_positions(s, t + 1));
-    const std::vector<Vec3f> got = sorted(morphed);
     ASSERT_EQ(got.size(), want.size()) << "target " << t;
     float worst = 0;
     for (std::size_t i = 0; i < got.size(); ++i) worst = std::max(worst, length(got[i] - want[i]));
     EXPECT_LT(worst, 1e-7f) << "state " << t + 1 << " = base + target " << t << " (metres)";
   }
-  // assimp's importer sees the morph targets too.
-  EXPECT_EQ(import_file(dir / "t.glb").anim_meshes, 3u);
+  // assimp's importer sees the morph targets too (per tissue mesh).
+  EXPECT_EQ(import_file(dir / "t.glb").anim_meshes, 3u * 3u);
 }
 
 TEST(SequenceExport, SplitLabelsAnimateEveryTissueNode) {
@@ -119,30 +106,59 @@ TEST(SequenceExport, SplitLabelsAnimateEveryTissueNode) {
   EXPECT_EQ(files_in(dir).size(), 4u);
 }
 
-TEST(SequenceExport, CutStatesAreExportedAsTheyAreWithoutAnimation) {
-  io::MeshSequence s = squashing_sphere(2);
-  // State 3: a cut re-meshed the surface (a smaller, shifted sphere stands in for it).
-  const imt::SurfaceMesh cut = labelled_sphere(s.geometry, 4.0, {1.0, 0.0, 0.0});
-  io::MeshFrame remeshed;
-  remeshed.time_s = 0.1;
-  remeshed.topology_changed = true;
-  remeshed.positions = cut.positions;
-  remeshed.normals = cut.normals;
-  remeshed.labels = cut.labels;
-  remeshed.triangles = cut.triangles;
-  s.frames.push_back(remeshed);
+TEST(SequenceExport, CutsAnimateBySwitchingTopologiesWithStepScaleKeys) {
+  const io::MeshSequence s = sphere_with_a_cut(2);
   const fs::path dir = tsf::test::scratch_dir("sequence");
-  const ExportReport report = export_sequence(s, FrameSelection::parse("all"), dir / "t.glb", {});
-  EXPECT_FALSE(report.animated);
-  EXPECT_NE(report.animation_note.find("state 3"), std::string::npos) << report.animation_note;
-  EXPECT_EQ(files_in(dir),
-            (std::vector<std::string>{"t-0000.glb", "t-0001.glb", "t-0002.glb", "t-0003.glb"}));
-  const Imported got = import_file(dir / "t-0003.glb");
-  EXPECT_EQ(got.triangles.size(), cut.triangle_count());
+  ExportOptions o;
+  o.time_scale = 10.0;
+  const ExportReport report = export_sequence(s, FrameSelection::parse("all"), dir / "t.glb", o);
+  EXPECT_TRUE(report.animated) << report.animation_note;
+  EXPECT_EQ(report.topology_runs, 2u);
+  EXPECT_EQ(files_in(dir), (std::vector<std::string>{"t-0000.glb", "t-0001.glb", "t-0002.glb",
+                                                     "t-0003.glb", "t-0004.glb", "t.glb"}));
+  const Imported cut = import_file(dir / "t-0003.glb");
+  EXPECT_EQ(cut.triangles.size(),
+            labelled_sphere(s.geometry, 4.0, {1.0, 0.0, 0.0}).triangle_count());
 
-  // The states before the cut still animate on their own.
+  // Two nodes, one per topology: states 0-2 (morph targets for 1, 2) and states 3-4 (one for 4).
+  const GltfDocument doc = parse_glb(read_bytes(dir / "t.glb"));
+  const std::size_t before = node_named(doc, "states 0-2"), after = node_named(doc, "states 3-4");
+  EXPECT_FALSE(doc.json["nodes"][before].contains("scale")) << "shown at time 0";
+  EXPECT_EQ(doc.json["nodes"][after]["scale"], nlohmann::json({0.0, 0.0, 0.0}))
+      << "hidden at time 0";
+  const auto& animation = doc.json["animations"][0];
+  std::map<std::size_t, std::vector<std::pair<std::vector<float>, std::vector<float>>>> scale_keys;
+  std::size_t weight_channels = 0;
+  for (const auto& ch : animation["channels"]) {
+    const auto& sampler = animation["samplers"][ch["sampler"].get<std::size_t>()];
+    const std::vector<float> in = read_float_accessor(doc, sampler["input"].get<std::size_t>());
+    const std::vector<float> out = read_float_accessor(doc, sampler["output"].get<std::size_t>());
+    if (ch["target"]["path"] == "scale") {
+      EXPECT_EQ(sampler["interpolation"], "STEP");
+      scale_keys[ch["target"]["node"].get<std::size_t>()].push_back({in, out});
+    } else {
+      EXPECT_EQ(ch["target"]["path"], "weights");
+      EXPECT_EQ(sampler["interpolation"], "LINEAR");
+      ++weight_channels;
+    }
+  }
+  EXPECT_EQ(weight_channels, 2u) << "one per run with morph targets";
+  ASSERT_EQ(scale_keys[before].size(), 1u);
+  ASSERT_EQ(scale_keys[after].size(), 1u);
+  // States 0-2 shown from 0 until state 3's time (0.06 s × 10), states 3-4 from then on.
+  for (const auto* keys : {&scale_keys[before][0], &scale_keys[after][0]}) {
+    ASSERT_EQ(keys->first.size(), 2u);
+    EXPECT_EQ(keys->first[0], 0.0f);
+    EXPECT_NEAR(keys->first[1], 0.6f, 1e-6f);
+  }
+  EXPECT_EQ(scale_keys[before][0].second, (std::vector<float>{1, 1, 1, 0, 0, 0}));
+  EXPECT_EQ(scale_keys[after][0].second, (std::vector<float>{0, 0, 0, 1, 1, 1}));
+
+  // The states before the cut alone animate with morph targets only.
   const fs::path dir2 = tsf::test::scratch_dir("sequence-before-cut");
-  EXPECT_TRUE(export_sequence(s, FrameSelection::parse("0:2"), dir2 / "t.glb", {}).animated);
+  const ExportReport early = export_sequence(s, FrameSelection::parse("0:2"), dir2 / "t.glb", {});
+  EXPECT_TRUE(early.animated);
+  EXPECT_EQ(early.topology_runs, 1u);
 }
 
 TEST(SequenceExport, LastStateIsTheDefaultAndOnePathIsWritten) {

@@ -80,7 +80,7 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
   const io::MeshSequence states = io::read_mesh_sequence(dir / "states.tsfmesh");
   const auto frames = r.at("frames").get<std::size_t>();
   EXPECT_EQ(states.frames.size(), r.at("outputs").at("states_saved").get<std::size_t>());
-  EXPECT_EQ(states.frames.size(), (frames - 1) / 10 + 1) << "states_every defaults to 10";
+  EXPECT_EQ(states.frames.size(), (frames - 1) / 2 + 1) << "the scene saves every 2nd frame";
   EXPECT_FALSE(io::has_constant_topology(states));
   EXPECT_EQ(states.rest.triangle_count(), r.at("surface").at("triangles_start").get<std::size_t>());
   const imt::SurfaceMesh last = io::frame_mesh(states, states.frames.size() - 1);
@@ -91,6 +91,21 @@ TEST(CutScenes, TheBlockSceneCutsTheFreeEndOffAndWritesItsOutputs) {
   for (std::size_t v = 0; v < last.vertex_count(); ++v)
     max_gap = std::max(max_gap, length(last.positions[v] - final_mesh.positions[v]));
   EXPECT_LT(max_gap, 1e-3f) << "the last state is the final deformed, cut mesh";
+}
+
+TEST(CutScenes, StatesEveryOnTheCommandLineOverridesTheScene) {
+  const fs::path exe = test::tsf_executable_path();
+  if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
+  const fs::path dir = test::scratch_dir("cut-block-states-every");
+  const fs::path scene = test::source_dir() / "scenes" / "cut-block.yaml";
+  const std::string cmd = exe.string() + " simulate " + scene.string() +
+                          " --backend cpu -q --duration 0.05 --states-every 4 --out " +
+                          (dir / "run").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const nlohmann::json r = read_json(dir / "run" / "report.json");
+  const auto frames = r.at("frames").get<std::size_t>();
+  const io::MeshSequence states = io::read_mesh_sequence(dir / "run" / "states.tsfmesh");
+  EXPECT_EQ(states.frames.size(), (frames - 1) / 4 + 1) << "every 4th frame and the last";
 }
 
 TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
@@ -138,10 +153,9 @@ TEST(CutScenes, SceneTyposNameTheirKeyPath) {
         Case{"  - tool: wand ", "  - tool: knife ", "script.trajectories[1].tool"},
         Case{"{time: 0.02, position", "{time: 0.0, position",
              "script.trajectories[0].keyframes[1].time"},
-        Case{"  report: report.json\n", "  report: report.json\n  states: cut-block.ply\n",
+        Case{"  states: states.tsfmesh", "  states: cut-block.ply",
              "outputs.states: expected a .tsfmesh"},
-        Case{"  report: report.json\n", "  report: report.json\n  states_every: 0\n",
-             "outputs.states_every"},
+        Case{"  states_every: 2\n", "  states_every: 0\n", "outputs.states_every"},
         // Outputs are names inside the output folder: never outside it.
         Case{"  report: report.json\n", "  report: ../report.json\n",
              "outputs.report: expected a file name inside the output folder"},

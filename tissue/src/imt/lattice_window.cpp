@@ -323,8 +323,12 @@ void LatticeWindow::decide_merges(float eps) {
       }
   }
   // A candidate merges when it beats every candidate neighbour: smaller fraction, then smaller
-  // global point id. So no two neighbours merge together. Decided where all neighbours were
-  // considered: corners [2, dims−3], centres [2, dims−4].
+  // global point id. So no two neighbours merge together, except points exactly on the
+  // iso-level (fraction 0): they move nothing, two of them are both inside (no crossing between
+  // them to disagree on), and every edge ending at one already emits its vertex at the point,
+  // so merging them all is what keeps coincident vertices and zero-area triangles out (a binary
+  // volume's body centres: docs/imt.md). Decided where all neighbours were considered:
+  // corners [2, dims−3], centres [2, dims−4].
   for (int kind = 0; kind < 2; ++kind) {
     const int hi_pad = kind == kCornerKind ? 3 : 4;
     for (std::int64_t i : candidates_[kind]) {
@@ -342,7 +346,7 @@ void LatticeWindow::decide_merges(float eps) {
         if (tq < t)
           wins = false;
         else if (tq == t)
-          wins = global_point_id(kind, i) < global_point_id(q.kind, i + q.delta);
+          wins = t == 0.0f || global_point_id(kind, i) < global_point_id(q.kind, i + q.delta);
       }
       if (!wins) continue;
       std::uint8_t& f = flags_[kind][static_cast<std::size_t>(i)];

@@ -41,12 +41,38 @@ int append_float_accessor(GltfDocument& document, const std::vector<float>& valu
 /// 5.2 lists KHR_materials_volume and FB_ngon_encoding on every asset).
 void drop_unused_extensions(GltfDocument& document);
 
-/// Adds one animation named `name` that plays the morph targets of every mesh that has N of them
-/// as N + 1 keyframes at `times_s`: keyframe 0 all weights 0 (the base mesh), keyframe k weight
-/// k−1 = 1 and the others 0, linear in between. Every node whose mesh has morph targets gets a
-/// "weights" channel. Throws tsf::Error unless times are strictly increasing and N + 1 of them.
-void add_morph_animation(GltfDocument& document, const std::vector<float>& times_s,
+/// One node of an animated sequence: a run of states that share one topology (its base mesh and
+/// morph targets, one per later state) shown from `visible_from` until `visible_until`.
+struct AnimatedGroup {
+  std::string node;          ///< node name (unique in the asset)
+  std::vector<float> times;  ///< keyframe time of each state of the run (base first), s
+  float visible_from = 0.0f;
+  float visible_until = -1.0f;  ///< < 0: to the end
+};
+
+/// Adds one animation named `name` that plays a sequence of state runs:
+///  * morph weights: every node in a run's subtree whose mesh has N morph targets gets a weights
+///    channel with the run's N + 1 keyframes (keyframe 0 all weights 0, keyframe k weight k−1 =
+///    1), LINEAR, so playback blends from state to state;
+///  * visibility, when there are several runs: the run's node gets a scale channel, STEP, 1 while
+///    it is shown and 0 otherwise (and a static scale of 0 when it is not shown at time 0), so
+///    exactly one run is visible at any time: a cut that changes the topology switches meshes.
+/// Throws tsf::Error naming the node when it is missing, times do not increase strictly, or the
+/// target counts disagree with the times.
+void add_state_animation(GltfDocument& document, const std::vector<AnimatedGroup>& groups,
                          const std::string& name);
+
+/// Levels of detail (MSFT_lod, node level): `levels[0]` is the node shown by default, every
+/// further name a node of fewer triangles. The level-0 node gets the MSFT_lod extension listing
+/// the others in order and extras.MSFT_screencoverage = `coverage` (one per level); the other
+/// levels leave the default scene's hierarchy and each becomes the root of a scene of its own
+/// ("LOD k"), so viewers without MSFT_lod show level 0 and can still pick any level. Throws
+/// tsf::Error naming a missing node.
+void add_lods(GltfDocument& document, const std::vector<std::string>& levels,
+              const std::vector<float>& coverage);
+
+/// Index of the node named `name`; throws tsf::Error when there is none.
+std::size_t node_named(const GltfDocument& document, const std::string& name);
 
 std::string base64_encode(std::string_view bytes);
 std::string base64_decode(std::string_view text);  ///< throws tsf::Error on a bad character
