@@ -542,6 +542,8 @@ json material_json(const Scene& scene, const SceneInstance& inst) {
           {"youngs_modulus_pa", m.youngs_modulus_pa},
           {"damping_time_s", m.damping_time_s},
           {"density_g_per_mm3", m.density_g_per_mm3},
+          {"poisson_ratio", m.poisson_ratio},
+          {"poisson_ratio_source", m.poisson_ratio_source},
           {"sources", sources}};
 }
 
@@ -595,6 +597,7 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const Int
     effects_union.insert(r.effects_active.begin(), r.effects_active.end());
     instances.push_back({{"name", r.name},
                          {"material", material_json(scene, scene.instances[r.index])},
+                         {"poisson_ratio", r.session.value("poisson_ratio", json(nullptr))},
                          {"effects_active", r.effects_active},
                          {"kernel_features", r.kernel_features},
                          {"bytes_per_node", r.bytes_per_node},

@@ -42,6 +42,8 @@ class CpuEffects final : public EffectsEngine {
     }
     if (enabled & effect_bits::kForceEffects)
       for (auto& c : force_) c.assign(count_, 0.0f);
+    if (enabled & effect_bits::kVolumetric)
+      for (auto& c : volume_terms_) c.assign(count_, 0.0f);
   }
 
   EffectsState read() const override {
@@ -67,6 +69,17 @@ class CpuEffects final : public EffectsEngine {
     const ConstStateView s = state;
     auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
     switch (pass) {
+      case EffectPass::kVolumeTerms:
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          Vec3f t[3];
+          cube_volume_terms(lat, s, p.volume, n, i, j, k, t);
+          for (int f = 0; f < 3; ++f) {
+            a.volume_terms[3 * f + 0][n] = t[f].x;
+            a.volume_terms[3 * f + 1][n] = t[f].y;
+            a.volume_terms[3 * f + 2][n] = t[f].z;
+          }
+        });
+        break;
       case EffectPass::kCubePressure:
         for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
           a.fluid_pressure[n] = cube_pressure(lat, s, a, p, n, i, j, k);
@@ -81,11 +94,8 @@ class CpuEffects final : public EffectsEngine {
         });
         break;
       case EffectPass::kKick:
-        for_each_node(lat, [&](std::int64_t n, int, int, int) {
-          const Vec3f v = kicked_velocity(lat, s, a, p, n);
-          state.v[0][n] = v.x;
-          state.v[1][n] = v.y;
-          state.v[2][n] = v.z;
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          kick_node(lat, state, a, p, n, i, j, k);
         });
         break;
       case EffectPass::kUpdateStores: {
@@ -132,6 +142,7 @@ class CpuEffects final : public EffectsEngine {
         a.rest_to[c] = keyframes_[static_cast<std::size_t>(p.rest_to_key)][c].data();
       }
     a.node_mask = mask_.empty() ? nullptr : const_cast<std::uint8_t*>(mask_.data());
+    for (int c = 0; c < 9; ++c) a.volume_terms[c] = data(volume_terms_[c]);
     return a;
   }
 
@@ -140,6 +151,7 @@ class CpuEffects final : public EffectsEngine {
   std::vector<float> content_, pressure_;
   std::vector<RestOffsets> keyframes_;
   std::vector<std::uint8_t> mask_;
+  std::array<std::vector<float>, 9> volume_terms_;
 };
 
 }  // namespace
