@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "run/material_library.h"
 #include "run/run_pipeline.h"
+#include "tsf/volume/tissue_labels.h"
 
 namespace tsf::app {
 namespace {
@@ -58,6 +59,18 @@ void print_materials(const RunArguments& a) {
                 g(d.lame_lambda_pa).c_str(), g(d.node_mass_g).c_str(),
                 g(d.symplectic_stable_dt_s).c_str(),
                 g(d.symplectic_stable_dt_s / d.symplectic_stable_dt_nu0_s, 2).c_str());
+  }
+  if (lib.removal_rates.empty()) return;
+  std::printf(
+      "\nTool removal rates per tissue label (scenes: `tissue.removal.rates: library`; labels not "
+      "listed: 1):\n\n| label | ablation | cut | basis |\n| --- | ---: | ---: | --- |\n");
+  for (const LabelRemovalRates& r : lib.removal_rates) {
+    std::string basis;
+    for (const MaterialSource& s : r.sources) basis += (basis.empty() ? "" : "; ") + s.citation;
+    if (!r.assumption.empty())
+      basis += (basis.empty() ? "assumption: " : "; assumption: ") + r.assumption;
+    std::printf("| %s | %s | %s | %s |\n", tissue_label_key(r.label).c_str(), g(r.ablation).c_str(),
+                g(r.cut).c_str(), basis.c_str());
   }
 }
 
