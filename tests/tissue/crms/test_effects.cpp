@@ -359,8 +359,8 @@ TEST(CrmsEffects, CpuAndCudaAgreeWithAllEffectsOn) {
 
 TEST(CrmsEffects, CpuAndCudaAgreeWithTheVolumetricTerm) {
   // Materials with ν (a soft ν = 0.45 and a stiffer ν = 0.3 entry, blended nodes between them),
-  // the term's cube pass and kick, with tearing (cubes lose their term as links tear: the count
-  // pass runs every step) and anisotropy (the effect-force array beside the term's forces).
+  // the term's cube pass and kick, with tearing (a cube loses its term as soon as one of its
+  // edges tears) and anisotropy (the effect-force array beside the term's forces).
   if (!cuda_status().available) GTEST_SKIP() << "no CUDA device: " << cuda_status().reason;
   std::vector<std::vector<Vec3f>> result;
   std::vector<std::int64_t> torn;

@@ -171,8 +171,8 @@ TEST(CrmsEnergyGradient, EachEffectForceIsMinusItsEnergyGradient) {
 
 TEST(CrmsEnergyGradient, VolumetricForceIsMinusItsEnergyGradient) {
   // The volumetric term (volume_term.h) on a two-material lattice (ν = 0.45 and 0.3, blended
-  // corners included), a cut node and a torn spring (cubes without their term, coverage weights
-  // changed), at displacements large enough that some cubes are stretched (J > 1, the log branch)
+  // corners included), a cut node and a torn spring (cubes without their term), at
+  // displacements large enough that some cubes are stretched (J > 1, the log branch)
   // and others compressed.
   for (double amplitude : {0.05, 0.3}) {
     SolverConfig c;

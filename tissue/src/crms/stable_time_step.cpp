@@ -103,7 +103,7 @@ VolumeRows volume_rows(const Lattice& lattice, const VolumeParameters& vp) {
             const std::int64_t n = cube_corner(lat, c, q);
             if (!free_node(n)) continue;
             overlap += dot(rest_volume_gradient(q, g.spacing), rest_volume_gradient(r, g.spacing)) /
-                       lattice.mass(n);
+                       static_cast<double>(lattice.mass(n));
           }
           row_k += std::sqrt(cube_k[c] * cube_k[d]) / v0 * std::fabs(overlap);
           row_eta += std::sqrt(cube_eta[c] * cube_eta[d]) / v0 * std::fabs(overlap);
@@ -112,9 +112,10 @@ VolumeRows volume_rows(const Lattice& lattice, const VolumeParameters& vp) {
       const std::int64_t n = cube_corner(lat, c, q);
       if (!free_node(n)) continue;
       // Back to a stiffness at the node's own mass (ω² = stiffness/m_n, stable_time_step.h).
-      if (row_k * lattice.mass(n) > rows.stiffness[n]) {
-        rows.stiffness[n] = row_k * lattice.mass(n);
-        rows.damping[n] = row_eta * lattice.mass(n);
+      const double mass = lattice.mass(n);
+      if (row_k * mass > rows.stiffness[n]) {
+        rows.stiffness[n] = row_k * mass;
+        rows.damping[n] = row_eta * mass;
       }
     }
   }
