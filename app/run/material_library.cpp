@@ -116,16 +116,19 @@ MaterialLibrary read_material_library(const fs::path& file) {
     if (f["poisson_ratio"].defined()) {
       const YamlField src = f["poisson_ratio_source"];
       if (!src.defined())
-        src.fail("is required with poisson_ratio: \"assumed: why\", or the first author of one "
-                 "of the sources and what it reports about ν");
+        src.fail(
+            "is required with poisson_ratio: \"assumed: why\", or the first author of one "
+            "of the sources and what it reports about ν");
       m.poisson_ratio_source = src.text();
       auto first_word = [](const std::string& t) { return t.substr(0, t.find_first_of(" ,(:")); };
       bool named = m.poisson_ratio_source.rfind("assumed", 0) == 0;
       for (const MaterialSource& s : m.sources)
         named = named || first_word(s.citation) == first_word(m.poisson_ratio_source);
       if (!named)
-        src.fail("expected \"assumed: why\" or a text starting with the first author of one of "
-                 "the sources, got '" + m.poisson_ratio_source + "'");
+        src.fail(
+            "expected \"assumed: why\" or a text starting with the first author of one of "
+            "the sources, got '" +
+            m.poisson_ratio_source + "'");
     } else if (f["poisson_ratio_source"].defined()) {
       f["poisson_ratio_source"].fail("given without poisson_ratio");
     }

@@ -76,7 +76,7 @@ struct DerivedLatticeParameters {
   crms::SpringConstants springs;  ///< ks (µN), kd (µN·s), kθ (µN·mm/rad), cθ (µN·mm·s/rad)
   double lame_lambda_pa = 0;      ///< the volumetric term's modulus (0 when ν = 0)
   double node_mass_g = 0;         ///< ρ·h³
-  double symplectic_stable_dt_s = 0;  ///< interior node, symplectic Euler (stable_time_step.h)
+  double symplectic_stable_dt_s = 0;      ///< interior node, symplectic Euler (stable_time_step.h)
   double symplectic_stable_dt_nu0_s = 0;  ///< the same with ν = 0 (the springs alone, E)
 };
 DerivedLatticeParameters derive_lattice_parameters(const LibraryMaterial& material,

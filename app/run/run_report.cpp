@@ -480,11 +480,10 @@ void material_section(const ReportContext& c, std::ostream& md) {
     any = true;
     if (library) {
       md << instance_tag(c, in) << "`" << m.value("id", "") << "` (" << m.value("name", "")
-         << ") from the material library: E = "
-         << number(m.value("youngs_modulus_pa", 0.0) * 1e-3) << " kPa, damping time "
-         << seconds(m.value("damping_time_s", 0.0)) << ", density "
-         << number(m.value("density_g_per_mm3", 0.0) * 1e3) << " g/cm³, ν = "
-         << number(m.value("poisson_ratio", 0.0))
+         << ") from the material library: E = " << number(m.value("youngs_modulus_pa", 0.0) * 1e-3)
+         << " kPa, damping time " << seconds(m.value("damping_time_s", 0.0)) << ", density "
+         << number(m.value("density_g_per_mm3", 0.0) * 1e3)
+         << " g/cm³, ν = " << number(m.value("poisson_ratio", 0.0))
          << (m.value("poisson_ratio_source", std::string()).empty()
                  ? std::string()
                  : " (" + m.value("poisson_ratio_source", std::string()) + ")")

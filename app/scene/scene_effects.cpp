@@ -49,9 +49,8 @@ int read_entry(const Field& f, const SceneEffects& e, int materials) {
 }
 
 crms::Material read_palette_material(const Field& f, std::string& name) {
-  f.expect_keys({"name", "youngs_modulus", "shear_modulus", "viscosity", "density",
-                 "poisson_ratio", "volume_damping_time", "tear_strain", "anisotropy_axis",
-                 "anisotropy_factor"});
+  f.expect_keys({"name", "youngs_modulus", "shear_modulus", "viscosity", "density", "poisson_ratio",
+                 "volume_damping_time", "tear_strain", "anisotropy_axis", "anisotropy_factor"});
   name = f["name"].required().text();
   crms::Material m;
   m.youngs_modulus_pa = f["youngs_modulus"].required_number(1.0, 1e11);

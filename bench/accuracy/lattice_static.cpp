@@ -56,9 +56,8 @@ struct StaticDualStencil {
 /// added to `residual` (free nodes) and its stiffness −∂f/∂u as triplets, per intact cube with
 /// dual numbers seeded on the 8 corners' displacements.
 void add_volume_term(const LatticeView& lat, const crms::VolumeParameters& vp,
-                     const std::vector<double>* u,
-                     const std::vector<std::int64_t>& free_index, Eigen::VectorXd& residual,
-                     std::vector<Eigen::Triplet<double>>& triplets) {
+                     const std::vector<double>* u, const std::vector<std::int64_t>& free_index,
+                     Eigen::VectorXd& residual, std::vector<Eigen::Triplet<double>>& triplets) {
   using D = Dual<24>;
   for (std::int64_t c = 0; c < lat.count; ++c) {
     const std::int64_t rem = c % lat.stride_z;
@@ -171,8 +170,7 @@ LatticeStaticResult solve(const crms::Solver& solver, const std::vector<Vec3d>& 
       }
       for (int a = 0; a < 3; ++a) residual(3 * f + a) = fd[a].v + external(3 * f + a);
     }
-    if (volumetric)
-      add_volume_term(lat, volume, u, free_index, residual, triplets[0]);
+    if (volumetric) add_volume_term(lat, volume, u, free_index, residual, triplets[0]);
     out.relative_residual = residual.norm() / external_norm;
     if (!std::isfinite(out.relative_residual))
       throw Error("lattice static solve: the residual is not finite");

@@ -148,9 +148,9 @@ ExplicitCost explicit_cost(const crms::Lattice& lattice, double youngs, double n
   m.youngs_modulus_pa = youngs;
   m.poisson_ratio = nu;
   auto stable_dt = [&](const crms::Material& material) {
-    return crms::Solver(lattice, crms_config(material, Integrator::kSymplecticEuler,
-                                             AngularForm::kExact, AngularReactions::kSymmetric,
-                                             {0, 0, 0}))
+    return crms::Solver(lattice,
+                        crms_config(material, Integrator::kSymplecticEuler, AngularForm::kExact,
+                                    AngularReactions::kSymmetric, {0, 0, 0}))
         .stable_dt();
   };
   ExplicitCost cost;
@@ -170,9 +170,8 @@ ExplicitCost explicit_cost(const crms::Lattice& lattice, double youngs, double n
 
 StudyResult run(const RunOptions& options) {
   StudyResult out;
-  const std::vector<double> ratios = options.quick
-                                         ? std::vector<double>{0.0, 0.3, 0.45, 0.49}
-                                         : std::vector<double>{0.0, 0.3, 0.4, 0.45, 0.49};
+  const std::vector<double> ratios = options.quick ? std::vector<double>{0.0, 0.3, 0.45, 0.49}
+                                                   : std::vector<double>{0.0, 0.3, 0.4, 0.45, 0.49};
   const std::vector<LoadCase> cases = {{"indentation (8 × 8 mm patch)", 8.0},
                                        {"compression (whole top)", 16.0}};
   const double spacing = options.quick ? 2.0 : 1.0;
@@ -220,9 +219,8 @@ StudyResult run(const RunOptions& options) {
       "term (ν = 0 whatever the tissue's); *with the term*: the material's ν, springs of E/(1 + "
       "ν) and the volumetric term of modulus λ = Eν/((1 + ν)(1 − 2ν)) (docs/effects.md). Static "
       "equilibrium of the lattice by Newton.";
-  depth.columns = {"load",           "ν",          "FEM depth",    "springs alone",
-                   "vs FEM",         "with the term", "vs FEM",    "FEM solve",
-                   "lattice solve"};
+  depth.columns = {"load",          "ν",      "FEM depth", "springs alone", "vs FEM",
+                   "with the term", "vs FEM", "FEM solve", "lattice solve"};
   std::vector<PlotSeries> series;
   for (std::size_t c = 0; c < cases.size(); ++c) {
     PlotSeries alone{"springs alone, " + cases[c].name.substr(0, cases[c].name.find(' ')), {}};
@@ -283,26 +281,22 @@ StudyResult run(const RunOptions& options) {
   cost.caption =
       "**What the term costs in time**: the compression block's lattice with the material's ν, "
       "symplectic Euler at 0.9 × its stable step, 1 thread. Stable steps from the estimate "
-      "(docs/crms.md, \"Stable time step\": the volumetric term's bound included): undamped; with the "
+      "(docs/crms.md, \"Stable time step\": the volumetric term's bound included): undamped; with "
+      "the "
       "soft-tissue damping τ = " +
       format_seconds(tau) +
       " of the material library on the springs (the default: the term is elastic); and with the "
       "term damped by the same τ (Kelvin–Voigt on λ, `volume_damping_time`). Time per step "
       "(median) and per simulated second with the default, against the springs alone (ν = 0).";
-  cost.columns = {"ν",
-                  "stable step (τ = 0)",
-                  "× ν = 0",
-                  "stable step (τ = " + format_seconds(tau) + ")",
-                  "× ν = 0",
-                  "time / step",
-                  "× ν = 0",
-                  "time / simulated s",
-                  "× ν = 0",
-                  "stable step, term damped too",
+  cost.columns = {"ν",       "stable step (τ = 0)",
+                  "× ν = 0", "stable step (τ = " + format_seconds(tau) + ")",
+                  "× ν = 0", "time / step",
+                  "× ν = 0", "time / simulated s",
+                  "× ν = 0", "stable step, term damped too",
                   "× ν = 0"};
   std::vector<ExplicitCost> costs;
-  for (double nu : ratios) costs.push_back(explicit_cost(lattices[1], 10e3, nu, tau,
-                                                         options.repeats));
+  for (double nu : ratios)
+    costs.push_back(explicit_cost(lattices[1], 10e3, nu, tau, options.repeats));
   for (std::size_t k = 0; k < nr; ++k) {
     const ExplicitCost& x = costs[k];
     const ExplicitCost& z = costs[0];
@@ -335,20 +329,21 @@ StudyResult run(const RunOptions& options) {
       " (the FEM) simulated with a smaller ν (the lattice; `solver.poisson_ratio_cap`, "
       "docs/scenes.md): the error the cap leaves and the time it saves (time per simulated "
       "second from the table above).";
-  capped.columns = {"ν simulated", "indentation vs FEM", "compression vs FEM",
-                    "bulge vs FEM (compression)", "time / simulated s", "× uncapped"};
+  capped.columns = {"ν simulated",        "indentation vs FEM",
+                    "compression vs FEM", "bulge vs FEM (compression)",
+                    "time / simulated s", "× uncapped"};
   for (std::size_t k = nr; k-- > 0;) {
     const double ind = solved[0][k].term.depth / solved[0][top].fem.depth - 1.0;
     const double cmp = solved[1][k].term.depth / solved[1][top].fem.depth - 1.0;
     const double blg = solved[1][k].term.bulge / solved[1][top].fem.bulge - 1.0;
     StudyRow r;
-    r.cells = {format_number(ratios[k], 2),
-               format_percent(ind),
-               format_percent(cmp),
-               format_percent(blg),
-               format_seconds(costs[k].per_simulated_second()),
-               format_number(costs[k].per_simulated_second() / costs[top].per_simulated_second(),
-                             3)};
+    r.cells = {
+        format_number(ratios[k], 2),
+        format_percent(ind),
+        format_percent(cmp),
+        format_percent(blg),
+        format_seconds(costs[k].per_simulated_second()),
+        format_number(costs[k].per_simulated_second() / costs[top].per_simulated_second(), 3)};
     r.errors = {{"indentation_vs_fem", ind}, {"compression_vs_fem", cmp}, {"bulge_vs_fem", blg}};
     r.times_s = {{"per_simulated_second", costs[k].per_simulated_second()}};
     capped.rows.push_back(r);
@@ -366,8 +361,8 @@ StudyResult run(const RunOptions& options) {
       "with symmetry planes: the same problem, 8× the cells per volume); the plain trilinear "
       "element (full integration) shows what locking looks like. Depth and bulge as above, "
       "relative to the reference on the lattice's cells.";
-  reference_check.columns = {"load",  "element",       "cells",     "depth",
-                             "vs reference", "bulge", "vs reference", "solve"};
+  reference_check.columns = {"load",         "element", "cells",        "depth",
+                             "vs reference", "bulge",   "vs reference", "solve"};
   struct FemVariant {
     const char* name;
     reference::HexFormulation formulation;
@@ -426,10 +421,10 @@ StudyResult run(const RunOptions& options) {
   const StudyRow& bulge49 = bulge.rows[nr + k49];
   const StudyRow& cost45 = cost.rows[k45];
   const StudyRow& cost49 = cost.rows[k49];
-  out.key_rows.push_back({"Poisson ratio ν = 0.45 with the volumetric term, indentation vs FEM",
-                          ind45.cells[6] + " (springs alone " + ind45.cells[4] + ")",
-                          cost45.cells[7] + " per simulated s (" + cost45.cells[8] +
-                              " × the springs alone)"});
+  out.key_rows.push_back(
+      {"Poisson ratio ν = 0.45 with the volumetric term, indentation vs FEM",
+       ind45.cells[6] + " (springs alone " + ind45.cells[4] + ")",
+       cost45.cells[7] + " per simulated s (" + cost45.cells[8] + " × the springs alone)"});
   out.key_rows.push_back({"Poisson ratio ν = 0.49 with the volumetric term, compression vs FEM",
                           cmp49.cells[6] + " (springs alone " + cmp49.cells[4] + ")",
                           cost49.cells[7] + " per simulated s (" + cost49.cells[8] + " ×)"});

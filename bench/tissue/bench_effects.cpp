@@ -96,7 +96,9 @@ std::vector<Variant> variants() {
           {"tearing + node masking", mask},
           {"animation (rest keyframes)", animation},
           {"volumetric term (ν = 0.45)", {}, Variant::Palette::kNone, 0.45},
-          {"volumetric term, layered palette (ν = 0.45, 0.4, 0.45)", {}, Variant::Palette::kLayers,
+          {"volumetric term, layered palette (ν = 0.45, 0.4, 0.45)",
+           {},
+           Variant::Palette::kLayers,
            0.45},
           {"all, with layered palette", all, Variant::Palette::kLayers}};
 }
@@ -237,7 +239,7 @@ int main(int argc, char** argv) {
       double dt = solvers.front()->stable_dt();  // the same dt for every variant: the smallest
       for (auto& s : solvers) dt = std::min(dt, s->stable_dt());  // half stable step of any
       dt *= 0.5;
-      for (auto& s : solvers) s->step(steps, dt);            // warm-up: graphs, caches, pages
+      for (auto& s : solvers) s->step(steps, dt);  // warm-up: graphs, caches, pages
       std::vector<std::vector<double>> times(all.size());
       for (int r = 0; r < reps; ++r)
         for (std::size_t i = 0; i < all.size(); ++i)

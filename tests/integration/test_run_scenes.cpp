@@ -205,14 +205,16 @@ TEST(RunSceneRobustness, MaterialLibraryErrorsNameTheKeyPath) {
       << r.output;
   // ν needs its source: a citation's first author or "assumed: why".
   text = read_text(test::source_dir() / "materials" / "tissues.yaml");
-  const std::string nu_source = "    poisson_ratio_source: \"assumed: nearly incompressible adipose";
+  const std::string nu_source =
+      "    poisson_ratio_source: \"assumed: nearly incompressible adipose";
   const auto line = text.find(nu_source);
   ASSERT_NE(line, std::string::npos);
-  text.replace(line, nu_source.size(), "    poisson_ratio_source: \"guessed: nearly incompressible adipose");
+  text.replace(line, nu_source.size(),
+               "    poisson_ratio_source: \"guessed: nearly incompressible adipose");
   std::ofstream(dir / "bad-nu.yaml") << text;
-  const CommandResult nu = run_command(
-      exe.string() + " run --materials --library " + (dir / "bad-nu.yaml").string(),
-      dir / "log-nu.txt");
+  const CommandResult nu =
+      run_command(exe.string() + " run --materials --library " + (dir / "bad-nu.yaml").string(),
+                  dir / "log-nu.txt");
   EXPECT_NE(nu.status, 0);
   EXPECT_NE(nu.output.find("materials.fat.poisson_ratio_source"), std::string::npos) << nu.output;
 }

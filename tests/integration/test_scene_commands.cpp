@@ -239,9 +239,9 @@ TEST(SceneKeysByCommand, APoissonRatioRunsTheVolumetricTermInEveryCommand) {
   TSF_NEED_EXE();
   for (Cmd c : commands()) {
     std::string scene = scene_text("", tools_for(c));
-    for (const auto& [from, to] :
-         {std::pair<std::string, std::string>{"density: 0.001}", "density: 0.001, poisson_ratio: 0.45}"},
-          {"dt: auto}", "dt: auto, poisson_ratio_cap: 0.4}"}})
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{
+                                       "density: 0.001}", "density: 0.001, poisson_ratio: 0.45}"},
+                                   {"dt: auto}", "dt: auto, poisson_ratio_cap: 0.4}"}})
       scene.replace(scene.find(from), from.size(), to);
     const Outcome o = run_scene(c, scene, "poisson");
     ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
@@ -257,8 +257,7 @@ TEST(SceneKeysByCommand, APoissonRatioRunsTheVolumetricTermInEveryCommand) {
   bad.replace(bad.find("density: 0.001}"), 15, "density: 0.001, poisson_ratio: 0.5}");
   const Outcome o = run_scene(Cmd::kSimulate, bad, "poisson-bad");
   EXPECT_NE(o.process.status, 0);
-  EXPECT_NE(o.process.output.find("material.poisson_ratio"), std::string::npos)
-      << o.process.output;
+  EXPECT_NE(o.process.output.find("material.poisson_ratio"), std::string::npos) << o.process.output;
 }
 
 TEST(SceneKeysByCommand, KeysACommandCannotHonourAreRefusedByName) {

@@ -180,8 +180,7 @@ inline void with_parity_loads(Solver& s, unsigned combo) {
 }
 
 /// A material with Poisson ratio ν (the volumetric term on): E = 10 kPa unless given.
-inline Material poisson_material(double nu, double youngs_pa = 10e3,
-                                 double damping_time_s = 2e-4) {
+inline Material poisson_material(double nu, double youngs_pa = 10e3, double damping_time_s = 2e-4) {
   Material m = soft_material(youngs_pa, damping_time_s);
   m.poisson_ratio = nu;
   return m;

@@ -371,10 +371,12 @@ TEST(CrmsEffects, CpuAndCudaAgreeWithTheVolumetricTerm) {
     for (std::int64_t n = 0; n < l.node_count(); ++n) {
       const double x = l.geometry().rest_position(n).x;
       if (x > 4.6) l.set_material(n, 1);
-      if (std::fabs(x - 4.5) < 0.1) l.set_material(n, make_material_blend({0, 1, 0, 0}, {0.5, 0.5, 0, 0}));
+      if (std::fabs(x - 4.5) < 0.1)
+        l.set_material(n, make_material_blend({0, 1, 0, 0}, {0.5, 0.5, 0, 0}));
     }
     SolverConfig c = config_for(backend, 5e-4);
-    c.materials = {test::poisson_material(0.45, 10e3, 5e-4), test::poisson_material(0.3, 30e3, 5e-4)};
+    c.materials = {test::poisson_material(0.45, 10e3, 5e-4),
+                   test::poisson_material(0.3, 30e3, 5e-4)};
     c.effects.tearing.enabled = true;
     c.effects.tearing.strain_threshold = 0.4;
     c.effects.anisotropy.enabled = true;

@@ -2,8 +2,9 @@
 // kernels apply is minus the gradient of the energy the solver reports, by central finite
 // differences, for the core elastic term (both angular forms, symmetric reactions) and for each
 // effect that has an energy (anisotropy, plasticity's rest offsets, fluid, the volumetric term of a
-// material with ν > 0; effect_energy.h, effect_physics.h and volume_term.h). An energy whose gradient is not the force would let the energy balance of
-// the stability monitor pass a run that gains energy, or fail one that does not.
+// material with ν > 0; effect_energy.h, effect_physics.h and volume_term.h). An energy whose
+// gradient is not the force would let the energy balance of the stability monitor pass a run that
+// gains energy, or fail one that does not.
 #include <gtest/gtest.h>
 
 #include <cmath>

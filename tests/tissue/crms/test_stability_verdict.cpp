@@ -3,7 +3,8 @@
 // beyond what was put in (the monitor's balance, threshold StabilityThresholds::energy_gain); the
 // negative cases (a step 5.6× the estimate, the undamped gather form) must be reported
 // unstable. Every case runs on the CPU and, where a device exists, on CUDA (the CUDA variants
-// skip without one), with the springs alone and with the volumetric term (ν = 0.45). Each prints one row of the table in docs/stability.md:
+// skip without one), with the springs alone and with the volumetric term (ν = 0.45). Each prints
+// one row of the table in docs/stability.md:
 //   build/tests/tsf_tissue_tests --gtest_filter='*CrmsHardCases*'
 // The 10⁶-step run is disabled by default (minutes on the CPU):
 //   build/tests/tsf_tissue_tests --gtest_filter='*MillionSteps*' --gtest_also_run_disabled_tests
@@ -64,9 +65,8 @@ StabilitySummary run_case(const char* name, Solver& s, int frames, int steps, do
   if (nu > 0) std::snprintf(with_nu, sizeof with_nu, ", ν = %.2f", nu);
   std::printf("| %s%s | %s | %lld | %.2f | %s | %.3g%% | %.3g%% | %.2f | %.3g | %.3g |\n", name,
               with_nu, s.on_cuda() ? "cuda" : "cpu", static_cast<long long>(r.steps),
-              r.dt_max_over_stable,
-              to_string(r.verdict), 100 * r.gain_fraction, 100 * r.max_limit_fraction,
-              r.max_period2, r.work_in_nj, r.dissipated_nj);
+              r.dt_max_over_stable, to_string(r.verdict), 100 * r.gain_fraction,
+              100 * r.max_limit_fraction, r.max_period2, r.work_in_nj, r.dissipated_nj);
   return r;
 }
 StabilitySummary run_case(const char* name, Solver& s, int frames, int steps, double dt) {

@@ -115,30 +115,30 @@ TEST(CrmsStableTimeStep, SymplecticEulerIsBoundedBelowAndDivergesWellAbove) {
   // the highest mode; 30% above it the highest mode grows until the guard or the limits act.
   // The springs alone, and with the volumetric term of ν = 0.45.
   for (double nu : {0.0, 0.45}) {
-  SolverConfig c;
-  c.backend = Backend::kCpu;
-  c.materials = {test::poisson_material(nu, 10e3, 0.0)};
-  c.stability.velocity_limit = 0;
-  Solver s(box({6, 6, 6}, 1), c);
-  const double omega = std::sqrt(measured_omega_max_sq(s));
-  std::vector<Vec3f> u(static_cast<std::size_t>(s.lattice().node_count())), v(u.size());
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> jitter(-0.01f, 0.01f);
-  for (auto& q : u) q = {jitter(rng), jitter(rng), jitter(rng)};
-  s.set_state(u, v);
-  const double e0 = s.energy().total_nj();
-  const double dt = 0.95 * s.stable_dt();
-  const auto below = test::run_recording_energy(s, 20, 500, dt);
-  // Symplectic Euler conserves a modified energy; the sampled energy of a mode oscillates within
-  // 1/(1 − (ω·dt/2)²) of it (harmonic oscillator), so that, not 1, is the bound.
-  const double q = omega * dt / 2;
-  EXPECT_TRUE(test::assert_energy_bounded(below, 1.1 * e0 / (1 - q * q))) << "ν = " << nu;
+    SolverConfig c;
+    c.backend = Backend::kCpu;
+    c.materials = {test::poisson_material(nu, 10e3, 0.0)};
+    c.stability.velocity_limit = 0;
+    Solver s(box({6, 6, 6}, 1), c);
+    const double omega = std::sqrt(measured_omega_max_sq(s));
+    std::vector<Vec3f> u(static_cast<std::size_t>(s.lattice().node_count())), v(u.size());
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> jitter(-0.01f, 0.01f);
+    for (auto& q : u) q = {jitter(rng), jitter(rng), jitter(rng)};
+    s.set_state(u, v);
+    const double e0 = s.energy().total_nj();
+    const double dt = 0.95 * s.stable_dt();
+    const auto below = test::run_recording_energy(s, 20, 500, dt);
+    // Symplectic Euler conserves a modified energy; the sampled energy of a mode oscillates within
+    // 1/(1 − (ω·dt/2)²) of it (harmonic oscillator), so that, not 1, is the bound.
+    const double q = omega * dt / 2;
+    EXPECT_TRUE(test::assert_energy_bounded(below, 1.1 * e0 / (1 - q * q))) << "ν = " << nu;
 
-  Solver t(box({6, 6, 6}, 1), c);
-  t.set_state(u, v);
-  const auto above = test::run_recording_energy(t, 20, 500, 1.3 * 2.0 / omega);
-  const bool blew_up = t.instability().has_value() || !(above.back() < 1e6 * e0);
-  EXPECT_TRUE(blew_up) << "ν = " << nu << ": energy " << above.back() << " from " << e0;
+    Solver t(box({6, 6, 6}, 1), c);
+    t.set_state(u, v);
+    const auto above = test::run_recording_energy(t, 20, 500, 1.3 * 2.0 / omega);
+    const bool blew_up = t.instability().has_value() || !(above.back() < 1e6 * e0);
+    EXPECT_TRUE(blew_up) << "ν = " << nu << ": energy " << above.back() << " from " << e0;
   }
 }
 

@@ -53,8 +53,8 @@ Uniaxial uniaxial_bar(double nu, int n) {
   const auto top = nodes_where(s.lattice(), [&](Vec3d p) { return p.z > length - 1; });
   const double stress = 0.01 * 20e3;
   s.set_external_forces(
-      top, std::vector<Vec3f>(top.size(), Vec3f{0, 0, static_cast<float>(stress * side * side /
-                                                                       top.size())}));
+      top, std::vector<Vec3f>(top.size(),
+                              Vec3f{0, 0, static_cast<float>(stress * side * side / top.size())}));
   solve_static(s);
   const auto u = s.displacements();
   auto mean = [&](auto pred, int axis) {
@@ -146,7 +146,8 @@ TEST(CrmsVolumeTerm, BlockUnderPressureMatchesTheFemOnTheSameCells) {
                std::fabs(p.y - 8) < patch / 2;
       });
       reference::LatticeHexMesh twin = reference::hex_mesh_from_lattice(l);
-      reference::FemHexModel fem(std::move(twin.mesh), {reference::ElasticMaterial{10e3, nu, 1e-3}});
+      reference::FemHexModel fem(std::move(twin.mesh),
+                                 {reference::ElasticMaterial{10e3, nu, 1e-3}});
       for (std::int64_t c : twin.anchored_cells) fem.fix_cell_nodes(c);
       const double lo = 8 - patch / 2 - 1e-9, hi = 8 + patch / 2 + 1e-9;
       fem.add_face_traction(5, {0, 0, -100}, {lo, lo, 8 - 1e-9}, {hi, hi, 8 + 1e-9});
@@ -203,8 +204,8 @@ TEST(CrmsVolumeTerm, ZeroPoissonRatioIsNoTermAndTheTermReportsItsBytes) {
 TEST(CrmsVolumeTerm, CalibrationSplitsTheModulusIntoSpringsAndLambda) {
   Material m = poisson_material(0.45, 10e3, 1e-3);
   const SpringConstants s = calibrate_springs(m, {1, 1, 1}, true);
-  EXPECT_NEAR(s.ks_linear[0], 10e3 / 1.45, 1e-2);           // E_s = E/(1 + ν) = 2μ
-  EXPECT_NEAR(s.k_angular[0], 0.25 * 10e3 / 2.9, 1e-2);     // G = μ, kθ = G·V/4
+  EXPECT_NEAR(s.ks_linear[0], 10e3 / 1.45, 1e-2);            // E_s = E/(1 + ν) = 2μ
+  EXPECT_NEAR(s.k_angular[0], 0.25 * 10e3 / 2.9, 1e-2);      // G = μ, kθ = G·V/4
   EXPECT_NEAR(s.kd_linear[0] / s.ks_linear[0], 1e-3, 1e-9);  // τ kept
   const VolumeParameters v = calibrate_volume({m});
   EXPECT_NEAR(v.lambda[0], 10e3 * 0.45 / (1.45 * 0.1), 1e-1);

@@ -34,8 +34,8 @@ double effects_elastic_energy_nj(const LatticeGeometry& g, const EffectEnergyInp
                                  const EffectParameters& p,
                                  const std::vector<RestOffsets>& rest_offsets,
                                  double bulk_modulus_pa) {
-  if ((p.enabled & (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) ==
-      0)
+  if ((p.enabled &
+       (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) == 0)
     return 0.0;
   const auto count = static_cast<std::size_t>(g.node_count());
   std::vector<float> soa[3], zero(count, 0.0f);

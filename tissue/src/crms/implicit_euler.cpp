@@ -57,9 +57,9 @@ struct Block {
 /// The volumetric term at the trial state (u, v): each free node's force (µN, added to
 /// `force`) and the Jacobian blocks −dt·∂f/∂v − dt²·∂f/∂u between free corners of each cube.
 void add_volume_term(const LatticeView& lat, const VolumeParameters& vp,
-                     const std::vector<double>* u,
-                     const std::vector<double>* v, const std::vector<std::int64_t>& free_index,
-                     double dt, std::vector<double>* force, std::vector<Block>& blocks) {
+                     const std::vector<double>* u, const std::vector<double>* v,
+                     const std::vector<std::int64_t>& free_index, double dt,
+                     std::vector<double>* force, std::vector<Block>& blocks) {
   using D = Dual<48>;  // seeds: corner q's u at 6q..6q+2, its v at 6q+3..6q+5
   const double v0 = static_cast<double>(lat.rest_length[0]) *
                     static_cast<double>(lat.rest_length[1]) *

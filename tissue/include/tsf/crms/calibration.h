@@ -47,8 +47,8 @@ namespace tsf::crms {
 constexpr double kMaxPoissonRatio = 0.499;
 
 struct Material {
-  double youngs_modulus_pa = 10e3;    ///< E, Pa (= g/(mm·s²)); documented range [1, 1e11]
-  double shear_modulus_pa = 0.0;      ///< G, Pa; 0 = E/(2(1 + ν)) (isotropic); range (0, 10·E]
+  double youngs_modulus_pa = 10e3;  ///< E, Pa (= g/(mm·s²)); documented range [1, 1e11]
+  double shear_modulus_pa = 0.0;    ///< G, Pa; 0 = E/(2(1 + ν)) (isotropic); range (0, 10·E]
   /// ν, range [0, 0.499]; > 0 switches the volumetric term on for this material (an effect:
   /// ν = 0 costs nothing) and softens the springs to E/(1 + ν) (see header).
   double poisson_ratio = 0.0;

@@ -97,8 +97,8 @@ struct EffectArrays {
 
 /// Scalars of the effect passes, by value to kernels.
 struct EffectParameters {
-  unsigned enabled = 0;  ///< effect_bits
-  float dt = 0;          ///< s
+  unsigned enabled = 0;    ///< effect_bits
+  float dt = 0;            ///< s
   bool symplectic = true;  ///< the kick also moves positions (symplectic Euler; not explicit Euler)
   float velocity_limit = 0;  ///< mm/s, the core step's (0: none)
   bool heterogeneous = false;
@@ -267,9 +267,8 @@ TSF_HD_INLINE Vec3f effect_force(const LatticeView& lat, const ConstStateView& s
 /// force of passes 1–2 (the force pass's effect force and the volumetric term's cube forces):
 /// v += dt·F/m, and with symplectic Euler u += dt²·F/m (the position update the core step made
 /// with its own part of v). Fixed and dead nodes are left as they are.
-TSF_HD_INLINE void kick_node(const LatticeView& lat, const StateView& s,
-                             const EffectArrays& arrays, const EffectParameters& p,
-                             std::int64_t n, int i, int j, int k) {
+TSF_HD_INLINE void kick_node(const LatticeView& lat, const StateView& s, const EffectArrays& arrays,
+                             const EffectParameters& p, std::int64_t n, int i, int j, int k) {
   const bool moving = (lat.flags[n] & (kAliveBit | kFixedBit)) == kAliveBit;
   if (!moving) return;
   Vec3f f{0.0f, 0.0f, 0.0f};
@@ -286,7 +285,6 @@ TSF_HD_INLINE void kick_node(const LatticeView& lat, const StateView& s,
   if (p.symplectic)
     for (int a = 0; a < 3; ++a) s.u[a][n] += p.dt * (after[a] - before[a]);
 }
-
 
 /// Pass 5, plasticity: node n's 3 springs towards +axis (their offsets live at n).
 TSF_HD_INLINE void update_plastic_offsets(const LatticeView& lat, const ConstStateView& s,

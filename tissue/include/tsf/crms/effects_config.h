@@ -5,9 +5,9 @@
 // evaluate the effects' forces on the state it reads, a "kick" pass after it adds them to the
 // state it wrote (v += dt·F_effects/m and, symplectic, u += dt²·F_effects/m: exactly the update
 // those forces would have had inside the core step), and an "update" pass advances the effects'
-// own state (plastic rest offsets, fluid content, torn links). An effect that is off launches no pass and
-// allocates no array: the core kernels and their compiled feature sets (effects.h) are the same
-// with or without effects, so adding an effect adds no kernel instantiations.
+// own state (plastic rest offsets, fluid content, torn links). An effect that is off launches no
+// pass and allocates no array: the core kernels and their compiled feature sets (effects.h) are the
+// same with or without effects, so adding an effect adds no kernel instantiations.
 //
 // Units: mm, g, s; stiffness as Pa (like Young's modulus), rates in 1/s, strains dimensionless.
 #pragma once

@@ -16,8 +16,8 @@
 //                      unconditionally unstable (dt = 0).
 // The minimum over nodes and axes is reported, with the node that sets it.
 //
-// Volumetric term (materials with ν > 0, volume_term.h): its stiffness at rest, Σ_c k_c/V0·g_c g_cᵀ,
-// couples the three components (a lone cube's top mode is its breathing mode), so the
+// Volumetric term (materials with ν > 0, volume_term.h): its stiffness at rest, Σ_c k_c/V0·g_c
+// g_cᵀ, couples the three components (a lone cube's top mode is its breathing mode), so the
 // checkerboard alone underestimates it on thin parts. Its M⁻¹K has the eigenvalues of the cubes'
 // Gram matrix S_cd = √(k_c·k_d)/V0·Σ_{n ∈ c∩d} g_cn·g_dn/m_n, and Gershgorin's row of S bounds the
 // term's top mode: each node takes the largest row among its cubes (6·λ·h/m inside a uniform

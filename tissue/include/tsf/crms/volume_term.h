@@ -75,8 +75,8 @@ TSF_HD_INLINE bool cube_intact(const LatticeView& lat, int i, int j, int k) {
 /// corners' displacements.
 template <class S>
 struct CubeShape {
-  S strain;           ///< J − 1 = (V − V0)/V0, without cancellation
-  Vec3<S> face[3];    ///< ∂V/∂x_q = Σ_a s_a·face[a]
+  S strain;         ///< J − 1 = (V − V0)/V0, without cancellation
+  Vec3<S> face[3];  ///< ∂V/∂x_q = Σ_a s_a·face[a]
   TSF_HD_INLINE Vec3<S> gradient(int q) const {
     const S one(1);
     return face[0] * ((q & 1) ? one : -one) + face[1] * (((q >> 1) & 1) ? one : -one) +
@@ -169,8 +169,8 @@ TSF_HD_INLINE void cube_moduli(const LatticeView& lat, const VolumeParameters& p
 /// The cube pass: for the cube with lower corner c = (i, j, k), terms[a] = π·face[a] (µN; the
 /// force on corner q is Σ_a s_a·terms[a]); zeros when the cube is not intact or has no term.
 TSF_HD_INLINE void cube_volume_terms(const LatticeView& lat, const ConstStateView& s,
-                                     const VolumeParameters& p, std::int64_t c, int i, int j,
-                                     int k, Vec3f terms[3]) {
+                                     const VolumeParameters& p, std::int64_t c, int i, int j, int k,
+                                     Vec3f terms[3]) {
   terms[0] = terms[1] = terms[2] = Vec3f{0.0f, 0.0f, 0.0f};
   if (!cube_intact(lat, i, j, k)) return;
   float stiffness = 0.0f, damping = 0.0f;
