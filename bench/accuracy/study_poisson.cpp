@@ -270,6 +270,7 @@ StudyResult run(const RunOptions& options) {
                  format_number(s.term.bulge, 3) + " mm",
                  measurable ? format_percent(e) : "— (no bulge)"};
       if (measurable) r.errors = {{"term_bulge_vs_fem", e}};
+      r.times_s = {{"lattice_solve", s.lattice_s}};  // a row without a bulge still has its solve
       bulge.rows.push_back(r);
       if (measurable && c == 1) bulge_series.points.push_back({ratios[k], 100.0 * e, ""});
     }

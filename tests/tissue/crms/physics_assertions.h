@@ -202,10 +202,7 @@ inline std::vector<Vec3f> volume_forces(const Solver& s) {
   }
   for (std::size_t n = 0; n < count; ++n) {
     const Int3 c = g.coordinates(static_cast<std::int64_t>(n));
-    Vec3f t[3];
-    cube_volume_terms(lat, st, vp, static_cast<std::int64_t>(n), c.x, c.y, c.z, t);
-    for (int f = 0; f < 3; ++f)
-      for (int a = 0; a < 3; ++a) terms[3 * f + a][n] = t[f][a];
+    cube_volume_terms(lat, st, vp, static_cast<std::int64_t>(n), c.x, c.y, c.z, pointers);
   }
   std::vector<Vec3f> force(count);
   for (std::size_t n = 0; n < count; ++n) {

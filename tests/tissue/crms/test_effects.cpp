@@ -323,30 +323,38 @@ TEST(CrmsEffects, EveryEffectTimeStepAboveTheEstimateStaysFinite) {
     }
 }
 
+/// One backend's run of the CPU/CUDA parity tests: the block (anchored at x = 0, gravity) stretched
+/// at its far end, 1000 steps at half the stable step.
+struct ParityRun {
+  std::vector<Vec3f> positions;
+  std::int64_t torn = 0;
+  EffectsState effects;
+  double elastic_nj = 0;
+};
+ParityRun parity_run(Lattice l, SolverConfig c) {
+  fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
+  c.gravity = {0, 0, -9810};
+  Solver s(std::move(l), c);
+  deform(s, test::stretch_far_end_compress_rest);
+  s.step(1000, 0.5 * s.stable_dt());
+  EXPECT_TRUE(assert_finite(s)) << to_string(c.backend);
+  return {s.positions(), s.torn_springs(), s.effects_state(), s.energy().elastic_nj};
+}
+
 TEST(CrmsEffects, CpuAndCudaAgreeWithAllEffectsOn) {
   if (!cuda_status().available) GTEST_SKIP() << "no CUDA device: " << cuda_status().reason;
   EffectsConfig e = effect_sets()[4];
   e.tearing.strain_threshold = 0.4;
-  std::vector<std::vector<Vec3f>> result;
-  std::vector<std::int64_t> torn;
-  std::vector<EffectsState> states;
+  std::vector<ParityRun> runs;
   for (Backend backend : {Backend::kCpu, Backend::kCuda}) {
-    Lattice l = box({8, 6, 5}, 1);
-    fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
     SolverConfig c = config_for(backend, 5e-4);
     c.effects = e;
-    c.gravity = {0, 0, -9810};
-    Solver s(std::move(l), c);
-    deform(s, test::stretch_far_end_compress_rest);
-    s.step(1000, 0.5 * s.stable_dt());
-    ASSERT_TRUE(assert_finite(s));
-    result.push_back(s.positions());
-    torn.push_back(s.torn_springs());
-    states.push_back(s.effects_state());
+    runs.push_back(parity_run(box({8, 6, 5}, 1), c));
   }
-  EXPECT_EQ(torn[0], torn[1]);
-  EXPECT_GT(torn[0], 0);
-  EXPECT_TRUE(test::assert_same_positions(result[0], result[1], 1e-4));
+  EXPECT_EQ(runs[0].torn, runs[1].torn);
+  EXPECT_GT(runs[0].torn, 0);
+  EXPECT_TRUE(test::assert_same_positions(runs[0].positions, runs[1].positions, 1e-4));
+  const EffectsState states[2] = {runs[0].effects, runs[1].effects};
   double p_scale = 0, p_worst = 0;
   for (std::size_t n = 0; n < states[0].fluid_pressure.size(); ++n) {
     p_scale = std::max(p_scale, static_cast<double>(std::abs(states[0].fluid_pressure[n])));
@@ -362,12 +370,9 @@ TEST(CrmsEffects, CpuAndCudaAgreeWithTheVolumetricTerm) {
   // the term's cube pass and kick, with tearing (a cube loses its term as soon as one of its
   // edges tears) and anisotropy (the effect-force array beside the term's forces).
   if (!cuda_status().available) GTEST_SKIP() << "no CUDA device: " << cuda_status().reason;
-  std::vector<std::vector<Vec3f>> result;
-  std::vector<std::int64_t> torn;
-  std::vector<double> energy;
+  std::vector<ParityRun> runs;
   for (Backend backend : {Backend::kCpu, Backend::kCuda}) {
     Lattice l = box({8, 6, 5}, 1);
-    fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
     for (std::int64_t n = 0; n < l.node_count(); ++n) {
       const double x = l.geometry().rest_position(n).x;
       if (x > 4.6) l.set_material(n, 1);
@@ -382,19 +387,12 @@ TEST(CrmsEffects, CpuAndCudaAgreeWithTheVolumetricTerm) {
     c.effects.anisotropy.enabled = true;
     c.effects.anisotropy.axis = {0, 1, 1};
     c.effects.anisotropy.stiffness_factor = 2;
-    c.gravity = {0, 0, -9810};
-    Solver s(std::move(l), c);
-    deform(s, test::stretch_far_end_compress_rest);
-    s.step(1000, 0.5 * s.stable_dt());
-    ASSERT_TRUE(assert_finite(s));
-    result.push_back(s.positions());
-    torn.push_back(s.torn_springs());
-    energy.push_back(s.energy().elastic_nj);
+    runs.push_back(parity_run(std::move(l), c));
   }
-  EXPECT_EQ(torn[0], torn[1]);
-  EXPECT_GT(torn[0], 0);
-  EXPECT_TRUE(test::assert_same_positions(result[0], result[1], 1e-4));
-  EXPECT_NEAR(energy[0], energy[1], 1e-3 * std::fabs(energy[0]));
+  EXPECT_EQ(runs[0].torn, runs[1].torn);
+  EXPECT_GT(runs[0].torn, 0);
+  EXPECT_TRUE(test::assert_same_positions(runs[0].positions, runs[1].positions, 1e-4));
+  EXPECT_NEAR(runs[0].elastic_nj, runs[1].elastic_nj, 1e-3 * std::fabs(runs[0].elastic_nj));
 }
 
 TEST(CrmsEffects, DisabledEffectsAllocateNothingAndChangeNothing) {

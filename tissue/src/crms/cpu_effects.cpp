@@ -71,13 +71,7 @@ class CpuEffects final : public EffectsEngine {
     switch (pass) {
       case EffectPass::kVolumeTerms:
         for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
-          Vec3f t[3];
-          cube_volume_terms(lat, s, p.volume, n, i, j, k, t);
-          for (int f = 0; f < 3; ++f) {
-            a.volume_terms[3 * f + 0][n] = t[f].x;
-            a.volume_terms[3 * f + 1][n] = t[f].y;
-            a.volume_terms[3 * f + 2][n] = t[f].z;
-          }
+          cube_volume_terms(lat, s, p.volume, n, i, j, k, a.volume_terms);
         });
         break;
       case EffectPass::kCubePressure:

@@ -52,13 +52,7 @@ __global__ void volume_terms_kernel(LatticeView lat, ConstStateView s, EffectArr
   std::int64_t n;
   int i, j, k;
   if (!node_of_thread(lat, n, i, j, k)) return;
-  Vec3f t[3];
-  cube_volume_terms(lat, s, p.volume, n, i, j, k, t);
-  for (int f = 0; f < 3; ++f) {
-    a.volume_terms[3 * f + 0][n] = t[f].x;
-    a.volume_terms[3 * f + 1][n] = t[f].y;
-    a.volume_terms[3 * f + 2][n] = t[f].z;
-  }
+  cube_volume_terms(lat, s, p.volume, n, i, j, k, a.volume_terms);
 }
 
 __global__ void kick_kernel(LatticeView lat, StateView s, EffectArrays a, EffectParameters p) {

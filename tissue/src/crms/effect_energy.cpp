@@ -7,18 +7,9 @@ namespace tsf::crms {
 
 double volume_energy_nj(const LatticeView& lat, const ConstStateView& st,
                         const VolumeParameters& p) {
-  const double v0 = static_cast<double>(lat.rest_length[0]) *
-                    static_cast<double>(lat.rest_length[1]) *
-                    static_cast<double>(lat.rest_length[2]);
+  const double v0 = cube_rest_volume(lat);
   double energy = 0.0;
-  for (std::int64_t c = 0; c < lat.count; ++c) {
-    const std::int64_t rem = c % lat.stride_z;
-    const int i = static_cast<int>(rem % lat.stride_y), j = static_cast<int>(rem / lat.stride_y);
-    const int k = static_cast<int>(c / lat.stride_z);
-    if (!cube_intact(lat, i, j, k)) continue;
-    float stiffness = 0.0f, damping = 0.0f;
-    cube_moduli(lat, p, c, stiffness, damping);
-    if (!(stiffness > 0.0f)) continue;
+  for_each_volume_cube(lat, p, [&](std::int64_t c, int, int, int, float stiffness, float) {
     Vec3d u[8];
     for (int q = 0; q < 8; ++q) {
       const std::int64_t m = cube_corner(lat, c, q);
@@ -26,7 +17,7 @@ double volume_energy_nj(const LatticeView& lat, const ConstStateView& st,
     }
     const CubeShape<double> shape = cube_shape(u, lat.rest_length);
     energy += static_cast<double>(stiffness) * v0 * volume_energy_shape(shape.strain);
-  }
+  });
   return energy;
 }
 

@@ -61,17 +61,8 @@ void add_volume_term(const LatticeView& lat, const VolumeParameters& vp,
                      const std::vector<std::int64_t>& free_index, double dt,
                      std::vector<double>* force, std::vector<Block>& blocks) {
   using D = Dual<48>;  // seeds: corner q's u at 6q..6q+2, its v at 6q+3..6q+5
-  const double v0 = static_cast<double>(lat.rest_length[0]) *
-                    static_cast<double>(lat.rest_length[1]) *
-                    static_cast<double>(lat.rest_length[2]);
-  for (std::int64_t c = 0; c < lat.count; ++c) {
-    const std::int64_t rem = c % lat.stride_z;
-    const int i = static_cast<int>(rem % lat.stride_y), j = static_cast<int>(rem / lat.stride_y);
-    const int k = static_cast<int>(c / lat.stride_z);
-    if (!cube_intact(lat, i, j, k)) continue;
-    float stiffness = 0.0f, damping = 0.0f;
-    cube_moduli(lat, vp, c, stiffness, damping);
-    if (!(stiffness > 0.0f)) continue;
+  const double v0 = cube_rest_volume(lat);
+  for_each_volume_cube(lat, vp, [&](std::int64_t c, int, int, int, float stiffness, float damping) {
     std::int64_t corner[8];
     bool any_free = false;
     Vec3<D> cu[8], cv[8];
@@ -85,7 +76,7 @@ void add_volume_term(const LatticeView& lat, const VolumeParameters& vp,
         cv[q][a].d[6 * q + 3 + a] = 1.0;
       }
     }
-    if (!any_free) continue;
+    if (!any_free) return;
     const CubeShape<D> shape = cube_shape(cu, lat.rest_length);
     D rate(0.0);
     for (int q = 0; q < 8; ++q) rate += dot(shape.gradient(q), cv[q]);
@@ -106,7 +97,7 @@ void add_volume_term(const LatticeView& lat, const VolumeParameters& vp,
         blocks.push_back(b);
       }
     }
-  }
+  });
 }
 
 template <unsigned F>

@@ -59,14 +59,10 @@ VolumeRows volume_rows(const Lattice& lattice, const VolumeParameters& vp) {
   // Each cube's stiffness and damping (0: no term).
   std::vector<double> cube_k(static_cast<std::size_t>(count), 0.0),
       cube_eta(static_cast<std::size_t>(count), 0.0);
-  for (std::int64_t c = 0; c < count; ++c) {
-    const Int3 ijk = g.coordinates(c);
-    if (!cube_intact(lat, ijk.x, ijk.y, ijk.z)) continue;
-    float k = 0.0f, eta = 0.0f;
-    cube_moduli(lat, vp, c, k, eta);
+  for_each_volume_cube(lat, vp, [&](std::int64_t c, int, int, int, float k, float eta) {
     cube_k[c] = k;
     cube_eta[c] = eta;
-  }
+  });
   const double v0 = g.spacing.x * g.spacing.y * g.spacing.z;
   auto free_node = [&](std::int64_t n) { return lattice.alive(n) && !lattice.fixed(n); };
   // Gershgorin on the cubes' Gram matrix S_cd = √(k_c·k_d)/V0·Σ_{n ∈ c∩d, free} g_cn·g_dn/m_n,

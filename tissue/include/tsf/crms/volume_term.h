@@ -166,32 +166,57 @@ TSF_HD_INLINE void cube_moduli(const LatticeView& lat, const VolumeParameters& p
   damping = any_zero || damping_zero ? 0.0f : 8.0f / inv_damping;
 }
 
-/// The cube pass: for the cube with lower corner c = (i, j, k), terms[a] = π·face[a] (µN; the
-/// force on corner q is Σ_a s_a·terms[a]); zeros when the cube is not intact or has no term.
+/// The cube pass: for the cube with lower corner c = (i, j, k), terms[3a + component][c] =
+/// (π·face[a])[component] (µN; the force on corner q is Σ_a s_a·π·face[a]); zeros when the cube is
+/// not intact or has no term.
 TSF_HD_INLINE void cube_volume_terms(const LatticeView& lat, const ConstStateView& s,
                                      const VolumeParameters& p, std::int64_t c, int i, int j, int k,
-                                     Vec3f terms[3]) {
-  terms[0] = terms[1] = terms[2] = Vec3f{0.0f, 0.0f, 0.0f};
-  if (!cube_intact(lat, i, j, k)) return;
+                                     float* const terms[9]) {
+  Vec3f t[3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};
   float stiffness = 0.0f, damping = 0.0f;
-  cube_moduli(lat, p, c, stiffness, damping);
-  if (!(stiffness > 0.0f)) return;
-  Vec3f u[8];
-  for (int q = 0; q < 8; ++q) {
-    const std::int64_t m = cube_corner(lat, c, q);
-    u[q] = {s.u[0][m], s.u[1][m], s.u[2][m]};
-  }
-  const CubeShape<float> shape = cube_shape(u, lat.rest_length);
-  float rate = 0.0f;  // J̇, read only when the term is damped
-  if (damping > 0.0f) {
+  if (cube_intact(lat, i, j, k)) cube_moduli(lat, p, c, stiffness, damping);
+  if (stiffness > 0.0f) {
+    Vec3f u[8];
     for (int q = 0; q < 8; ++q) {
       const std::int64_t m = cube_corner(lat, c, q);
-      rate += dot(shape.gradient(q), Vec3f{s.v[0][m], s.v[1][m], s.v[2][m]});
+      u[q] = {s.u[0][m], s.u[1][m], s.u[2][m]};
     }
-    rate /= lat.rest_length[0] * lat.rest_length[1] * lat.rest_length[2];
+    const CubeShape<float> shape = cube_shape(u, lat.rest_length);
+    float rate = 0.0f;  // J̇, read only when the term is damped
+    if (damping > 0.0f) {
+      for (int q = 0; q < 8; ++q) {
+        const std::int64_t m = cube_corner(lat, c, q);
+        rate += dot(shape.gradient(q), Vec3f{s.v[0][m], s.v[1][m], s.v[2][m]});
+      }
+      rate /= lat.rest_length[0] * lat.rest_length[1] * lat.rest_length[2];
+    }
+    const float pressure = volume_pressure(shape.strain, rate, stiffness, damping);
+    for (int a = 0; a < 3; ++a) t[a] = shape.face[a] * pressure;
   }
-  const float pressure = volume_pressure(shape.strain, rate, stiffness, damping);
-  for (int a = 0; a < 3; ++a) terms[a] = shape.face[a] * pressure;
+  for (int a = 0; a < 3; ++a)
+    for (int comp = 0; comp < 3; ++comp) terms[3 * a + comp][c] = t[a][comp];
+}
+
+/// Host loops over the cubes that carry the term (the energy, the implicit integrator's
+/// assembly, the stable-step bound): fn(c, i, j, k, stiffness, damping) for every intact cube with
+/// k > 0, c its lower corner.
+template <class Fn>
+inline void for_each_volume_cube(const LatticeView& lat, const VolumeParameters& p, Fn&& fn) {
+  for (std::int64_t c = 0; c < lat.count; ++c) {
+    const std::int64_t rem = c % lat.stride_z;
+    const int i = static_cast<int>(rem % lat.stride_y), j = static_cast<int>(rem / lat.stride_y);
+    const int k = static_cast<int>(c / lat.stride_z);
+    if (!cube_intact(lat, i, j, k)) continue;
+    float stiffness = 0.0f, damping = 0.0f;
+    cube_moduli(lat, p, c, stiffness, damping);
+    if (stiffness > 0.0f) fn(c, i, j, k, stiffness, damping);
+  }
+}
+
+/// V0 = h_x·h_y·h_z, mm³.
+inline double cube_rest_volume(const LatticeView& lat) {
+  return static_cast<double>(lat.rest_length[0]) * static_cast<double>(lat.rest_length[1]) *
+         static_cast<double>(lat.rest_length[2]);
 }
 
 /// The volumetric force on node n = (i, j, k), µN: Σ over its (up to 8) cubes of π·∂V/∂x_n from
