@@ -45,17 +45,21 @@ void print_materials(const RunArguments& a) {
   std::printf("Material library %s, lattice spacing h = %s mm (symmetric angular reactions).\n\n",
               lib.file.string().c_str(), g(a.spacing_mm).c_str());
   std::printf(
-      "| id | E (Pa) | τ = η/E (s) | ρ (g/mm³) | ν (lit.) | ks (µN) | kd (µN·s) | kθ (µN·mm/rad) "
-      "| cθ (µN·mm·s/rad) | node mass (g) | stable dt, symplectic (s) |\n"
-      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+      "| id | E (Pa) | τ = η/E (s) | ρ (g/mm³) | ν | ks (µN) | kd (µN·s) | kθ (µN·mm/rad) "
+      "| cθ (µN·mm·s/rad) | λ (Pa) | node mass (g) | stable dt, symplectic (s) | × the ν = 0 "
+      "step |\n"
+      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
+      "|\n");
   for (const LibraryMaterial& m : lib.materials) {
     const DerivedLatticeParameters d = derive_lattice_parameters(m, a.spacing_mm);
-    std::printf("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", m.id.c_str(),
-                g(m.youngs_modulus_pa).c_str(), g(m.damping_time_s).c_str(),
+    std::printf("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
+                m.id.c_str(), g(m.youngs_modulus_pa).c_str(), g(m.damping_time_s).c_str(),
                 g(m.density_g_per_mm3).c_str(), g(m.poisson_ratio).c_str(),
                 g(d.springs.ks_linear[0]).c_str(), g(d.springs.kd_linear[0]).c_str(),
                 g(d.springs.k_angular[0]).c_str(), g(d.springs.c_angular[0]).c_str(),
-                g(d.node_mass_g).c_str(), g(d.symplectic_stable_dt_s).c_str());
+                g(d.lame_lambda_pa).c_str(), g(d.node_mass_g).c_str(),
+                g(d.symplectic_stable_dt_s).c_str(),
+                g(d.symplectic_stable_dt_s / d.symplectic_stable_dt_nu0_s, 2).c_str());
   }
   if (lib.removal_rates.empty()) return;
   std::printf(

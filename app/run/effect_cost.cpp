@@ -18,6 +18,7 @@ using nlohmann::json;
 struct Configuration {
   std::string name;
   crms::EffectsConfig effects;
+  bool volumetric = false;  ///< the materials keep their ν (else ν = 0: no volumetric term)
   std::unique_ptr<crms::Solver> solver;
   std::vector<double> us_per_step;
   bool unstable = false;
@@ -46,23 +47,28 @@ json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCost
   require(options.seconds_per_repetition > 0, "effect cost: seconds_per_repetition must be > 0");
   require(dt > 0, "effect cost: the time step must be > 0");
   const crms::SolverConfig base = solver.config();
-  const std::vector<std::string> active = base.effects.active();
+  // The scene's effects and, for materials with ν > 0, the volumetric term ("volumetric").
+  const std::vector<std::string> active = solver.active_effects();
   std::vector<Configuration> configs;
-  configs.push_back({"off", crms::EffectsConfig{}, nullptr, {}, false});
-  configs.push_back({"off again (noise reference)", crms::EffectsConfig{}, nullptr, {}, false});
+  configs.push_back({"off", crms::EffectsConfig{}, false, nullptr, {}, false});
+  configs.push_back(
+      {"off again (noise reference)", crms::EffectsConfig{}, false, nullptr, {}, false});
   if (!active.empty()) {
     std::string all;
     for (const std::string& a : active) all += (all.empty() ? "" : " + ") + a;
-    configs.push_back({all, base.effects, nullptr, {}, false});
+    configs.push_back({all, base.effects, true, nullptr, {}, false});
     if (active.size() > 1)
       for (const std::string& a : active)
-        configs.push_back({a + " alone", only(base.effects, a), nullptr, {}, false});
+        configs.push_back(
+            {a + " alone", only(base.effects, a), a == "volumetric", nullptr, {}, false});
   }
   // Copies of the final lattice and state: the measurement never touches the run's solver.
   const std::vector<Vec3f> u = solver.displacements(), v = solver.velocities();
   for (Configuration& c : configs) {
     crms::SolverConfig cfg = base;
     cfg.effects = c.effects;
+    if (!c.volumetric)
+      for (crms::Material& m : cfg.materials) m.poisson_ratio = 0.0;
     c.solver = std::make_unique<crms::Solver>(crms::Lattice(solver.lattice()), cfg);
     c.solver->set_state(u, v);
   }
@@ -101,7 +107,7 @@ json measure_effect_cost(const crms::Solver& solver, double dt, const EffectCost
     const double m = median(c.us_per_step);
     spread = std::max(spread, (*hi - *lo) / std::max(m, 1e-12));
     rows.push_back({{"name", c.name},
-                    {"effects", c.effects.active()},
+                    {"effects", c.solver->active_effects()},
                     {"median_us_per_step", m},
                     {"min_us_per_step", *lo},
                     {"max_us_per_step", *hi},

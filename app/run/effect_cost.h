@@ -1,4 +1,5 @@
-// What the CRMS effects (tsf/crms/effects_config.h) cost on a scene's own lattice: after the
+// What the CRMS effects (tsf/crms/effects_config.h, and the volumetric term of materials with a
+// Poisson ratio: "off" runs them with ν = 0) cost on a scene's own lattice: after the
 // scripted run, `tsf run` steps copies of the final lattice and state with every effect off, with
 // every effect off again (the noise reference: two identical configurations), with the scene's
 // effects, and with each of the scene's effects alone, in interleaved repetitions so that drift

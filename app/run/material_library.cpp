@@ -17,6 +17,7 @@ crms::Material LibraryMaterial::crms_material() const {
   m.shear_modulus_pa = shear_modulus_pa;
   m.viscosity_pa_s = youngs_modulus_pa * damping_time_s;
   m.density_g_per_mm3 = density_g_per_mm3;
+  m.poisson_ratio = poisson_ratio;
   return m;
 }
 
@@ -92,7 +93,8 @@ MaterialLibrary read_material_library(const fs::path& file) {
   for (const std::string& id : list.keys()) {
     const YamlField f = list[id];
     f.expect_keys({"name", "label", "youngs_modulus_pa", "shear_modulus_pa", "damping_time_s",
-                   "density_g_per_mm3", "poisson_ratio", "sources", "notes"});
+                   "density_g_per_mm3", "poisson_ratio", "poisson_ratio_source", "sources",
+                   "notes"});
     for (char c : id)
       if (!(std::islower(static_cast<unsigned char>(c)) ||
             std::isdigit(static_cast<unsigned char>(c)) || c == '_'))
@@ -107,10 +109,29 @@ MaterialLibrary read_material_library(const fs::path& file) {
         f["shear_modulus_pa"].number(0.0, 0.0, 10.0 * m.youngs_modulus_pa, /*lo_open=*/true);
     m.damping_time_s = f["damping_time_s"].required().number(0, 0, 1.0);
     m.density_g_per_mm3 = f["density_g_per_mm3"].required().number(0, 1e-6, 1e-1);
-    m.poisson_ratio = f["poisson_ratio"].number(0.0, 0.0, 0.5);
+    m.poisson_ratio = f["poisson_ratio"].number(0.0, 0.0, crms::kMaxPoissonRatio);
     const YamlField sources = f["sources"].required();
     if (sources.size() == 0) sources.fail("needs at least one source (citation and reports)");
     m.sources = read_sources(sources);
+    if (f["poisson_ratio"].defined()) {
+      const YamlField src = f["poisson_ratio_source"];
+      if (!src.defined())
+        src.fail(
+            "is required with poisson_ratio: \"assumed: why\", or the first author of one "
+            "of the sources and what it reports about ν");
+      m.poisson_ratio_source = src.text();
+      auto first_word = [](const std::string& t) { return t.substr(0, t.find_first_of(" ,(:")); };
+      bool named = m.poisson_ratio_source.rfind("assumed", 0) == 0;
+      for (const MaterialSource& s : m.sources)
+        named = named || first_word(s.citation) == first_word(m.poisson_ratio_source);
+      if (!named)
+        src.fail(
+            "expected \"assumed: why\" or a text starting with the first author of one of "
+            "the sources, got '" +
+            m.poisson_ratio_source + "'");
+    } else if (f["poisson_ratio_source"].defined()) {
+      f["poisson_ratio_source"].fail("given without poisson_ratio");
+    }
     m.notes = f["notes"].text("");
     // The solver's own validation (ranges of E, G, η, ρ) as a last check, with this key path.
     try {
@@ -144,8 +165,12 @@ DerivedLatticeParameters derive_lattice_parameters(const LibraryMaterial& materi
   crms::SolverConfig config;
   config.backend = crms::Backend::kCpu;
   config.materials = {m};
-  const crms::Solver solver(crms::build_box_lattice(box), config);
-  d.symplectic_stable_dt_s = solver.stable_time_step().symplectic_euler_s;
+  d.lame_lambda_pa = m.lame_lambda_pa();
+  d.symplectic_stable_dt_s =
+      crms::Solver(crms::build_box_lattice(box), config).stable_time_step().symplectic_euler_s;
+  config.materials.front().poisson_ratio = 0.0;
+  d.symplectic_stable_dt_nu0_s =
+      crms::Solver(crms::build_box_lattice(box), config).stable_time_step().symplectic_euler_s;
   return d;
 }
 

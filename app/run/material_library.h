@@ -31,11 +31,15 @@ struct LibraryMaterial {
   double shear_modulus_pa = 0;   ///< G, Pa; 0 = E/2
   double damping_time_s = 0;     ///< τ = η/E, s
   double density_g_per_mm3 = 0;  ///< ρ
-  double poisson_ratio = 0;      ///< literature ν (the lattice's is 0)
+  /// ν: the lattice runs it with the volumetric term (docs/effects.md); 0 = the springs alone.
+  double poisson_ratio = 0;
+  /// Where ν comes from: "assumed: why", or a text starting with the first author of one of
+  /// `sources` and what it reports about ν (required with poisson_ratio).
+  std::string poisson_ratio_source;
   std::vector<MaterialSource> sources;
   std::string notes;
 
-  /// The CRMS material: E, G, η = E·τ, ρ.
+  /// The CRMS material: E, G, η = E·τ, ρ, ν.
   crms::Material crms_material() const;
 };
 
@@ -70,8 +74,10 @@ std::filesystem::path default_material_library_path();
 struct DerivedLatticeParameters {
   double spacing_mm = 0;
   crms::SpringConstants springs;  ///< ks (µN), kd (µN·s), kθ (µN·mm/rad), cθ (µN·mm·s/rad)
+  double lame_lambda_pa = 0;      ///< the volumetric term's modulus (0 when ν = 0)
   double node_mass_g = 0;         ///< ρ·h³
-  double symplectic_stable_dt_s = 0;  ///< interior node, symplectic Euler (stable_time_step.h)
+  double symplectic_stable_dt_s = 0;      ///< interior node, symplectic Euler (stable_time_step.h)
+  double symplectic_stable_dt_nu0_s = 0;  ///< the same with ν = 0 (the springs alone, E)
 };
 DerivedLatticeParameters derive_lattice_parameters(const LibraryMaterial& material,
                                                    double spacing_mm);

@@ -568,6 +568,8 @@ json material_json(const Scene& scene, const SceneInstance& inst) {
           {"youngs_modulus_pa", m.youngs_modulus_pa},
           {"damping_time_s", m.damping_time_s},
           {"density_g_per_mm3", m.density_g_per_mm3},
+          {"poisson_ratio", m.poisson_ratio},
+          {"poisson_ratio_source", m.poisson_ratio_source},
           {"sources", sources}};
 }
 

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "scene/scene_session.h"
 #include "tsf/common/atomic_file.h"
 
 namespace tsf::app {
@@ -472,15 +473,26 @@ void material_section(const ReportContext& c, std::ostream& md) {
   bool any = false;
   for (const json& in : c.instances) {
     const json& m = in["material"];
-    if (!m.is_object() || !m["id"].is_string()) continue;
+    const json& nu = in["poisson_ratio"];
+    const bool library = m.is_object() && m["id"].is_string();
+    if (!library && !nu.is_object()) continue;
     if (!any) md << "## Material\n\n";
     any = true;
-    md << instance_tag(c, in) << "`" << m.value("id", "") << "` (" << m.value("name", "")
-       << ") from the material library: E = " << number(m.value("youngs_modulus_pa", 0.0) * 1e-3)
-       << " kPa, damping time " << seconds(m.value("damping_time_s", 0.0)) << ", density "
-       << number(m.value("density_g_per_mm3", 0.0) * 1e3) << " g/cm³. Sources:\n\n";
-    for (const json& src : m["sources"]) md << "- " << src.get<std::string>() << "\n";
-    md << "\n";
+    if (library) {
+      md << instance_tag(c, in) << "`" << m.value("id", "") << "` (" << m.value("name", "")
+         << ") from the material library: E = " << number(m.value("youngs_modulus_pa", 0.0) * 1e-3)
+         << " kPa, damping time " << seconds(m.value("damping_time_s", 0.0)) << ", density "
+         << number(m.value("density_g_per_mm3", 0.0) * 1e3)
+         << " g/cm³, ν = " << number(m.value("poisson_ratio", 0.0))
+         << (m.value("poisson_ratio_source", std::string()).empty()
+                 ? std::string()
+                 : " (" + m.value("poisson_ratio_source", std::string()) + ")")
+         << ". Sources:\n\n";
+      for (const json& src : m["sources"]) md << "- " << src.get<std::string>() << "\n";
+      md << "\n";
+    }
+    // The ν the simulation ran with (docs/effects.md, "Volumetric term").
+    if (nu.is_object()) md << instance_tag(c, in) << poisson_line(nu) << ".\n\n";
   }
 }
 

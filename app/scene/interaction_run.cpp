@@ -261,6 +261,10 @@ void print_instance_summary(const Scene& scene, const InteractionResult& result,
       r.free_components_end, r.topology_start.triangles, r.topology_end.triangles,
       r.topology_end.closed_oriented_manifold() ? "closed manifold" : "NOT a closed manifold",
       percentile(r.edit_latencies_us, 0.5), percentile(r.edit_latencies_us, 0.99));
+  if (r.session.contains("poisson_ratio"))
+    std::printf("%s: %s\n",
+                scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
+                poisson_line(r.session["poisson_ratio"]).c_str());
   for (const ExposureRecord& e : r.exposures)
     std::printf("%s: warning: %s\n",
                 scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),

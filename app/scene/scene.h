@@ -217,6 +217,15 @@ struct SceneIntegration {
   double dt_safety = 0.9;
   int newton_iterations = 8;
   double newton_tolerance = 1e-7;
+  /// `solver.poisson_ratio_cap`: the largest ν the instance's materials run with (their own ν
+  /// above it is lowered to it; 0 runs the springs alone). Negative: no cap. Near ½ the explicit
+  /// step shrinks (docs/effects.md, "Volumetric term"); the error a cap leaves is measured in
+  /// docs/accuracy-vs-time.md.
+  double poisson_ratio_cap = -1.0;
+  /// The ν a material runs with under the cap.
+  double capped(double poisson_ratio) const {
+    return poisson_ratio_cap >= 0.0 ? std::min(poisson_ratio, poisson_ratio_cap) : poisson_ratio;
+  }
 };
 
 /// One tissue instance: its own lattice (source, spacing, crop, labels), material, anchors,

@@ -49,14 +49,16 @@ int read_entry(const Field& f, const SceneEffects& e, int materials) {
 }
 
 crms::Material read_palette_material(const Field& f, std::string& name) {
-  f.expect_keys({"name", "youngs_modulus", "shear_modulus", "viscosity", "density", "tear_strain",
-                 "anisotropy_axis", "anisotropy_factor"});
+  f.expect_keys({"name", "youngs_modulus", "shear_modulus", "viscosity", "density", "poisson_ratio",
+                 "volume_damping_time", "tear_strain", "anisotropy_axis", "anisotropy_factor"});
   name = f["name"].required().text();
   crms::Material m;
   m.youngs_modulus_pa = f["youngs_modulus"].required_number(1.0, 1e11);
   m.shear_modulus_pa = f["shear_modulus"].number(0.0, 0.0, 10.0 * m.youngs_modulus_pa);
   m.viscosity_pa_s = f["viscosity"].number(0.0, 0.0, 1e6);
   m.density_g_per_mm3 = f["density"].number(1e-3, 1e-6, 1e-1);
+  m.poisson_ratio = f["poisson_ratio"].number(0.0, 0.0, crms::kMaxPoissonRatio);
+  m.volume_damping_time_s = f["volume_damping_time"].number(0.0, 0.0, 1.0);
   m.tear_strain = f["tear_strain"].number(0.0, 0.0, 100.0);
   m.anisotropy_factor = f["anisotropy_factor"].number(0.0, 0.0, 100.0);
   if (m.anisotropy_factor > 0.0) {

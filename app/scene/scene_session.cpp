@@ -342,6 +342,8 @@ crms::SolverConfig instance_solver_config(const Scene& scene, std::size_t index)
   const SceneInstance& inst = scene.instances.at(index);
   crms::SolverConfig c = scene.solver;
   c.materials.at(0) = inst.material;
+  for (crms::Material& m : c.materials)  // the instance's material and the palette's
+    m.poisson_ratio = inst.integration.capped(m.poisson_ratio);
   c.effects = inst.effects;
   c.integrator = inst.integration.integrator;
   c.implicit_newton_iterations = inst.integration.newton_iterations;
@@ -460,6 +462,55 @@ std::size_t apply_loads_and_initial_state(const Scene& scene, crms::Solver& solv
   return nodes.size();
 }
 
+nlohmann::json poisson_json(const Scene& scene, std::size_t index, const crms::Solver& solver) {
+  const SceneInstance& inst = scene.instances.at(index);
+  const double cap = inst.integration.poisson_ratio_cap;
+  const std::vector<crms::Material>& run = solver.config().materials;
+  auto entry = [&](const std::string& name, double material, const crms::Material& m) {
+    return nlohmann::json{{"name", name},
+                          {"material", material},
+                          {"runs_with", m.poisson_ratio},
+                          {"lame_lambda_pa", m.lame_lambda_pa()},
+                          {"volumetric_term", m.poisson_ratio > 0}};
+  };
+  nlohmann::json j = entry(inst.material_id.empty() ? "inline" : inst.material_id,
+                           inst.material.poisson_ratio, run.at(0));
+  j["cap"] = cap >= 0 ? nlohmann::json(cap) : nlohmann::json(nullptr);
+  nlohmann::json palette = nlohmann::json::array();
+  for (std::size_t e = 1; e < run.size(); ++e) {
+    const std::size_t k = e - 1;
+    palette.push_back(entry(k < scene.effect_regions.palette_names.size()
+                                ? scene.effect_regions.palette_names[k]
+                                : "entry " + std::to_string(e),
+                            k < scene.effect_regions.palette_materials.size()
+                                ? scene.effect_regions.palette_materials[k].poisson_ratio
+                                : run[e].poisson_ratio,
+                            run[e]));
+  }
+  j["palette"] = palette;
+  return j;
+}
+
+std::string poisson_line(const nlohmann::json& p) {
+  auto g = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3g", v);
+    return std::string(b);
+  };
+  auto one = [&](const nlohmann::json& e) {
+    const double run = e.value("runs_with", 0.0), material = e.value("material", 0.0);
+    std::string t = "ν = " + g(run);
+    if (run != material) t += " (material " + g(material) + ", capped by solver.poisson_ratio_cap)";
+    t += run > 0 ? ", volumetric term λ = " + g(e.value("lame_lambda_pa", 0.0) * 1e-3) + " kPa"
+                 : " (the springs alone, no volumetric term)";
+    return t;
+  };
+  std::string line = "Poisson ratio: " + one(p);
+  for (const nlohmann::json& e : p.value("palette", nlohmann::json::array()))
+    line += "; palette " + e.value("name", std::string("?")) + ": " + one(e);
+  return line;
+}
+
 TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
   Stopwatch clock;
   TissueInstance r;
@@ -495,6 +546,7 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
                {"backend", solver.backend_name()},
                {"gravity_mm_s2", nlohmann::json::array({g.x, g.y, g.z})},
                {"effects_active", solver.active_effects()},
+               {"poisson_ratio", poisson_json(scene, index, solver)},
                {"removal", removal_summary(scene.instances.at(index).tissue, r.model->options())},
                {"tissue_labels_voxels", label_histogram(r.model->volume())}};
   if (!scene.placement_warnings.empty()) {

@@ -64,6 +64,15 @@ interaction::TissueModelOptions instance_model_options(const Scene& scene, std::
 /// copy of the rest shape) to a solver. Returns the number of loaded nodes.
 std::size_t apply_loads_and_initial_state(const Scene& scene, crms::Solver& solver);
 
+/// The Poisson ratio instance `index` runs with (every command's report, `poisson_ratio`): the
+/// material's ν, what it runs with under solver.poisson_ratio_cap, the cap, λ of the volumetric
+/// term (docs/effects.md), and per palette entry beyond the first the same.
+nlohmann::json poisson_json(const Scene& scene, std::size_t index, const crms::Solver& solver);
+/// One line for the terminal summaries from poisson_json: "Poisson ratio: ν = 0.45 (material
+/// 0.49, capped by solver.poisson_ratio_cap), volumetric term λ = 120 kPa" or "… the springs
+/// alone".
+std::string poisson_line(const nlohmann::json& poisson);
+
 /// One interactive instance, built: the tissue model with loads and initial state applied.
 struct TissueInstance {
   std::size_t index = 0;  ///< into scene.instances

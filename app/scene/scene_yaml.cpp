@@ -230,7 +230,7 @@ const LibraryMaterial& library_material(const Field& f, const std::string& id,
   f.fail("no material '" + id + "' in " + lib.file.string() + " (known: " + known + ")");
 }
 
-/// `material:` inline (a map of E, G, η, ρ) or a library id (a string); returns the id or "".
+/// `material:` inline (a map of E, G, η, ρ, ν) or a library id (a string); returns the id or "".
 std::string read_material(const Field& f, crms::Material& m, LibraryRef& library) {
   if (!f.defined()) f.fail("is required (a material library id or an inline material)");
   if (f.node().IsScalar()) {
@@ -238,7 +238,8 @@ std::string read_material(const Field& f, crms::Material& m, LibraryRef& library
     m = found.crms_material();
     return found.id;
   }
-  f.expect_keys({"youngs_modulus", "shear_modulus", "viscosity", "density"});
+  f.expect_keys({"youngs_modulus", "shear_modulus", "viscosity", "density", "poisson_ratio",
+                 "volume_damping_time"});
   if (!f["youngs_modulus"].defined()) f["youngs_modulus"].fail("is required (Pa)");
   m.youngs_modulus_pa = f["youngs_modulus"].number(0, 1.0, 1e11);
   m.shear_modulus_pa = f["shear_modulus"].is_auto()
@@ -246,6 +247,8 @@ std::string read_material(const Field& f, crms::Material& m, LibraryRef& library
                            : f["shear_modulus"].number(0.0, 0.0, 10.0 * m.youngs_modulus_pa);
   m.viscosity_pa_s = f["viscosity"].number(0.0, 0.0, 1e6);
   m.density_g_per_mm3 = f["density"].number(1e-3, 1e-6, 1e-1);
+  m.poisson_ratio = f["poisson_ratio"].number(0.0, 0.0, crms::kMaxPoissonRatio);
+  m.volume_damping_time_s = f["volume_damping_time"].number(0.0, 0.0, 1.0);
   return "";
 }
 
@@ -265,6 +268,8 @@ void read_integration(const Field& f, SceneIntegration& in, crms::Backend backen
   in.newton_iterations =
       static_cast<int>(f["newton_iterations"].integer(in.newton_iterations, 1, 50));
   in.newton_tolerance = f["newton_tolerance"].number(in.newton_tolerance, 0.0, 1.0);
+  in.poisson_ratio_cap =
+      f["poisson_ratio_cap"].number(in.poisson_ratio_cap, 0.0, crms::kMaxPoissonRatio);
   if (in.integrator == crms::Integrator::kImplicitEuler && backend == crms::Backend::kCuda)
     f["integrator"].fail("implicit-euler runs on the CPU only: set solver.backend to cpu or auto");
 }
@@ -273,7 +278,7 @@ void read_integration(const Field& f, SceneIntegration& in, crms::Backend backen
 void read_solver(const Field& f, Scene& s, SceneIntegration& integration) {
   f.expect_keys({"integrator", "backend", "angular_form", "angular_reactions", "dt", "dt_safety",
                  "steps", "report_every", "steps_per_graph", "newton_iterations",
-                 "newton_tolerance"});
+                 "newton_tolerance", "poisson_ratio_cap"});
   using crms::AngularForm;
   using crms::AngularReactions;
   using crms::Backend;
@@ -747,7 +752,8 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
   SceneInstance inst;
   inst.integration = integration;
   if (const Field solver = f["solver"]; solver.defined()) {
-    solver.expect_keys({"integrator", "dt", "dt_safety", "newton_iterations", "newton_tolerance"});
+    solver.expect_keys({"integrator", "dt", "dt_safety", "newton_iterations", "newton_tolerance",
+                        "poisson_ratio_cap"});
     read_integration(solver, inst.integration, s.solver.backend);
   }
   if (!f["name"].defined()) f["name"].fail("is required (names the instance's outputs)");

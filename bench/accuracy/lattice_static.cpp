@@ -18,6 +18,7 @@
 #include "tsf/crms/effects.h"
 #include "tsf/crms/node_force.h"
 #include "tsf/crms/stencil.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::accuracy {
 namespace {
@@ -51,6 +52,52 @@ struct StaticDualStencil {
   }
 };
 
+/// The volumetric term (materials with ν > 0, volume_term.h) at displacements u: its forces
+/// added to `residual` (free nodes) and its stiffness −∂f/∂u as triplets, per intact cube with
+/// dual numbers seeded on the 8 corners' displacements.
+void add_volume_term(const LatticeView& lat, const crms::VolumeParameters& vp,
+                     const std::vector<double>* u, const std::vector<std::int64_t>& free_index,
+                     Eigen::VectorXd& residual, std::vector<Eigen::Triplet<double>>& triplets) {
+  using D = Dual<24>;
+  for (std::int64_t c = 0; c < lat.count; ++c) {
+    const std::int64_t rem = c % lat.stride_z;
+    const int i = static_cast<int>(rem % lat.stride_y), j = static_cast<int>(rem / lat.stride_y);
+    const int k = static_cast<int>(c / lat.stride_z);
+    if (!crms::cube_intact(lat, i, j, k)) continue;
+    float stiffness = 0.0f, damping = 0.0f;
+    crms::cube_moduli(lat, vp, c, stiffness, damping);
+    if (!(stiffness > 0.0f)) continue;
+    std::int64_t corner[8];
+    Vec3<D> cu[8];
+    for (int q = 0; q < 8; ++q) {
+      corner[q] = crms::cube_corner(lat, c, q);
+      for (int a = 0; a < 3; ++a) {
+        cu[q][a] = D(u[a][static_cast<std::size_t>(corner[q])]);
+        cu[q][a].d[3 * q + a] = 1.0;
+      }
+    }
+    const crms::CubeShape<D> shape = crms::cube_shape(cu, lat.rest_length);
+    const D pressure = crms::volume_pressure(shape.strain, D(0.0), stiffness, 0.0f);
+    for (int q = 0; q < 8; ++q) {
+      const std::int64_t row = free_index[static_cast<std::size_t>(corner[q])];
+      if (row < 0) continue;
+      const Vec3<D> f = shape.gradient(q) * pressure;
+      for (int a = 0; a < 3; ++a) residual(3 * row + a) += f[a].v;
+      for (int r = 0; r < 8; ++r) {
+        const std::int64_t col = free_index[static_cast<std::size_t>(corner[r])];
+        if (col < 0) continue;
+        for (int x = 0; x < 3; ++x)
+          for (int y = 0; y < 3; ++y) {
+            const double k_xy = -f[x].d[3 * r + y];
+            if (k_xy != 0.0)
+              triplets.emplace_back(static_cast<int>(3 * row + x), static_cast<int>(3 * col + y),
+                                    k_xy);
+          }
+      }
+    }
+  }
+}
+
 template <unsigned F>
 LatticeStaticResult solve(const crms::Solver& solver, const std::vector<Vec3d>& loads,
                           const LatticeStaticOptions& options) {
@@ -82,6 +129,8 @@ LatticeStaticResult solve(const crms::Solver& solver, const std::vector<Vec3d>& 
       external(3 * f + a) = loads[static_cast<std::size_t>(n)][a] + mass * gravity[a];
   }
   const double external_norm = std::max(external.norm(), 1e-300);
+  const crms::VolumeParameters volume = crms::calibrate_volume(solver.config().materials);
+  const bool volumetric = volume.lambda[0] > 0.0f;
 
   LatticeStaticResult out;
   const auto start = std::chrono::steady_clock::now();
@@ -121,6 +170,7 @@ LatticeStaticResult solve(const crms::Solver& solver, const std::vector<Vec3d>& 
       }
       for (int a = 0; a < 3; ++a) residual(3 * f + a) = fd[a].v + external(3 * f + a);
     }
+    if (volumetric) add_volume_term(lat, volume, u, free_index, residual, triplets[0]);
     out.relative_residual = residual.norm() / external_norm;
     if (!std::isfinite(out.relative_residual))
       throw Error("lattice static solve: the residual is not finite");

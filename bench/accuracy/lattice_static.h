@@ -9,7 +9,8 @@
 // but its SparseLU with COLAMD ordering on the 19-node stencil takes minutes beyond a few thousand
 // nodes; this solver reaches the 17k-node block in seconds, so the report can show convergence.
 // The state stays in double here (the kernels' state is float), so the answer is the lattice's
-// equilibrium without the float round-off of a time-stepped relaxation.
+// equilibrium without the float round-off of a time-stepped relaxation. Materials with ν > 0 add
+// the volumetric term of volume_term.h (the same per-cube function, with dual numbers).
 #pragma once
 
 #include <cstdint>

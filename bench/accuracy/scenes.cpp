@@ -142,6 +142,7 @@ BlockPressureSolve solve_block_pressure(const Block& block) {
   const std::vector<Vec3f> forces(r.patch.size(),
                                   Vec3f{0, 0, static_cast<float>(-block.pressure_pa * h * h)});
   r.material.youngs_modulus_pa = block.youngs_pa;
+  r.material.poisson_ratio = block.poisson_ratio;
   r.solve = crms_static(
       r.lattice,
       crms_config(r.material, crms::Integrator::kImplicitEuler, crms::AngularForm::kExact,

@@ -46,6 +46,8 @@ struct Block {
   double spacing_mm = 1.0;
   double youngs_pa = 10e3;
   double pressure_pa = 100.0;  ///< 1% nominal strain under the patch: linear regime
+  /// The lattice material's ν (0: the springs alone; > 0: with the volumetric term).
+  double poisson_ratio = 0.0;
   crms::Lattice lattice() const;
 };
 

@@ -1,6 +1,7 @@
 // The cost of the optional CRMS effects (docs/effects.md): time per step and bytes per node for the
 // baseline, every effect alone (palette blends, plasticity, anisotropy, fluid, tearing, node
-// masking, rest-shape animation) and all together, on cubic lattices, CPU and CUDA. "Disabled"
+// masking, rest-shape animation, the volumetric term of a material with ν > 0) and all together,
+// on cubic lattices, CPU and CUDA. "Disabled"
 // is a scene whose effects carry parameters but are switched off: it must cost what the
 // baseline costs, within the run-to-run noise measured here (the spread of the baseline's own
 // repetitions, printed as the noise band).
@@ -40,6 +41,9 @@ struct Variant {
   /// classes meet); kAllBlended = every node a 2-entry blend (the worst case).
   enum class Palette { kNone, kLayers, kAllBlended };
   Palette palette = Palette::kNone;
+  /// The materials' Poisson ratio: > 0 runs the volumetric term (volume_term.h); the palette's
+  /// stiff entry gets 0.4.
+  double poisson_ratio = 0.0;
 };
 
 /// Animation: two rest keyframes (a 5% swelling along z over 1 s); filled per lattice.
@@ -91,6 +95,11 @@ std::vector<Variant> variants() {
           {"tearing (springs)", tear},
           {"tearing + node masking", mask},
           {"animation (rest keyframes)", animation},
+          {"volumetric term (ν = 0.45)", {}, Variant::Palette::kNone, 0.45},
+          {"volumetric term, layered palette (ν = 0.45, 0.4, 0.45)",
+           {},
+           Variant::Palette::kLayers,
+           0.45},
           {"all, with layered palette", all, Variant::Palette::kLayers}};
 }
 
@@ -105,11 +114,13 @@ std::unique_ptr<Solver> make_solver(int edge, Backend backend, const Variant& va
   Material m;
   m.youngs_modulus_pa = 10e3;
   m.viscosity_pa_s = 2.0;
+  m.poisson_ratio = variant.poisson_ratio;
   c.materials = {m};
   if (variant.palette != Variant::Palette::kNone) {  // soft, stiff, fibrous
     Material stiff = m, fibre = m;
     stiff.youngs_modulus_pa = 30e3;
     stiff.viscosity_pa_s = 6.0;
+    if (variant.poisson_ratio > 0) stiff.poisson_ratio = 0.4;
     fibre.anisotropy_axis = {0, 0, 1};
     fibre.anisotropy_factor = 2;
     c.materials = {m, stiff, fibre};
@@ -225,8 +236,10 @@ int main(int argc, char** argv) {
       }
       std::vector<std::unique_ptr<Solver>> solvers;
       for (const Variant& v : all) solvers.push_back(make_solver(edge, backend, v));
-      const double dt = 0.5 * solvers.front()->stable_dt();  // the same dt for every variant
-      for (auto& s : solvers) s->step(steps, dt);            // warm-up: graphs, caches, pages
+      double dt = solvers.front()->stable_dt();  // the same dt for every variant: the smallest
+      for (auto& s : solvers) dt = std::min(dt, s->stable_dt());  // half stable step of any
+      dt *= 0.5;
+      for (auto& s : solvers) s->step(steps, dt);  // warm-up: graphs, caches, pages
       std::vector<std::vector<double>> times(all.size());
       for (int r = 0; r < reps; ++r)
         for (std::size_t i = 0; i < all.size(); ++i)

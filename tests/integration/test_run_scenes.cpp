@@ -102,6 +102,13 @@ TEST(RunScene, TheCiSinusSceneRunsEndToEndAndItsOutputsAreValid) {
       dir / "log.txt");
   ASSERT_EQ(r.status, 0) << r.output;
   expect_valid_run_folder(dir / "out", "sinus-ci");
+  // The library's soft tissue runs with its ν (the volumetric term), and the report says so.
+  const nlohmann::json j = nlohmann::json::parse(read_text(dir / "out" / "run-report.json"));
+  EXPECT_DOUBLE_EQ(j["material"]["poisson_ratio"].get<double>(), 0.49);
+  EXPECT_DOUBLE_EQ(j["instances"][0]["poisson_ratio"]["runs_with"].get<double>(), 0.49);
+  EXPECT_EQ(j["instances"][0]["effects_active"], nlohmann::json::array({"volumetric"}));
+  const std::string md = read_text(dir / "out" / "run-report.md");
+  EXPECT_NE(md.find("Poisson ratio: ν = 0.49, volumetric term"), std::string::npos);
 }
 
 TEST(RunScene, WithNoSceneItRunsTheBundledSinusSceneFromTheRepositoryRoot) {
@@ -196,6 +203,20 @@ TEST(RunSceneRobustness, MaterialLibraryErrorsNameTheKeyPath) {
       r.output.find("materials.fat.youngs_modulus_pa: expected a number in [1, 1e+11], got -3"),
       std::string::npos)
       << r.output;
+  // ν needs its source: a citation's first author or "assumed: why".
+  text = read_text(test::source_dir() / "materials" / "tissues.yaml");
+  const std::string nu_source =
+      "    poisson_ratio_source: \"assumed: nearly incompressible adipose";
+  const auto line = text.find(nu_source);
+  ASSERT_NE(line, std::string::npos);
+  text.replace(line, nu_source.size(),
+               "    poisson_ratio_source: \"guessed: nearly incompressible adipose");
+  std::ofstream(dir / "bad-nu.yaml") << text;
+  const CommandResult nu =
+      run_command(exe.string() + " run --materials --library " + (dir / "bad-nu.yaml").string(),
+                  dir / "log-nu.txt");
+  EXPECT_NE(nu.status, 0);
+  EXPECT_NE(nu.output.find("materials.fat.poisson_ratio_source"), std::string::npos) << nu.output;
 }
 
 }  // namespace

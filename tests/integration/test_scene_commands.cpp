@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cube_mesh.h"
@@ -231,6 +232,33 @@ TEST(SceneKeysByCommand, AnExplicitTimeStepIsTheModelsInEveryCommand) {
     ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
     EXPECT_DOUBLE_EQ(o.session["dt_s"].get<double>(), 2.0e-5) << name(c);
   }
+}
+
+TEST(SceneKeysByCommand, APoissonRatioRunsTheVolumetricTermInEveryCommand) {
+  // material.poisson_ratio switches the volumetric term on (docs/effects.md); the solver's cap
+  // lowers it; every command's report says which ν the instance ran with.
+  TSF_NEED_EXE();
+  for (Cmd c : commands()) {
+    std::string scene = scene_text("", tools_for(c));
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{
+                                       "density: 0.001}", "density: 0.001, poisson_ratio: 0.45}"},
+                                   {"dt: auto}", "dt: auto, poisson_ratio_cap: 0.4}"}})
+      scene.replace(scene.find(from), from.size(), to);
+    const Outcome o = run_scene(c, scene, "poisson");
+    ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
+    EXPECT_EQ(o.session["effects_active"], json::array({"volumetric"})) << name(c);
+    const json& nu = o.session["poisson_ratio"];
+    EXPECT_DOUBLE_EQ(nu["material"].get<double>(), 0.45) << name(c);
+    EXPECT_DOUBLE_EQ(nu["runs_with"].get<double>(), 0.4) << name(c);
+    EXPECT_DOUBLE_EQ(nu["cap"].get<double>(), 0.4) << name(c);
+    EXPECT_GT(nu["lame_lambda_pa"].get<double>(), 0.0) << name(c);
+  }
+  // Out of range: the error names the key path.
+  std::string bad = scene_text("", true);
+  bad.replace(bad.find("density: 0.001}"), 15, "density: 0.001, poisson_ratio: 0.5}");
+  const Outcome o = run_scene(Cmd::kSimulate, bad, "poisson-bad");
+  EXPECT_NE(o.process.status, 0);
+  EXPECT_NE(o.process.output.find("material.poisson_ratio"), std::string::npos) << o.process.output;
 }
 
 TEST(SceneKeysByCommand, KeysACommandCannotHonourAreRefusedByName) {

@@ -290,19 +290,20 @@ TEST(EffectsPair, EachRunReportsTheEffectsItRanAndTheirCost) {
     for (const json& c : configs) EXPECT_GT(c["median_us_per_step"].get<double>(), 0.0) << c;
     const std::string md = read_text(dir / "run-report.md");
     if (name == "sinus") {
-      EXPECT_TRUE(j["effects_active"].empty()) << j["effects_active"];
-      EXPECT_EQ(configs.size(), 2u);
-      // No effect on: the report a person reads shows no cost table (the JSON keeps the noise
-      // band the pair compares against).
-      EXPECT_EQ(md.find("### Effect cost"), std::string::npos);
-      EXPECT_NE(md.find("none (the base lattice only)"), std::string::npos);
+      // No effects section: only the volumetric term of the library tissue's ν (a material
+      // property), measured against ν = 0.
+      EXPECT_EQ(j["effects_active"], json::array({"volumetric"})) << j["effects_active"];
+      EXPECT_EQ(configs.size(), 3u);
+      EXPECT_EQ(configs[2]["name"], "volumetric");
+      EXPECT_NE(md.find("### Effect cost"), std::string::npos);
     } else {
       EXPECT_NE(md.find("### Effect cost"), std::string::npos);
       EXPECT_NE(md.find("Noise band"), std::string::npos);
-      const std::vector<std::string> expected = {"anisotropy", "fluid", "plasticity", "tearing"};
+      const std::vector<std::string> expected = {"anisotropy", "fluid", "plasticity", "tearing",
+                                                 "volumetric"};
       EXPECT_EQ(j["effects_active"].get<std::vector<std::string>>(), expected);
-      // Off, off again, all four, each alone.
-      EXPECT_EQ(configs.size(), 7u);
+      // Off, off again, all five, each alone.
+      EXPECT_EQ(configs.size(), 8u);
       // Plasticity and fluid keep per-node arrays: the effects cost memory.
       EXPECT_GT(configs[2]["bytes_per_node"].get<double>(),
                 configs[0]["bytes_per_node"].get<double>());

@@ -179,4 +179,37 @@ inline void with_parity_loads(Solver& s, unsigned combo) {
   s.set_external_forces(tip, std::vector<Vec3f>(tip.size(), Vec3f{0, 50, 0}));
 }
 
+/// A material with Poisson ratio ν (the volumetric term on): E = 10 kPa unless given.
+inline Material poisson_material(double nu, double youngs_pa = 10e3, double damping_time_s = 2e-4) {
+  Material m = soft_material(youngs_pa, damping_time_s);
+  m.poisson_ratio = nu;
+  return m;
+}
+
+/// The volumetric term's force on every node at the CPU solver's current state (µN; velocities
+/// as they are: their damping included), through the passes' own functions (volume_term.h).
+inline std::vector<Vec3f> volume_forces(const Solver& s) {
+  const LatticeView lat = s.lattice_view();
+  const ConstStateView st = s.state_view();
+  const LatticeGeometry& g = s.lattice().geometry();
+  const auto count = static_cast<std::size_t>(lat.count);
+  const VolumeParameters vp = calibrate_volume(s.config().materials);
+  std::vector<float> terms[9];
+  float* pointers[9];
+  for (int t = 0; t < 9; ++t) {
+    terms[t].assign(count, 0.0f);
+    pointers[t] = terms[t].data();
+  }
+  for (std::size_t n = 0; n < count; ++n) {
+    const Int3 c = g.coordinates(static_cast<std::int64_t>(n));
+    cube_volume_terms(lat, st, vp, static_cast<std::int64_t>(n), c.x, c.y, c.z, pointers);
+  }
+  std::vector<Vec3f> force(count);
+  for (std::size_t n = 0; n < count; ++n) {
+    const Int3 c = g.coordinates(static_cast<std::int64_t>(n));
+    force[n] = volume_force(lat, pointers, static_cast<std::int64_t>(n), c.x, c.y, c.z);
+  }
+  return force;
+}
+
 }  // namespace tsf::crms::test

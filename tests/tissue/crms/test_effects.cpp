@@ -221,9 +221,10 @@ TEST(CrmsEffects, StretchedBarTearsAtTheThresholdNotBefore) {
   }
 }
 
-/// The effects one at a time and all together, for the hard cases below.
+/// The effects one at a time and all together, for the hard cases below (and none: with the
+/// volumetric term alone, see released_hard_case).
 std::vector<EffectsConfig> effect_sets() {
-  std::vector<EffectsConfig> sets(5);
+  std::vector<EffectsConfig> sets(6);
   sets[0].plasticity.enabled = true;
   sets[0].plasticity.recovery_rate = 50;
   sets[1].anisotropy.enabled = true;
@@ -241,10 +242,21 @@ std::vector<EffectsConfig> effect_sets() {
   return sets;
 }
 
+/// The volumetric term (ν = 0.45) runs alone (the empty set) and with every other effect.
+bool with_volumetric(const EffectsConfig& e) {
+  return !e.any() || (e.plasticity.enabled && e.fluid.enabled);
+}
+
+SolverConfig with_effects(SolverConfig c, const EffectsConfig& e) {
+  c.effects = e;
+  if (with_volumetric(e)) c.materials.front().poisson_ratio = 0.45;
+  return c;
+}
+
 std::string label(const EffectsConfig& e) {
   std::string s;
   for (const auto& n : e.active()) s += n + " ";
-  return s;
+  return with_volumetric(e) ? s + "volumetric (ν = 0.45)" : s;
 }
 
 /// Runs a released hard case: finite, and the total energy (springs with their effects, fluid,
@@ -255,8 +267,7 @@ void released_hard_case(Vec3d size, double anchor_x, Map map, int frames) {
     for (const EffectsConfig& e : effect_sets()) {
       Lattice l = box(size, 1);
       fix_nodes_behind_plane(l, {anchor_x, 0, 0}, {1, 0, 0});
-      SolverConfig c = config_for(backend, 2e-4);
-      c.effects = e;
+      const SolverConfig c = with_effects(config_for(backend, 2e-4), e);
       Solver s(std::move(l), c);
       deform(s, map);
       const double e0 = s.energy().total_nj();
@@ -304,8 +315,7 @@ TEST(CrmsEffects, EveryEffectTimeStepAboveTheEstimateStaysFinite) {
     for (const EffectsConfig& e : effect_sets()) {
       Lattice l = box({6, 4, 4}, 1);
       fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
-      SolverConfig c = config_for(backend, 2e-4);
-      c.effects = e;
+      SolverConfig c = with_effects(config_for(backend, 2e-4), e);
       c.gravity = {0, 0, -9810};
       Solver s(std::move(l), c);
       s.step(3000, 1.5 * s.stable_dt());
@@ -313,30 +323,38 @@ TEST(CrmsEffects, EveryEffectTimeStepAboveTheEstimateStaysFinite) {
     }
 }
 
+/// One backend's run of the CPU/CUDA parity tests: the block (anchored at x = 0, gravity) stretched
+/// at its far end, 1000 steps at half the stable step.
+struct ParityRun {
+  std::vector<Vec3f> positions;
+  std::int64_t torn = 0;
+  EffectsState effects;
+  double elastic_nj = 0;
+};
+ParityRun parity_run(Lattice l, SolverConfig c) {
+  fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
+  c.gravity = {0, 0, -9810};
+  Solver s(std::move(l), c);
+  deform(s, test::stretch_far_end_compress_rest);
+  s.step(1000, 0.5 * s.stable_dt());
+  EXPECT_TRUE(assert_finite(s)) << to_string(c.backend);
+  return {s.positions(), s.torn_springs(), s.effects_state(), s.energy().elastic_nj};
+}
+
 TEST(CrmsEffects, CpuAndCudaAgreeWithAllEffectsOn) {
   if (!cuda_status().available) GTEST_SKIP() << "no CUDA device: " << cuda_status().reason;
   EffectsConfig e = effect_sets()[4];
   e.tearing.strain_threshold = 0.4;
-  std::vector<std::vector<Vec3f>> result;
-  std::vector<std::int64_t> torn;
-  std::vector<EffectsState> states;
+  std::vector<ParityRun> runs;
   for (Backend backend : {Backend::kCpu, Backend::kCuda}) {
-    Lattice l = box({8, 6, 5}, 1);
-    fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
     SolverConfig c = config_for(backend, 5e-4);
     c.effects = e;
-    c.gravity = {0, 0, -9810};
-    Solver s(std::move(l), c);
-    deform(s, test::stretch_far_end_compress_rest);
-    s.step(1000, 0.5 * s.stable_dt());
-    ASSERT_TRUE(assert_finite(s));
-    result.push_back(s.positions());
-    torn.push_back(s.torn_springs());
-    states.push_back(s.effects_state());
+    runs.push_back(parity_run(box({8, 6, 5}, 1), c));
   }
-  EXPECT_EQ(torn[0], torn[1]);
-  EXPECT_GT(torn[0], 0);
-  EXPECT_TRUE(test::assert_same_positions(result[0], result[1], 1e-4));
+  EXPECT_EQ(runs[0].torn, runs[1].torn);
+  EXPECT_GT(runs[0].torn, 0);
+  EXPECT_TRUE(test::assert_same_positions(runs[0].positions, runs[1].positions, 1e-4));
+  const EffectsState states[2] = {runs[0].effects, runs[1].effects};
   double p_scale = 0, p_worst = 0;
   for (std::size_t n = 0; n < states[0].fluid_pressure.size(); ++n) {
     p_scale = std::max(p_scale, static_cast<double>(std::abs(states[0].fluid_pressure[n])));
@@ -345,6 +363,36 @@ TEST(CrmsEffects, CpuAndCudaAgreeWithAllEffectsOn) {
   }
   EXPECT_GT(p_scale, 0.0);
   EXPECT_LT(p_worst, 1e-3 * p_scale);
+}
+
+TEST(CrmsEffects, CpuAndCudaAgreeWithTheVolumetricTerm) {
+  // Materials with ν (a soft ν = 0.45 and a stiffer ν = 0.3 entry, blended nodes between them),
+  // the term's cube pass and kick, with tearing (a cube loses its term as soon as one of its
+  // edges tears) and anisotropy (the effect-force array beside the term's forces).
+  if (!cuda_status().available) GTEST_SKIP() << "no CUDA device: " << cuda_status().reason;
+  std::vector<ParityRun> runs;
+  for (Backend backend : {Backend::kCpu, Backend::kCuda}) {
+    Lattice l = box({8, 6, 5}, 1);
+    for (std::int64_t n = 0; n < l.node_count(); ++n) {
+      const double x = l.geometry().rest_position(n).x;
+      if (x > 4.6) l.set_material(n, 1);
+      if (std::fabs(x - 4.5) < 0.1)
+        l.set_material(n, make_material_blend({0, 1, 0, 0}, {0.5, 0.5, 0, 0}));
+    }
+    SolverConfig c = config_for(backend, 5e-4);
+    c.materials = {test::poisson_material(0.45, 10e3, 5e-4),
+                   test::poisson_material(0.3, 30e3, 5e-4)};
+    c.effects.tearing.enabled = true;
+    c.effects.tearing.strain_threshold = 0.4;
+    c.effects.anisotropy.enabled = true;
+    c.effects.anisotropy.axis = {0, 1, 1};
+    c.effects.anisotropy.stiffness_factor = 2;
+    runs.push_back(parity_run(std::move(l), c));
+  }
+  EXPECT_EQ(runs[0].torn, runs[1].torn);
+  EXPECT_GT(runs[0].torn, 0);
+  EXPECT_TRUE(test::assert_same_positions(runs[0].positions, runs[1].positions, 1e-4));
+  EXPECT_NEAR(runs[0].elastic_nj, runs[1].elastic_nj, 1e-3 * std::fabs(runs[0].elastic_nj));
 }
 
 TEST(CrmsEffects, DisabledEffectsAllocateNothingAndChangeNothing) {

@@ -1,9 +1,10 @@
 // Energy consistency (docs/stability.md "Energy consistency"): on random states, the force the
 // kernels apply is minus the gradient of the energy the solver reports, by central finite
 // differences, for the core elastic term (both angular forms, symmetric reactions) and for each
-// effect that has an energy (anisotropy, plasticity's rest offsets, fluid; effect_energy.h and
-// effect_physics.h). An energy whose gradient is not the force would let the energy balance of
-// the stability monitor pass a run that gains energy, or fail one that does not.
+// effect that has an energy (anisotropy, plasticity's rest offsets, fluid, the volumetric term of a
+// material with ν > 0; effect_energy.h, effect_physics.h and volume_term.h). An energy whose
+// gradient is not the force would let the energy balance of the stability monitor pass a run that
+// gains energy, or fail one that does not.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -166,6 +167,34 @@ TEST(CrmsEnergyGradient, EachEffectForceIsMinusItsEnergyGradient) {
         worst_gradient_error(s, [&](const Solver& x) { return core_and_effect_forces(x, k.bits); }),
         2e-3)
         << k.name;
+  }
+}
+
+TEST(CrmsEnergyGradient, VolumetricForceIsMinusItsEnergyGradient) {
+  // The volumetric term (volume_term.h) on a two-material lattice (ν = 0.45 and 0.3, blended
+  // corners included), a cut node and a torn spring (cubes without their term), at
+  // displacements large enough that some cubes are stretched (J > 1, the log branch)
+  // and others compressed.
+  for (double amplitude : {0.05, 0.3}) {
+    SolverConfig c;
+    c.backend = Backend::kCpu;
+    c.materials = {test::poisson_material(0.45, 10e3), test::poisson_material(0.3, 40e3)};
+    Lattice l = box({5, 4, 4}, 1);
+    for (std::int64_t n = 0; n < l.node_count(); n += 3) l.set_material(n, 1);
+    l.set_material(7, make_material_blend({0, 1, 0, 0}, {0.5, 0.5, 0, 0}));
+    l.set_alive(l.geometry().index(2, 2, 2), false);
+    l.break_spring(l.geometry().index(1, 1, 1), make_direction(1, 1));
+    Solver s(std::move(l), c);
+    randomise(s, amplitude, 31);
+    EXPECT_LT(worst_gradient_error(s,
+                                   [](const Solver& x) {
+                                     std::vector<Vec3f> f = x.spring_forces();
+                                     const std::vector<Vec3f> v = test::volume_forces(x);
+                                     for (std::size_t n = 0; n < f.size(); ++n) f[n] += v[n];
+                                     return f;
+                                   }),
+              2e-3)
+        << "amplitude " << amplitude;
   }
 }
 

@@ -3,7 +3,8 @@
 // beyond what was put in (the monitor's balance, threshold StabilityThresholds::energy_gain); the
 // negative cases (a step 5.6× the estimate, the undamped gather form) must be reported
 // unstable. Every case runs on the CPU and, where a device exists, on CUDA (the CUDA variants
-// skip without one). Each prints one row of the table in docs/stability.md:
+// skip without one), with the springs alone and with the volumetric term (ν = 0.45). Each prints
+// one row of the table in docs/stability.md:
 //   build/tests/tsf_tissue_tests --gtest_filter='*CrmsHardCases*'
 // The 10⁶-step run is disabled by default (minutes on the CPU):
 //   build/tests/tsf_tissue_tests --gtest_filter='*MillionSteps*' --gtest_also_run_disabled_tests
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <tuple>
 
 #include "physics_assertions.h"
 #include "tsf/crms/stability_monitor.h"
@@ -23,17 +25,26 @@ using test::box;
 using test::deform;
 using test::soft_material;
 
-class CrmsHardCases : public ::testing::TestWithParam<Backend> {
+/// Every case on each backend, with the springs alone (ν = 0) and with the volumetric term of a
+/// nearly incompressible tissue (ν = 0.45, docs/effects.md).
+class CrmsHardCases : public ::testing::TestWithParam<std::tuple<Backend, double>> {
  protected:
   void SetUp() override {
-    if (GetParam() == Backend::kCuda && !cuda_status().available)
+    if (backend() == Backend::kCuda && !cuda_status().available)
       GTEST_SKIP() << "CUDA variant not run: " << cuda_status().reason
                    << " (runs on the GPU machine)";
   }
+  Backend backend() const { return std::get<0>(GetParam()); }
+  /// A soft material (test::soft_material) with the case's Poisson ratio.
+  Material material(double youngs = 10e3, double damping_time = 2e-4) const {
+    Material m = soft_material(youngs, damping_time);
+    m.poisson_ratio = std::get<1>(GetParam());
+    return m;
+  }
   SolverConfig config(double youngs = 10e3, double damping_time = 2e-4) const {
     SolverConfig c;
-    c.backend = GetParam();
-    c.materials = {soft_material(youngs, damping_time)};
+    c.backend = backend();
+    c.materials = {material(youngs, damping_time)};
     return c;
   }
 };
@@ -49,10 +60,13 @@ StabilitySummary run_case(const char* name, Solver& s, int frames, int steps, do
     monitor.step(s, steps, dt);
   }
   const StabilitySummary r = monitor.summary(s);
-  std::printf("| %s | %s | %lld | %.2f | %s | %.3g%% | %.3g%% | %.2f | %.3g | %.3g |\n", name,
-              s.on_cuda() ? "cuda" : "cpu", static_cast<long long>(r.steps), r.dt_max_over_stable,
-              to_string(r.verdict), 100 * r.gain_fraction, 100 * r.max_limit_fraction,
-              r.max_period2, r.work_in_nj, r.dissipated_nj);
+  const double nu = s.config().materials.front().poisson_ratio;
+  char with_nu[32] = "";
+  if (nu > 0) std::snprintf(with_nu, sizeof with_nu, ", ν = %.2f", nu);
+  std::printf("| %s%s | %s | %lld | %.2f | %s | %.3g%% | %.3g%% | %.2f | %.3g | %.3g |\n", name,
+              with_nu, s.on_cuda() ? "cuda" : "cpu", static_cast<long long>(r.steps),
+              r.dt_max_over_stable, to_string(r.verdict), 100 * r.gain_fraction,
+              100 * r.max_limit_fraction, r.max_period2, r.work_in_nj, r.dissipated_nj);
   return r;
 }
 StabilitySummary run_case(const char* name, Solver& s, int frames, int steps, double dt) {
@@ -103,7 +117,7 @@ TEST_P(CrmsHardCases, BoneNextToSoftTissueAtTheStableStep) {
       if (l.geometry().rest_position(n).x < 4) l.set_material(n, 1);
     fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
     SolverConfig c = config();
-    c.materials = {soft_material(10e3, 2e-3), soft_material(1e9, 2e-9)};
+    c.materials = {material(10e3, 2e-3), material(1e9, 2e-9)};
     c.gravity = {0, 0, -9810};
     Solver s(std::move(l), c);
     deform(s, [](Vec3d p) { return Vec3d{p.x, p.y, p.z + (p.x > 4 ? 0.2 * (p.x - 4) : 0.0)}; });
@@ -188,7 +202,9 @@ void long_run(const SolverConfig& c, int steps_per_frame, const char* name) {
 }
 
 SolverConfig long_run_config(SolverConfig c) {
+  const double nu = c.materials.front().poisson_ratio;
   c.materials = {soft_material(10e3, 1e-5)};
+  c.materials.front().poisson_ratio = nu;
   c.gravity = {0, 0, -9810};
   return c;
 }
@@ -279,9 +295,13 @@ TEST(CrmsStabilityMonitor, LongSessionsKeepBoundedSamplesAndTheVerdict) {
   EXPECT_EQ(r.verdict, StabilityVerdict::kStable) << r.headline();
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, CrmsHardCases, ::testing::Values(Backend::kCpu, Backend::kCuda),
-                         [](const ::testing::TestParamInfo<Backend>& i) {
-                           return std::string(i.param == Backend::kCpu ? "Cpu" : "Cuda");
+INSTANTIATE_TEST_SUITE_P(Backends, CrmsHardCases,
+                         ::testing::Combine(::testing::Values(Backend::kCpu, Backend::kCuda),
+                                            ::testing::Values(0.0, 0.45)),
+                         [](const ::testing::TestParamInfo<std::tuple<Backend, double>>& i) {
+                           return std::string(std::get<0>(i.param) == Backend::kCpu ? "Cpu"
+                                                                                    : "Cuda") +
+                                  (std::get<1>(i.param) > 0 ? "Nu045" : "");
                          });
 
 }  // namespace

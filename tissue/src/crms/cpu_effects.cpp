@@ -42,6 +42,8 @@ class CpuEffects final : public EffectsEngine {
     }
     if (enabled & effect_bits::kForceEffects)
       for (auto& c : force_) c.assign(count_, 0.0f);
+    if (enabled & effect_bits::kVolumetric)
+      for (auto& c : volume_terms_) c.assign(count_, 0.0f);
   }
 
   EffectsState read() const override {
@@ -67,6 +69,11 @@ class CpuEffects final : public EffectsEngine {
     const ConstStateView s = state;
     auto* flags = const_cast<std::uint8_t*>(lat.flags);  // the backend's own flags array
     switch (pass) {
+      case EffectPass::kVolumeTerms:
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          cube_volume_terms(lat, s, p.volume, n, i, j, k, a.volume_terms);
+        });
+        break;
       case EffectPass::kCubePressure:
         for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
           a.fluid_pressure[n] = cube_pressure(lat, s, a, p, n, i, j, k);
@@ -81,11 +88,8 @@ class CpuEffects final : public EffectsEngine {
         });
         break;
       case EffectPass::kKick:
-        for_each_node(lat, [&](std::int64_t n, int, int, int) {
-          const Vec3f v = kicked_velocity(lat, s, a, p, n);
-          state.v[0][n] = v.x;
-          state.v[1][n] = v.y;
-          state.v[2][n] = v.z;
+        for_each_node(lat, [&](std::int64_t n, int i, int j, int k) {
+          kick_node(lat, state, a, p, n, i, j, k);
         });
         break;
       case EffectPass::kUpdateStores: {
@@ -132,6 +136,7 @@ class CpuEffects final : public EffectsEngine {
         a.rest_to[c] = keyframes_[static_cast<std::size_t>(p.rest_to_key)][c].data();
       }
     a.node_mask = mask_.empty() ? nullptr : const_cast<std::uint8_t*>(mask_.data());
+    for (int c = 0; c < 9; ++c) a.volume_terms[c] = data(volume_terms_[c]);
     return a;
   }
 
@@ -140,6 +145,7 @@ class CpuEffects final : public EffectsEngine {
   std::vector<float> content_, pressure_;
   std::vector<RestOffsets> keyframes_;
   std::vector<std::uint8_t> mask_;
+  std::array<std::vector<float>, 9> volume_terms_;
 };
 
 }  // namespace

@@ -47,14 +47,19 @@ __global__ void effect_force_kernel(LatticeView lat, ConstStateView s, EffectArr
   a.force[2][n] = f.z;
 }
 
+__global__ void volume_terms_kernel(LatticeView lat, ConstStateView s, EffectArrays a,
+                                    EffectParameters p) {
+  std::int64_t n;
+  int i, j, k;
+  if (!node_of_thread(lat, n, i, j, k)) return;
+  cube_volume_terms(lat, s, p.volume, n, i, j, k, a.volume_terms);
+}
+
 __global__ void kick_kernel(LatticeView lat, StateView s, EffectArrays a, EffectParameters p) {
   std::int64_t n;
   int i, j, k;
   if (!node_of_thread(lat, n, i, j, k)) return;
-  const Vec3f v = kicked_velocity(lat, ConstStateView(s), a, p, n);
-  s.v[0][n] = v.x;
-  s.v[1][n] = v.y;
-  s.v[2][n] = v.z;
+  kick_node(lat, s, a, p, n, i, j, k);
 }
 
 __global__ void update_kernel(LatticeView lat, ConstStateView s, EffectArrays a,
@@ -119,6 +124,8 @@ class CudaEffects final : public EffectsEngine {
       mask_.resize(count_);
       mask_.fill_zero(stream_);
     }
+    if (enabled & effect_bits::kVolumetric)
+      for (auto& c : volume_terms_) allocate_zeroed(c);
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));  // the host keyframes may go out of scope
   }
   ~CudaEffects() override {
@@ -158,6 +165,9 @@ class CudaEffects final : public EffectsEngine {
       case EffectPass::kCubePressure:
         cube_pressure_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
         break;
+      case EffectPass::kVolumeTerms:
+        volume_terms_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
+        break;
       case EffectPass::kEffectForce:
         effect_force_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, a, p);
         break;
@@ -191,6 +201,7 @@ class CudaEffects final : public EffectsEngine {
     a.fluid_content = content_.data();
     a.fluid_pressure = pressure_.data();
     a.node_mask = mask_.data();
+    for (int c = 0; c < 9; ++c) a.volume_terms[c] = volume_terms_[c].data();
     if (!keyframes_.empty())
       for (int c = 0; c < 3; ++c) {
         a.rest_from[c] = keyframes_[static_cast<std::size_t>(p.rest_from_key)][c].data();
@@ -216,6 +227,7 @@ class CudaEffects final : public EffectsEngine {
   DeviceBuffer<float> content_, pressure_;
   std::vector<std::array<DeviceBuffer<float>, 3>> keyframes_;  // device rest offsets
   DeviceBuffer<std::uint8_t> mask_;
+  std::array<DeviceBuffer<float>, 9> volume_terms_;
 };
 
 }  // namespace

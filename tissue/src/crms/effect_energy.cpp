@@ -5,11 +5,29 @@
 
 namespace tsf::crms {
 
+double volume_energy_nj(const LatticeView& lat, const ConstStateView& st,
+                        const VolumeParameters& p) {
+  const double v0 = cube_rest_volume(lat);
+  double energy = 0.0;
+  for_each_volume_cube(lat, p, [&](std::int64_t c, int, int, int, float stiffness, float) {
+    Vec3d u[8];
+    for (int q = 0; q < 8; ++q) {
+      const std::int64_t m = cube_corner(lat, c, q);
+      u[q] = {st.u[0][m], st.u[1][m], st.u[2][m]};
+    }
+    const CubeShape<double> shape = cube_shape(u, lat.rest_length);
+    energy += static_cast<double>(stiffness) * v0 * volume_energy_shape(shape.strain);
+  });
+  return energy;
+}
+
 double effects_elastic_energy_nj(const LatticeGeometry& g, const EffectEnergyInputs& in,
                                  const EffectParameters& p,
                                  const std::vector<RestOffsets>& rest_offsets,
                                  double bulk_modulus_pa) {
-  if ((p.enabled & (effect_bits::kSpringEffects | effect_bits::kFluid)) == 0) return 0.0;
+  if ((p.enabled &
+       (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) == 0)
+    return 0.0;
   const auto count = static_cast<std::size_t>(g.node_count());
   std::vector<float> soa[3], zero(count, 0.0f);
   for (int a = 0; a < 3; ++a) {
@@ -37,6 +55,7 @@ double effects_elastic_energy_nj(const LatticeGeometry& g, const EffectEnergyInp
   }
   const EffectsState& effects = in.effects;
   double energy = 0.0;
+  if (p.enabled & effect_bits::kVolumetric) energy += volume_energy_nj(lat, st, p.volume);
   for (std::int64_t n = 0; n < lat.count; ++n) {
     if ((in.flags[n] & kAliveBit) == 0) continue;
     const Int3 c = g.coordinates(n);

@@ -10,12 +10,13 @@ namespace tsf::crms {
 StableTimeStep stable_time_step_with_effects(const Lattice& lattice, const MaterialPalette& palette,
                                              const SolverConfig& config) {
   const bool symmetric = config.angular_reactions == AngularReactions::kSymmetric;
-  StableTimeStep stable = estimate_stable_time_step(lattice, palette, symmetric);
+  const VolumeParameters volume = calibrate_volume(config.materials);
+  StableTimeStep stable = estimate_stable_time_step(lattice, palette, symmetric, &volume);
   const AnimationConfig& animation = config.effects.animation;
   if (animation.enabled &&
       (!animation.material_tracks.empty() || !animation.cut_triggers.empty())) {
     const StableTimeStep at_targets = estimate_stable_time_step(
-        AnimationTimeline::at_targets(animation, lattice), palette, symmetric);
+        AnimationTimeline::at_targets(animation, lattice), palette, symmetric, &volume);
     if (at_targets.symplectic_euler_s < stable.symplectic_euler_s) stable = at_targets;
   }
   double stiffening = 1.0;

@@ -22,8 +22,9 @@ namespace tsf::crms {
 /// The effect passes of a step (effect_physics.h, passes 1–6; pass 4 is the core step).
 enum class EffectPass : int {
   kCubePressure,    ///< 1. fluid: each cube's pressure from its volume change
+  kVolumeTerms,     ///< 1. volumetric: each cube's pressure times its face vectors
   kEffectForce,     ///< 2. each node's effect force
-  kKick,            ///< 3. v += dt·F_eff/m on moving nodes
+  kKick,            ///< 4. after the core step: v += dt·F/m (and u += dt²·F/m, symplectic)
   kUpdateStores,    ///< 5. plastic offsets creep and recover, fluid flows
   kTear,            ///< 6. over-strained links are cleared
   kMarkOverloaded,  ///< 6a. node masking: nodes whose largest tension exceeds the limit
@@ -37,13 +38,14 @@ struct EffectPassEntry {
 };
 
 /// The order of the passes, written once for every backend: before the core step (on the state
-/// it reads; the kick changes its velocities in place) and after it (on the state it wrote).
+/// it reads) and after it (on the state it wrote: the kick adds the force passes 1–2 computed).
 inline constexpr EffectPassEntry kPassesBeforeStep[] = {
     {EffectPass::kCubePressure, effect_bits::kFluid},
+    {EffectPass::kVolumeTerms, effect_bits::kVolumetric},
     {EffectPass::kEffectForce, effect_bits::kForceEffects},
-    {EffectPass::kKick, effect_bits::kForceEffects},
 };
 inline constexpr EffectPassEntry kPassesAfterStep[] = {
+    {EffectPass::kKick, effect_bits::kForceEffects | effect_bits::kVolumetric},
     {EffectPass::kUpdateStores, effect_bits::kPlasticity | effect_bits::kFluid},
     {EffectPass::kTear, effect_bits::kTearing},
     {EffectPass::kMarkOverloaded, effect_bits::kNodeMasking},
@@ -61,11 +63,11 @@ class EffectsEngine {
   EffectsEngine& operator=(const EffectsEngine&) = delete;
 
   unsigned enabled() const { return enabled_; }
-  /// Passes 1–3 on the state the next core step reads.
+  /// Passes 1–2 on the state the next core step reads.
   void before_step(const LatticeView& lattice, const StateView& state, const EffectParameters& p) {
     run(kPassesBeforeStep, lattice, state, p);
   }
-  /// Passes 5–6 on the state the core step wrote (tearing clears link bits in `lattice.flags`).
+  /// Passes 4–6 on the state the core step wrote (tearing clears link bits in `lattice.flags`).
   void after_step(const LatticeView& lattice, const StateView& state, const EffectParameters& p) {
     run(kPassesAfterStep, lattice, state, p);
   }
@@ -82,6 +84,7 @@ class EffectsEngine {
     if (enabled_ & effect_bits::kRestAnimation)
       b += 3 * sizeof(float) * static_cast<double>(keyframes_);
     if (enabled_ & effect_bits::kNodeMasking) b += 1;
+    if (enabled_ & effect_bits::kVolumetric) b += 9 * sizeof(float);
     return b;
   }
 

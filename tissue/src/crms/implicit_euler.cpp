@@ -14,6 +14,7 @@
 #include "tsf/crms/node_force.h"
 #include "tsf/crms/node_update.h"
 #include "tsf/crms/stencil.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 namespace {
@@ -53,9 +54,56 @@ struct Block {
   double value[3][3];
 };
 
+/// The volumetric term at the trial state (u, v): each free node's force (µN, added to
+/// `force`) and the Jacobian blocks −dt·∂f/∂v − dt²·∂f/∂u between free corners of each cube.
+void add_volume_term(const LatticeView& lat, const VolumeParameters& vp,
+                     const std::vector<double>* u, const std::vector<double>* v,
+                     const std::vector<std::int64_t>& free_index, double dt,
+                     std::vector<double>* force, std::vector<Block>& blocks) {
+  using D = Dual<48>;  // seeds: corner q's u at 6q..6q+2, its v at 6q+3..6q+5
+  const double v0 = cube_rest_volume(lat);
+  for_each_volume_cube(lat, vp, [&](std::int64_t c, int, int, int, float stiffness, float damping) {
+    std::int64_t corner[8];
+    bool any_free = false;
+    Vec3<D> cu[8], cv[8];
+    for (int q = 0; q < 8; ++q) {
+      corner[q] = cube_corner(lat, c, q);
+      any_free = any_free || free_index[corner[q]] >= 0;
+      for (int a = 0; a < 3; ++a) {
+        cu[q][a] = D(u[a][corner[q]]);
+        cu[q][a].d[6 * q + a] = 1.0;
+        cv[q][a] = D(v[a][corner[q]]);
+        cv[q][a].d[6 * q + 3 + a] = 1.0;
+      }
+    }
+    if (!any_free) return;
+    const CubeShape<D> shape = cube_shape(cu, lat.rest_length);
+    D rate(0.0);
+    for (int q = 0; q < 8; ++q) rate += dot(shape.gradient(q), cv[q]);
+    rate = rate / D(v0);
+    const D pressure = volume_pressure(shape.strain, rate, stiffness, damping);
+    for (int q = 0; q < 8; ++q) {
+      const std::int64_t row = free_index[corner[q]];
+      if (row < 0) continue;
+      const Vec3<D> f = shape.gradient(q) * pressure;
+      for (int a = 0; a < 3; ++a) force[a][corner[q]] += f[a].v;
+      for (int r = 0; r < 8; ++r) {
+        const std::int64_t col = free_index[corner[r]];
+        if (col < 0) continue;
+        Block b{row, col, {}};
+        for (int x = 0; x < 3; ++x)
+          for (int y = 0; y < 3; ++y)
+            b.value[x][y] = -dt * f[x].d[6 * r + 3 + y] - dt * dt * f[x].d[6 * r + y];
+        blocks.push_back(b);
+      }
+    }
+  });
+}
+
 template <unsigned F>
 ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
-                                const StepParameters& p, int max_iterations, double tolerance) {
+                                const StepParameters& p, int max_iterations, double tolerance,
+                                const VolumeParameters* volume) {
   constexpr int kSlots = (F & features::kSymmetricReactions) ? kStencilSlots : kGatherStencilSlots;
   using DualF = Dual<6 * kSlots>;
   const std::int64_t count = lat.count;
@@ -81,6 +129,8 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
       if (free_index[n] < 0) v[a][n] = 0.0;  // fixed and dead nodes do not move
   }
 
+  std::vector<double> volume_force[3];
+
   ImplicitStepStats stats;
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
   Eigen::VectorXd g(3 * nf);
@@ -96,6 +146,10 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
     }
     // Residual and Jacobian blocks, one free node per task.
     std::vector<std::vector<Block>> blocks(static_cast<std::size_t>(omp_get_max_threads()));
+    if (volume) {
+      for (auto& a : volume_force) a.assign(static_cast<std::size_t>(count), 0.0);
+      add_volume_term(lat, *volume, u, v, free_index, dt, volume_force, blocks[0]);
+    }
     double scale_sq = 0.0;
 #pragma omp parallel for schedule(dynamic, 32) reduction(+ : scale_sq)
     for (std::int64_t f = 0; f < nf; ++f) {
@@ -119,7 +173,8 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
       }
       const DualStencil<kSlots> st{lat, u, v, slot_nodes, slot_seed};
       const Vec3<DualF> fd = spring_force<F>(st, rest, p.palette);
-      const Vec3d force{fd.x.v, fd.y.v, fd.z.v};
+      Vec3d force{fd.x.v, fd.y.v, fd.z.v};
+      if (volume) force += Vec3d{volume_force[0][n], volume_force[1][n], volume_force[2][n]};
       for (int q = 0; q < distinct_count; ++q) {
         const std::int64_t m = distinct[q];
         const std::int64_t col = free_index[m];
@@ -210,11 +265,12 @@ ImplicitStepStats implicit_step(const LatticeView& lat, const StateView& state,
 
 ImplicitStepStats implicit_euler_step(const LatticeView& lattice, const StateView& state,
                                       const StepParameters& parameters, unsigned features,
-                                      int max_newton_iterations, double tolerance) {
+                                      int max_newton_iterations, double tolerance,
+                                      const VolumeParameters* volume) {
   require(max_newton_iterations >= 1, "implicit Euler needs at least one Newton iteration");
   return dispatch_features(features, [&](auto f) {
     return implicit_step<decltype(f)::value>(lattice, state, parameters, max_newton_iterations,
-                                             tolerance);
+                                             tolerance, volume);
   });
 }
 

@@ -86,7 +86,11 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
     effect_bits_ |= effect_bits::kNodeMasking;
   const std::vector<RestOffsets>& keyframes = timeline_.rest_offsets();
   if (!keyframes.empty()) effect_bits_ |= effect_bits::kRestAnimation;
-  if (effect_bits_ != 0)
+  for (const Material& m : config_.materials)
+    if (m.poisson_ratio > 0.0) effect_bits_ |= effect_bits::kVolumetric;
+  // Implicit Euler takes the volumetric term into its own Newton system (implicit_euler.h); the
+  // other effects are explicit only (validate_solver_config).
+  if (effect_bits_ != 0 && config_.integrator != Integrator::kImplicitEuler)
     effects_ = on_cuda_ ? make_cuda_effects(g, effect_bits_, keyframes, backend_->native_stream())
                         : make_cpu_effects(g, effect_bits_, keyframes);
 }
@@ -188,6 +192,8 @@ EffectParameters Solver::effect_parameters(double dt) const {
   EffectParameters p;
   p.enabled = effect_bits_;
   p.dt = static_cast<float>(dt);
+  p.symplectic = config_.integrator != Integrator::kExplicitEuler;
+  p.velocity_limit = static_cast<float>(velocity_limit_mm_s(dt));
   p.heterogeneous = palette_.count > 1;
   p.palette = palette_;
   p.yield_strain = static_cast<float>(e.plasticity.yield_strain);
@@ -215,8 +221,13 @@ EffectParameters Solver::effect_parameters(double dt) const {
         p.material_aniso_extra[ax][m] =
             len2 > 0.0 ? static_cast<float>((factor - 1.0) * axis[ax] * axis[ax] / len2) : 0.0f;
     }
+  p.volume = volume_parameters();
   timeline_.set_time(p, time_s_);
   return p;
+}
+
+VolumeParameters Solver::volume_parameters() const {
+  return calibrate_volume(config_.materials);
 }
 
 void Solver::step_with_effects(int n, double dt) {
@@ -238,6 +249,12 @@ void Solver::step_with_effects(int n, double dt) {
     }
   }
   if (s < n) backend_->step(n - s, p, features());  // halted: advances the count only
+}
+
+std::vector<std::string> Solver::active_effects() const {
+  std::vector<std::string> names = config_.effects.active();
+  if (effect_bits_ & effect_bits::kVolumetric) names.emplace_back("volumetric");
+  return names;
 }
 
 EffectsState Solver::effects_state() const {
@@ -292,14 +309,16 @@ std::size_t Solver::raise_event(const std::string& event) {
 }
 
 double Solver::effects_energy_nj() const {
-  if ((effect_bits_ & (effect_bits::kSpringEffects | effect_bits::kFluid)) == 0) return 0.0;
+  if ((effect_bits_ &
+       (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) == 0)
+    return 0.0;
   EffectEnergyInputs in;
   backend_->read_state(&in.displacement_mm, nullptr);
   in.flags = (effect_bits_ & effect_bits::kTearing) ? effects_->read_flags(backend_->lattice_view())
                                                     : lattice_.packed_flags();
   in.material.resize(static_cast<std::size_t>(lattice_.node_count()));
   for (std::int64_t n = 0; n < lattice_.node_count(); ++n) in.material[n] = lattice_.material(n);
-  in.effects = effects_->read();
+  if (effects_) in.effects = effects_->read();
   return effects_elastic_energy_nj(lattice_.geometry(), in, effect_parameters(1.0),
                                    timeline_.rest_offsets(), config_.effects.fluid.bulk_modulus_pa);
 }
@@ -325,10 +344,12 @@ void Solver::clear_instability() {
 void Solver::step_implicit(int n, double dt, StepReport& report) {
   (void)report;
   const StepParameters p = step_parameters(dt);
+  const VolumeParameters volume = volume_parameters();
   for (int s = 0; s < n; ++s) {
     const ImplicitStepStats stats =
         implicit_euler_step(backend_->lattice_view(), backend_->state_view(), p, features(),
-                            config_.implicit_newton_iterations, config_.implicit_tolerance);
+                            config_.implicit_newton_iterations, config_.implicit_tolerance,
+                            (effect_bits_ & effect_bits::kVolumetric) ? &volume : nullptr);
     if (stats.first_non_finite_node >= 0) {
       instability_ = make_instability(stats.first_non_finite_node, steps_done_);
       ++steps_done_;

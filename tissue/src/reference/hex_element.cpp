@@ -54,6 +54,8 @@ const char* to_string(HexFormulation formulation) {
       return "incompatible-modes";
     case HexFormulation::kFullIntegration:
       return "full-integration";
+    case HexFormulation::kMeanDilatation:
+      return "mean-dilatation";
   }
   return "?";
 }
@@ -72,7 +74,8 @@ HexElementMatrices hex_element_matrices(const Vec3d& size_mm, const ElasticMater
   HexStiffness kuu = HexStiffness::Zero();
   Eigen::Matrix<double, 24, 9> kua = Eigen::Matrix<double, 24, 9>::Zero();
   Eigen::Matrix<double, 9, 9> kaa = Eigen::Matrix<double, 9, 9>::Zero();
-  for (int gp = 0; gp < 8; ++gp) {
+  // Strain-displacement matrix at Gauss point gp (natural coordinates ±1/√3).
+  auto strain_matrix = [&](int gp) {
     const double s[3] = {(gp & 1) ? g : -g, (gp & 2) ? g : -g, (gp & 4) ? g : -g};
     Strain24 b = Strain24::Zero();
     for (int c = 0; c < 8; ++c) {
@@ -86,6 +89,21 @@ HexElementMatrices hex_element_matrices(const Vec3d& size_mm, const ElasticMater
         for (int component = 0; component < 3; ++component)
           b(voigt_row(component, axis), 3 * c + component) += dn;
       }
+    }
+    return b;
+  };
+  // B-bar: the element mean of the volumetric row b_vol = Σ normal rows (equal Gauss weights).
+  Eigen::Matrix<double, 1, 24> mean_volumetric = Eigen::Matrix<double, 1, 24>::Zero();
+  if (formulation == HexFormulation::kMeanDilatation)
+    for (int gp = 0; gp < 8; ++gp)
+      mean_volumetric += strain_matrix(gp).topRows<3>().colwise().sum() / 8.0;
+  for (int gp = 0; gp < 8; ++gp) {
+    const double s[3] = {(gp & 1) ? g : -g, (gp & 2) ? g : -g, (gp & 4) ? g : -g};
+    Strain24 b = strain_matrix(gp);
+    if (formulation == HexFormulation::kMeanDilatation) {
+      const Eigen::Matrix<double, 1, 24> shift =
+          (mean_volumetric - b.topRows<3>().colwise().sum()) / 3.0;
+      for (int r = 0; r < 3; ++r) b.row(r) += shift;
     }
     const double w = det_j;  // Gauss weights are 1
     kuu.noalias() += w * b.transpose() * d * b;

@@ -5,6 +5,7 @@
 //     ΔU = ½·(ks/L)·((1 + a_d)·(x − δ)² − x²)      x = l − L (the core counts ½·(ks/L)·x²)
 //   fluid cube c (all 8 corners alive), volumetric strain ε = (V − V0)/V0, content φ_c:
 //     U = ½·K·(ε − φ_c)²·V0
+//   volumetric term, intact cube c with stiffness k_c (volume_term.h): U = k_c·V0·φ(V/V0)
 // Evaluated on the host from host copies of the state and the effect arrays (a query, not a
 // step).
 #pragma once
@@ -28,6 +29,10 @@ struct EffectEnergyInputs {
   std::vector<MaterialBlend> material;  ///< #nodes
   EffectsState effects;                 ///< plastic offsets, fluid content (empty when off)
 };
+
+/// The volumetric term's energy Σ_c k_c·V0·φ(J_c), nJ, of a host lattice view and state.
+double volume_energy_nj(const LatticeView& lattice, const ConstStateView& state,
+                        const VolumeParameters& parameters);
 
 /// The effects' extra elastic energy (see header); `p.enabled` says which effects are on,
 /// `rest_offsets` are the animation's keyframes (AnimationTimeline::rest_offsets, may be empty).

@@ -3,16 +3,26 @@
 //
 // A step with effects is
 //   1. cube pass    (fluid)              p_c = K·(content_c − ΔV_c/V0)             per cube
+//      volume pass  (volumetric)         π_c·¼(e_y×e_z, e_z×e_x, e_x×e_y)          per cube
 //   2. force pass   (plastic, aniso, fluid) F_eff[n]                              per node
-//   3. kick pass                          v_n += dt·F_eff[n]/m_n  (moving nodes)   per node
-//   4. the core step (node_update.h)
+//   3. the core step (node_update.h)
+//   4. kick pass    F = F_eff[n] + Σ_cubes π_c·∂V_c/∂x_n:  v_n += dt·F/m_n, and with symplectic
+//                   Euler u_n += dt²·F/m_n                 (moving nodes)          per node
 //   5. update pass  (plastic, fluid)      rest offsets creep/recover, fluid flows  per node/cube
 //   6. tear pass    (tearing)             over-strained links are cleared          per node
 //      (node masking: 6a marks nodes whose largest spring tension exceeds the limit, 6b clears
 //      every link with a marked end, so both ends of a spring agree)
-// Passes 2 and 3 are separate so that no pass writes what a neighbour reads (the force pass
-// reads neighbours' velocities for the anisotropic damping). Each pass writes only its own
-// node's (or cube's) entries, so the result does not depend on execution order.
+// Passes 1–2 read the state the core step reads, and the kick adds their force to what the core
+// step wrote exactly as if it had been in the core's force: the step is symplectic (or explicit)
+// Euler of the total force at (u_n, v_n). (Kicking the velocity *before* the core step instead
+// lets the core's spring damping act on the kicked velocity within the same step: its fixed
+// point is then not the static equilibrium, off by the damping of dt·F_eff/m, ~1% on the
+// volumetric term of a soft damped block.) The kick applies the velocity limit to the whole
+// update again (the core step limited its own part), so no node outruns the safety net; the
+// kinetic damping acts in the core step only. Passes 2 and 4
+// are separate so that no pass writes what a neighbour reads (the force pass reads neighbours'
+// velocities for the anisotropic damping). Each pass writes only its own node's (or cube's)
+// entries, so the result does not depend on execution order.
 //
 // Linear springs (spring d of node n, rest length L, stiffness ks, damping kd of node_force.h):
 //   plastic: rest length L + δ, δ stored once per spring at its lower end (plastic_offset[axis]);
@@ -31,6 +41,9 @@
 // the gradient of the energy ½K·(ΔV/V0 − content)²·V0. Fluid flow (Darcy-like, on the cube
 // lattice): content_i += α·Σ_nb (p_nb − p_i)/K with α = (1 − exp(−6·rate·dt))/6, which is
 // rate·dt for small steps and stays below 1/6 (the explicit diffusion limit) for any step.
+// The volumetric term (materials with a Poisson ratio) lives in volume_term.h: its own cubes
+// (intact: 8 live corners and 12 linked edges), an energy k·V0·φ(J) with k = λ and its
+// Kelvin–Voigt damping.
 #pragma once
 
 #include <cstdint>
@@ -41,8 +54,10 @@
 #include "tsf/crms/lattice_geometry.h"
 #include "tsf/crms/node_force.h"
 #include "tsf/crms/node_state_view.h"
+#include "tsf/crms/node_update.h"
 #include "tsf/crms/spring_constants.h"
 #include "tsf/crms/stencil.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 
@@ -55,6 +70,9 @@ constexpr unsigned kTearing = 1u << 3;
 constexpr unsigned kRestAnimation = 1u << 4;
 /// Tearing by node: overloaded nodes lose all their springs.
 constexpr unsigned kNodeMasking = 1u << 5;
+/// The volumetric (Poisson) term of materials with ν > 0 (volume_term.h): its cube pass, and its
+/// force in the kick (no effect-force array).
+constexpr unsigned kVolumetric = 1u << 6;
 /// Effects that add a force (passes 2 and 3).
 constexpr unsigned kForceEffects = kPlasticity | kAnisotropy | kFluid | kRestAnimation;
 /// Effects whose force goes through the linear springs' rest lengths or stiffness.
@@ -71,12 +89,18 @@ struct EffectArrays {
   const float* rest_from[3] = {nullptr, nullptr, nullptr};
   const float* rest_to[3] = {nullptr, nullptr, nullptr};
   std::uint8_t* node_mask = nullptr;  ///< #nodes: 1 = overloaded this step (node masking)
+  /// Volumetric term: each cube's π·face terms (9 arrays of #nodes, cube at its lower corner:
+  /// [3a + component], volume_term.h).
+  float* volume_terms[9] = {nullptr, nullptr, nullptr, nullptr, nullptr,
+                            nullptr, nullptr, nullptr, nullptr};
 };
 
 /// Scalars of the effect passes, by value to kernels.
 struct EffectParameters {
-  unsigned enabled = 0;  ///< effect_bits
-  float dt = 0;          ///< s
+  unsigned enabled = 0;    ///< effect_bits
+  float dt = 0;            ///< s
+  bool symplectic = true;  ///< the kick also moves positions (symplectic Euler; not explicit Euler)
+  float velocity_limit = 0;  ///< mm/s, the core step's (0: none)
   bool heterogeneous = false;
   MaterialPalette palette;
   float yield_strain = 0;
@@ -93,18 +117,8 @@ struct EffectParameters {
   /// Heterogeneous lattices: per palette entry a_axis and tear strain (see header).
   float material_aniso_extra[3][kMaxMaterials] = {};
   float material_tear_strain[kMaxMaterials] = {};
+  VolumeParameters volume;  ///< per palette entry λ and λ·τ (volumetric term)
 };
-
-/// A per-entry table blended over a node's material (weighted mean).
-TSF_HD_INLINE float blend_table(const float* table, MaterialBlend b) {
-  if (b.pure()) return table[b.entry(0)];
-  float sum = 0.0f;
-  for (int c = 0; c < 4; ++c) {
-    const unsigned w = b.weight_of(c);
-    if (w != 0u) sum += static_cast<float>(w) * table[b.entry(c)];
-  }
-  return sum * (1.0f / 255.0f);
-}
 
 /// Anisotropic extra stiffness fraction a of node n's spring d (mean of both ends' blends on a
 /// heterogeneous lattice).
@@ -249,15 +263,27 @@ TSF_HD_INLINE Vec3f effect_force(const LatticeView& lat, const ConstStateView& s
   return force;
 }
 
-/// Pass 3: the kicked velocity of node n (unchanged for fixed and dead nodes).
-TSF_HD_INLINE Vec3f kicked_velocity(const LatticeView& lat, const ConstStateView& s,
-                                    const EffectArrays& arrays, const EffectParameters& p,
-                                    std::int64_t n) {
-  const Vec3f v{s.v[0][n], s.v[1][n], s.v[2][n]};
+/// Pass 4, after the core step: node n = (i, j, k) of the state the core step wrote receives the
+/// force of passes 1–2 (the force pass's effect force and the volumetric term's cube forces):
+/// v += dt·F/m, and with symplectic Euler u += dt²·F/m (the position update the core step made
+/// with its own part of v). Fixed and dead nodes are left as they are.
+TSF_HD_INLINE void kick_node(const LatticeView& lat, const StateView& s, const EffectArrays& arrays,
+                             const EffectParameters& p, std::int64_t n, int i, int j, int k) {
   const bool moving = (lat.flags[n] & (kAliveBit | kFixedBit)) == kAliveBit;
-  if (!moving) return v;
-  const Vec3f f{arrays.force[0][n], arrays.force[1][n], arrays.force[2][n]};
-  return v + f * (p.dt * lat.inv_mass[n]);
+  if (!moving) return;
+  Vec3f f{0.0f, 0.0f, 0.0f};
+  if ((p.enabled & effect_bits::kForceEffects) != 0)
+    f = {arrays.force[0][n], arrays.force[1][n], arrays.force[2][n]};
+  if ((p.enabled & effect_bits::kVolumetric) != 0)
+    f += volume_force(lat, arrays.volume_terms, n, i, j, k);
+  const Vec3f before{s.v[0][n], s.v[1][n], s.v[2][n]};
+  // The velocity limit holds the whole update, as it holds the core's (no kinetic drag: the core
+  // step applied it).
+  const Vec3f after =
+      limit_velocity(before + f * (p.dt * lat.inv_mass[n]), p.dt, 0.0f, p.velocity_limit);
+  for (int a = 0; a < 3; ++a) s.v[a][n] = after[a];
+  if (p.symplectic)
+    for (int a = 0; a < 3; ++a) s.u[a][n] += p.dt * (after[a] - before[a]);
 }
 
 /// Pass 5, plasticity: node n's 3 springs towards +axis (their offsets live at n).

@@ -2,6 +2,8 @@
 // docs/effects.md, "The effects"): the core estimate of stable_time_step.h, lowered for what the
 // scene's effects and animation add.
 //
+//   volumetric term (materials with ν > 0): per node and axis in the core estimate itself
+//              (stable_time_step.h): its cubes' k·h_b·h_c/(2·h_a) and damping, at the node;
 //   animation: tracks and triggers may move nodes to stiffer palette entries, so the estimate is
 //              also taken with every track and trigger node at its target (blends in between are
 //              no stiffer than both ends) and the smaller one is kept;

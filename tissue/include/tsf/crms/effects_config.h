@@ -1,12 +1,13 @@
 // Optional CRMS effects (docs/effects.md): which extra physics a scene switches on, and its
 // parameters.
 //
-// Effects run as separate passes around the core step (effect_physics.h): a "kick" pass before it
-// adds the effects' forces to the velocity (v += dt·F_effects/m, exactly the symplectic Euler
-// update of those forces), and an "update" pass after it advances the effects' own state
-// (plastic rest offsets, fluid content, torn links). An effect that is off launches no pass and
-// allocates no array: the core kernels and their compiled feature sets (effects.h) are the same
-// with or without effects, so adding an effect adds no kernel instantiations.
+// Effects run as separate passes around the core step (effect_physics.h): force passes before it
+// evaluate the effects' forces on the state it reads, a "kick" pass after it adds them to the
+// state it wrote (v += dt·F_effects/m and, symplectic, u += dt²·F_effects/m: exactly the update
+// those forces would have had inside the core step), and an "update" pass advances the effects'
+// own state (plastic rest offsets, fluid content, torn links). An effect that is off launches no
+// pass and allocates no array: the core kernels and their compiled feature sets (effects.h) are the
+// same with or without effects, so adding an effect adds no kernel instantiations.
 //
 // Units: mm, g, s; stiffness as Pa (like Young's modulus), rates in 1/s, strains dimensionless.
 #pragma once

@@ -14,6 +14,9 @@
 // update moved no node by more than tolerance × the smallest spacing (the resolution of the float
 // state, where the residual sits at its round-off floor).
 //
+// The volumetric term (materials with ν > 0) adds per intact cube its corner forces π·∂V/∂x_q
+// (volume_term.h), differentiated with dual numbers seeded on the 8 corners' u and v.
+//
 // After the solve the stability controls (kinetic damping, velocity limit) filter v as in the
 // explicit schemes (node_update.h), and u = u0 + dt·v uses the filtered v.
 #pragma once
@@ -21,6 +24,7 @@
 #include <cstdint>
 
 #include "tsf/crms/node_state_view.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 
@@ -31,9 +35,12 @@ struct ImplicitStepStats {
   std::int64_t first_non_finite_node = -1;  ///< ≥ 0: the step was rejected, state unchanged
 };
 
-/// One backward-Euler step in place on host arrays. `features` as the kernels' (effects.h).
+/// One backward-Euler step in place on host arrays. `features` as the kernels' (effects.h);
+/// `volume`: the volumetric term of materials with ν > 0 (volume_term.h), its forces and exact
+/// Jacobian per cube with dual numbers too (nullptr: none).
 ImplicitStepStats implicit_euler_step(const LatticeView& lattice, const StateView& state,
                                       const StepParameters& parameters, unsigned features,
-                                      int max_newton_iterations, double tolerance);
+                                      int max_newton_iterations, double tolerance,
+                                      const VolumeParameters* volume = nullptr);
 
 }  // namespace tsf::crms

@@ -34,6 +34,7 @@
 #include "tsf/crms/snapshot_buffer.h"
 #include "tsf/crms/solver_config.h"
 #include "tsf/crms/stable_time_step.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 
@@ -164,7 +165,8 @@ class Solver {
 
   // ---- optional effects (effects_config.h) ----
   /// Names of the enabled effects, e.g. {"plasticity", "fluid"}; empty when none is on.
-  std::vector<std::string> active_effects() const { return config_.effects.active(); }
+  /// "volumetric" when a material has ν > 0 (its volumetric term, volume_term.h).
+  std::vector<std::string> active_effects() const;
   /// Host copies of the effects' arrays (synchronises; empty for effects that are off).
   EffectsState effects_state() const;
   /// Springs broken by tearing since construction (synchronises).
@@ -192,6 +194,8 @@ class Solver {
   void step_implicit(int n, double dt, StepReport& report);
   Instability make_instability(std::int64_t node, std::int64_t step) const;
   EffectParameters effect_parameters(double dt) const;
+  /// λ and λ·τ per palette entry (the volumetric term of materials with ν > 0).
+  VolumeParameters volume_parameters() const;
   void step_with_effects(int n, double dt);
   /// Clears on the host lattice the links that tearing removed on the backend.
   void sync_torn_links();

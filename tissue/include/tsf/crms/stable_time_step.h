@@ -15,12 +15,21 @@
 //                      (stiffness-proportional damping): explicit Euler without damping is
 //                      unconditionally unstable (dt = 0).
 // The minimum over nodes and axes is reported, with the node that sets it.
+//
+// Volumetric term (materials with ν > 0, volume_term.h): its stiffness at rest, Σ_c k_c/V0·g_c
+// g_cᵀ, couples the three components (a lone cube's top mode is its breathing mode), so the
+// checkerboard alone underestimates it on thin parts. Its M⁻¹K has the eigenvalues of the cubes'
+// Gram matrix S_cd = √(k_c·k_d)/V0·Σ_{n ∈ c∩d} g_cn·g_dn/m_n, and Gershgorin's row of S bounds the
+// term's top mode: each node takes the largest row among its cubes (6·λ·h/m inside a uniform
+// lattice, where the exact top is the checkerboard's 4·λ·h/m; 1.5·k·h/m for a lone cube) and adds
+// it to λ_a of every axis, with the rows of η to c_a.
 #pragma once
 
 #include <cstdint>
 
 #include "tsf/crms/lattice.h"
 #include "tsf/crms/spring_constants.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 
@@ -33,7 +42,9 @@ struct StableTimeStep {
   std::int64_t critical_node = -1;  ///< node whose mode sets the symplectic bound
 };
 
+/// `volume`: the volumetric term's moduli (calibrate_volume), nullptr or all zero: none.
 StableTimeStep estimate_stable_time_step(const Lattice& lattice, const MaterialPalette& palette,
-                                         bool symmetric_reactions);
+                                         bool symmetric_reactions,
+                                         const VolumeParameters* volume = nullptr);
 
 }  // namespace tsf::crms

@@ -24,6 +24,13 @@
 //    ∫ ∂(1 − s²)/∂x dV = 0 and the element passes the patch test (FemHex.PatchTest*). Loads are
 //    not applied to the internal modes (Taylor's rule). After the solve α = R·u_e
 //    (internal_modes below) restores the full displacement field inside the element.
+//  * kMeanDilatation: the B-bar element of Hughes (T. J. R. Hughes, "Generalization of selective
+//    integration procedures to anisotropic and nonlinear media", Int. J. Numer. Meth. Eng.
+//    15:1413–1418, 1980; ABAQUS C3D8 with its "hybrid-free" selective form): the volumetric part
+//    of B at every Gauss point is replaced by its element mean, B̄ = B + ⅓·m·(b̄_vol − b_vol),
+//    m = [1 1 1 0 0 0]ᵀ, so the volume change is one constraint per element and cannot lock as
+//    ν → ½ (it still shear-locks in bending like full integration). The independent check of the
+//    incompatible-mode element near incompressibility (the accuracy report's Poisson study).
 #pragma once
 
 #include <Eigen/Core>
@@ -52,6 +59,7 @@ void validate_elastic_material(const ElasticMaterial& material,
 enum class HexFormulation {
   kIncompatibleModes,  ///< Taylor–Wilson incompatible modes (C3D8I), the default
   kFullIntegration,    ///< plain trilinear, 2×2×2 Gauss (C3D8)
+  kMeanDilatation,     ///< B-bar: volumetric strain at its element mean (no volumetric locking)
 };
 const char* to_string(HexFormulation formulation);
 
@@ -61,7 +69,7 @@ using HexInternalModes = Eigen::Matrix<double, 9, 24>;
 struct HexElementMatrices {
   HexStiffness stiffness;  ///< condensed 24×24, µN/mm, symmetric positive semi-definite
   /// α = internal_modes · u_e: the 9 bubble amplitudes (mm), row 3k + a for bubble axis k and
-  /// displacement component a. Zero for kFullIntegration.
+  /// displacement component a. Zero for kFullIntegration and kMeanDilatation.
   HexInternalModes internal_modes;
 };
 
