@@ -1,6 +1,7 @@
 #include "scene/scene_session.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -10,6 +11,7 @@
 #include "tsf/common/stopwatch.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/time_step_choice.h"
+#include "tsf/io/nrrd_volume.h"
 #include "tsf/volume/analytic_volumes.h"
 #include "tsf/volume/tissue_labels.h"
 #include "tsf/volume/volume_edits.h"
@@ -25,13 +27,23 @@ namespace {
   throw Error(scene.file.string() + ": " + key + ": tsf " + to_string(command) + " " + why);
 }
 
-#ifndef TSF_HAVE_IMPORT
-[[noreturn]] void needs_itk(const Scene& scene) {
-  throw Error(scene.file.string() +
-              ": lattice.source: volume needs a build with ITK (reconfigure with "
-              "-DTSF_WITH_ITK=ON); this build reads analytic boxes only");
-}
+/// A segmented tissue volume (PREFIX-density.nrrd with its labels and weights): through ITK where
+/// the import module is built (NRRD, MHA, …), else through the core's own NRRD reader, so the
+/// GPU machine's build (no ITK) simulates the segmented tissue too.
+VoxelVolume read_scene_volume(const Scene& scene, const std::filesystem::path& path) {
+#ifdef TSF_HAVE_IMPORT
+  (void)scene;
+  return import::read_tissue_volume(path);
+#else
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".nrrd" && ext != ".nhdr")
+    throw Error(scene.file.string() + ": lattice.volume: '" + path.string() +
+                "': this build reads NRRD volumes only (no ITK; reconfigure with "
+                "-DTSF_WITH_ITK=ON for other formats)");
+  return io::read_tissue_volume_nrrd(path);
 #endif
+}
 
 /// The box lattice of instance `index` (build_box_lattice: node count per axis = the box size
 /// over the spacing, rounded; the spacing then fits the box exactly).
@@ -45,7 +57,6 @@ crms::Lattice box_lattice(const Scene& scene, const SceneInstance& inst) {
   return crms::build_box_lattice(o);
 }
 
-#ifdef TSF_HAVE_IMPORT
 /// The sub-volume of voxels whose centres lie in [lo, hi] mm.
 VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
                         const std::string& error_prefix) {
@@ -125,7 +136,6 @@ void keep_labels(VoxelVolume& v, const std::vector<std::uint8_t>& labels, bool c
     throw Error(error_prefix + "lattice.labels: no voxel of the volume" +
                 (cropped ? " (after the crop)" : "") + " has these labels");
 }
-#endif
 
 /// Anchors of an instance on its lattice (box, plane, labels).
 void apply_anchors(const std::vector<SceneAnchor>& anchors, crms::Lattice& lattice) {
@@ -255,16 +265,12 @@ VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
     return make_sdf_volume(
         g, [&](const Vec3d& p) { return box_distance_local(half, p - centre); }, ramp);
   }
-#ifdef TSF_HAVE_IMPORT
-  VoxelVolume v = import::read_tissue_volume(sl.volume);
+  VoxelVolume v = read_scene_volume(scene, sl.volume);
   if (patient_frame) *patient_frame = v.geometry();
   if (sl.cropped) v = crop_volume(v, sl.crop_min_mm, sl.crop_max_mm, scene.instance_prefix(index));
   if (sl.crop_oriented) keep_oriented_box(v, sl);
   if (!sl.labels.empty()) keep_labels(v, sl.labels, sl.cropped, scene.instance_prefix(index));
   return v;
-#else
-  needs_itk(scene);
-#endif
 }
 
 int lattice_node_spacing_voxels(const SceneInstance& inst, const VolumeGeometry& volume) {
@@ -387,15 +393,11 @@ LatticeRun build_lattice_run(const Scene& scene) {
   if (inst.lattice.source == SceneLattice::Source::kBox) {
     lattice = box_lattice(scene, inst);
   } else {
-#ifdef TSF_HAVE_IMPORT
     const VoxelVolume volume = instance_tissue_volume(scene, index);
     frame = volume.geometry();
     const interaction::TissueModelOptions o =
         instance_model_options(scene, index, volume.geometry());
     lattice = crms::build_lattice_from_volume(volume, o.lattice);
-#else
-    needs_itk(scene);
-#endif
   }
   apply_anchors(inst.anchors, lattice);
   LatticeRun run;
