@@ -33,9 +33,12 @@
 #   1st call: carry a folder with tsf-lib.tar.xz, run `scripts/gpu-product.sh run DIR` with
 #             TSF_PRODUCT_STEPS=unpack (it unpacks and stops)
 #   2nd call: carry tsf-bin.tar.xz and x11.tar.xz, run `scripts/gpu-product.sh run DIR`
+# TSF_PRODUCT_ROOT names the checkout whose scenes and data-samples `run` uses (default: the one
+# holding the script; the bundles may travel in a folder of their own with a copy of it).
 # (docs/run.md "The whole product on the GPU machine").
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# The checkout whose scenes and sample data `run` uses (default: the one holding this script).
+ROOT="${TSF_PRODUCT_ROOT:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}"
 MODE="${1:-}"
 DIR="${2:-$ROOT/out/product}"
 PREFIX=/opt/tsf-product

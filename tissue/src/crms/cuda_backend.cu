@@ -790,22 +790,15 @@ class CudaBackend final : public SolverBackend {
   void step(int n, const StepParameters& p, unsigned features) override {
     require_compiled_feature_set(features);
     const LatticeView lat = lattice_view();
-    if (nodes_ && n > 0 && (features & features::kSymmetricReactions) != 0 &&
-        evaluation_ == ForceEvaluation::kShared) {
+    if ((nodes_ || persistent_) && n > 0 && (features & features::kSymmetricReactions) != 0 &&
+        evaluation_ == ForceEvaluation::kShared) {  // every step in one cooperative launch
       dispatch_features(features, [&](auto f) {
-        if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0)
-          launch_nodes<decltype(f)::value>(lat, p, n);
-      });
-      advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(), n);
-      TSF_CUDA_CHECK_LAUNCH();
-      steps_started_ += n;
-      return;
-    }
-    if (persistent_ && n > 0 && (features & features::kSymmetricReactions) != 0 &&
-        evaluation_ == ForceEvaluation::kShared) {
-      dispatch_features(features, [&](auto f) {
-        if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0)
-          launch_persistent<decltype(f)::value>(lat, p, n);
+        if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0) {
+          if (nodes_)
+            launch_nodes<decltype(f)::value>(lat, p, n);
+          else
+            launch_persistent<decltype(f)::value>(lat, p, n);
+        }
       });
       advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(), n);
       TSF_CUDA_CHECK_LAUNCH();
