@@ -992,9 +992,9 @@ class CudaBackend final : public SolverBackend {
   void plan_shared_launch(const BackendOptions& options, int multiprocessors, bool cooperative) {
     const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
     persistent_ = cooperative && options.cuda_launch == CudaLaunch::kPersistent;
-    nodes_ =
-        cooperative && (options.cuda_launch == CudaLaunch::kNodes ||
-                        (options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes));
+    nodes_ = cooperative && count_ < (std::int64_t{1} << 31) &&  // 32-bit node lists
+             (options.cuda_launch == CudaLaunch::kNodes ||
+              (options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes));
     if (nodes_) {
       int per_sm = 0;
       TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
