@@ -14,7 +14,8 @@
 #   TSF_GPU_PROFILE=1                                  also profile the default (symmetric) kernel
 #                                                      at 256³ and the node-parallel kernel on the
 #                                                      sinus lattice with Nsight Compute
-#                                                      (profile.txt; reports in results.tgz)
+#                                                      (profile.txt; reports in results.tgz;
+#                                                      TSF_GPU_PROFILE_KERNELS="nodes": one)
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 OUT="${OUT:-$ROOT/out/gpu}"
@@ -87,10 +88,12 @@ if [ "${TSF_GPU_PROFILE:-0}" = "1" ] && command -v ncu >/dev/null; then
   # lattice (1024 steps in one launch).
   t0=$(date +%s)
   b="$BUILD/bench/bench_crms_throughput"
+  [[ "${TSF_GPU_PROFILE_KERNELS:-symmetric nodes}" == *symmetric* ]] &&
   timeout 240 ncu --clock-control none --set full -k regex:shared_step_kernel --launch-skip 20 \
     --launch-count 1 -o "$OUT/raw/symmetric-256" "$b" \
     --benchmark_filter='BM_CrmsNodeSteps/256/1/1/0/' --benchmark_min_time=0.01 \
     >"$OUT/raw/ncu-256.log" 2>&1
+  [[ "${TSF_GPU_PROFILE_KERNELS:-symmetric nodes}" == *nodes* ]] &&
   timeout 120 ncu --clock-control none --set full -k regex:node_step_kernel \
     --launch-skip 2 --launch-count 1 -o "$OUT/raw/nodes-sinus" "$b" \
     --benchmark_filter='BM_CrmsSinusLatticeStep/2/3' --benchmark_min_time=0.01 \
