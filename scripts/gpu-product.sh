@@ -14,8 +14,9 @@
 #                  them)
 #     x11.tar.xz   Xvfb, xkbcomp and the keymaps, the GL loaders (libglvnd) and glxinfo, with
 #                  their libraries: the X server and OpenGL that Debian's VTK renders through
-#                  (GLX only). With TSF_PRODUCT_MESA=1 also Mesa's GLX and swrast driver (llvmpipe,
-#                  with LLVM: ~30 MB more), the fallback when the driver's GLX is refused.
+#                  (GLX only).
+#     mesa.tar.xz, z3.tar.xz  Mesa's GLX provider (swrast_dri.so, with LLVM and LLVM's libz3
+#                  apart) and its GLX client library: Xvfb offers the GLX extension only with it
 #   scripts/gpu-product.sh run [DIR]      there: unpack DIR's bundles into /opt/tsf-product (kept
 #                                         when already unpacked by an earlier call on a warm
 #                                         machine), start Xvfb on :99 with the driver's GLX
@@ -24,15 +25,17 @@
 #     tsf view --offscreen --backend cuda  a view script on the segmented cranium, saving frames
 #                  writing under $OUT: product-summary.txt (real-time factors, steps/s, frames per
 #                  second, edit latencies), the run and view reports, and frames (PNG).
-#   Parts and steps can be picked: TSF_PRODUCT_PARTS="tsf x11" (bundle; default both),
+#   Parts and steps can be picked: TSF_PRODUCT_PARTS="tsf x11 mesa" (bundle; default all),
 #   TSF_PRODUCT_STEPS="x11 run view" (run; default all three).
 #
-# Sizes: a call carries 64 MiB with the checkout (~30 MB). tsf-lib.tar.xz is ~31 MB,
-# tsf-bin.tar.xz ~10 MB and x11.tar.xz ~4 MB: too much for one call, so they travel in two calls
-# in a row (files unpacked outside the checkout stay on a warm machine, ~30 s between calls):
+# Sizes: a call carries 64 MiB with the checkout (~30 MB). tsf-lib.tar.xz is ~32 MB,
+# mesa.tar.xz ~30 MB, tsf-bin.tar.xz ~10 MB, z3.tar.xz ~7 MB and x11.tar.xz ~4 MB: too much for
+# one call, so they travel in three calls in a row (files unpacked outside the checkout stay on a
+# warm machine, ~30 s between calls):
 #   1st call: carry a folder with tsf-lib.tar.xz, run `scripts/gpu-product.sh run DIR` with
 #             TSF_PRODUCT_STEPS=unpack (it unpacks and stops)
-#   2nd call: carry tsf-bin.tar.xz and x11.tar.xz, run `scripts/gpu-product.sh run DIR`
+#   2nd call: the same with mesa.tar.xz
+#   3rd call: carry tsf-bin.tar.xz, x11.tar.xz and z3.tar.xz, run `scripts/gpu-product.sh run DIR`
 # TSF_PRODUCT_ROOT names the checkout whose scenes and data-samples `run` uses (default: the one
 # holding the script; the bundles may travel in a folder of their own with a copy of it).
 # (docs/run.md "The whole product on the GPU machine").
@@ -70,11 +73,12 @@ copy_libraries() {
 bundle() {
   mkdir -p "$DIR"
   DIR="$(cd "$DIR" && pwd)"
-  local parts="${TSF_PRODUCT_PARTS:-tsf x11}"
+  local parts="${TSF_PRODUCT_PARTS:-tsf x11 mesa}"
   STAGE=$(mktemp -d)
   trap 'rm -rf "$STAGE"' EXIT
   if [[ " $parts " == *" tsf "* ]]; then bundle_tsf "$STAGE"; fi
   if [[ " $parts " == *" x11 "* ]]; then bundle_x11 "$STAGE"; fi
+  if [[ " $parts " == *" mesa "* ]]; then bundle_mesa "$STAGE"; fi
   ls -la "$DIR"/*.tar.xz
 }
 
@@ -123,15 +127,31 @@ bundle_x11() {
     cp -L "/usr/lib/x86_64-linux-gnu/$l" "$x/lib/" 2>/dev/null || true
   done
   copy_libraries "$x/lib" "$x/bin/"*
-  if [ "${TSF_PRODUCT_MESA:-0}" = "1" ]; then
-    mkdir -p "$x/lib/dri"
-    cp -L /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so "$x/lib/dri/"
-    cp -L /usr/lib/x86_64-linux-gnu/libGLX_mesa.so.0 "$x/lib/"
-    copy_libraries "$x/lib" "$x/lib/dri/swrast_dri.so" "$x/lib/libGLX_mesa.so.0"
-  fi
   strip --strip-unneeded "$x/bin/"* "$x/lib/"*.so* 2>/dev/null || true
   (cd "$stage" && tar -cf - x11 | xz -9e -T2 >"$DIR/x11.tar.xz")
   echo "gpu-product: the X server has $(ls "$x/lib" | wc -l) libraries ($(du -sh "$x" | cut -f1) unpacked)"
+}
+
+bundle_mesa() {
+  # Mesa's GLX provider for Xvfb (swrast_dri.so: llvmpipe, with LLVM) and its GLX client library:
+  # Xvfb offers the GLX extension only with it. Libraries the tsf and X bundles already carry
+  # are left out (Xvfb's library path reaches both).
+  local stage=$1 m="$1/x11/lib"
+  mkdir -p "$m/dri" "$stage/have"
+  copy_libraries "$stage/have" "${TSF_BUILD_DIR:-$ROOT/build}/bin/tsf" /usr/bin/Xvfb /usr/bin/xkbcomp
+  cp -L /usr/lib/x86_64-linux-gnu/dri/swrast_dri.so "$m/dri/"
+  cp -L /usr/lib/x86_64-linux-gnu/libGLX_mesa.so.0 "$m/"
+  copy_libraries "$stage/mesa-deps" "$m/dri/swrast_dri.so" "$m/libGLX_mesa.so.0"
+  for l in "$stage/mesa-deps/"*; do
+    [ -e "$stage/have/$(basename "$l")" ] || mv "$l" "$m/"
+  done
+  strip --strip-unneeded "$m/"*.so* "$m/dri/"*.so 2>/dev/null || true
+  # libz3 (LLVM's) apart, so that each part travels with the checkout in one call.
+  mkdir -p "$stage/z3/x11/lib"
+  mv "$m/libz3.so"* "$stage/z3/x11/lib/"
+  (cd "$stage" && tar -cf - x11/lib | xz -9e -T2 >"$DIR/mesa.tar.xz")
+  (cd "$stage/z3" && tar -cf - x11/lib | xz -9e -T2 >"$DIR/z3.tar.xz")
+  echo "gpu-product: Mesa's GLX with $(ls "$m" | wc -l) files ($(du -sh "$m" | cut -f1) unpacked)"
 }
 
 start_x() {
@@ -140,7 +160,7 @@ start_x() {
   # Xvfb runs xkbcomp by its built-in path.
   [ -x /usr/bin/xkbcomp ] || cp "$x/bin/xkbcomp" /usr/bin/xkbcomp
   mkdir -p /tmp/.X11-unix
-  export LD_LIBRARY_PATH="$x/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+  export LD_LIBRARY_PATH="$x/lib:$PREFIX/tsf/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
   export LIBGL_DRIVERS_PATH="$x/lib/dri"
   "$x/bin/Xvfb" :99 -screen 0 1280x1024x24 -xkbdir "$x/share/X11/xkb" -nolisten tcp \
     >"$OUT/xvfb.log" 2>&1 &
@@ -149,12 +169,19 @@ start_x() {
   [ -S /tmp/.X11-unix/X99 ] || { echo "gpu-product: Xvfb did not start:"; cat "$OUT/xvfb.log"; return 1; }
   echo "== Xvfb :99 started"
   export DISPLAY=:99
+  GLX_VENDOR=mesa  # the driver's GLX when it answers, else Mesa's (llvmpipe)
   if [ -x "$x/bin/glxinfo" ]; then
     for vendor in nvidia mesa; do
       echo "== glxinfo -B, GLX vendor $vendor"
-      __GLX_VENDOR_LIBRARY_NAME=$vendor timeout 20 "$x/bin/glxinfo" -B 2>&1 | head -12 || true
+      __GLX_VENDOR_LIBRARY_NAME=$vendor timeout 20 "$x/bin/glxinfo" -B >"$OUT/glxinfo-$vendor.txt" 2>&1 || true
+      grep -E "OpenGL (renderer|version)|Device|rror" "$OUT/glxinfo-$vendor.txt" | head -4 || true
+      if [ "$vendor" = nvidia ] && grep -q "OpenGL renderer.*NVIDIA" "$OUT/glxinfo-$vendor.txt"; then
+        GLX_VENDOR=nvidia
+        break
+      fi
     done
   fi
+  echo "== GLX vendor for tsf view: $GLX_VENDOR"
 }
 
 # A figure from a JSON file (python3: the GPU machine's image has it).
@@ -172,7 +199,8 @@ run_product() {
   rm -rf "$work" && mkdir -p "$work"
   # Each part once: a warm machine keeps what an earlier call unpacked.
   local part marker
-  for part in tsf-lib:tsf/lib tsf-bin:tsf/libexec x11:x11; do
+  for part in tsf-lib:tsf/lib tsf-bin:tsf/libexec x11:x11/bin mesa:x11/lib/dri \
+    z3:x11/lib/libz3.so.4; do
     marker="$PREFIX/${part#*:}"
     if [ -f "$DIR/${part%%:*}.tar.xz" ] && [ ! -e "$marker" ]; then
       xz -dc "$DIR/${part%%:*}.tar.xz" | tar -C "$PREFIX" -xf -
@@ -186,28 +214,28 @@ run_product() {
   : >"$summary"
   (nvidia-smi --query-gpu=name,driver_version --format=csv,noheader || true) >>"$summary" 2>&1
   if [[ " $steps " == *" x11 "* || " $steps " == *" view "* ]]; then start_x >>"$summary" 2>&1 || true; fi
-  export __GLX_VENDOR_LIBRARY_NAME="${TSF_PRODUCT_GLX_VENDOR:-nvidia}"
+  export __GLX_VENDOR_LIBRARY_NAME="${TSF_PRODUCT_GLX_VENDOR:-${GLX_VENDOR:-nvidia}}"
   local tsf=$PREFIX/tsf/bin/tsf
   if [[ " $steps " == *" run "* ]]; then
     # The sinus scene as shipped (a node every 2 mm) and at a node every 1 mm (~100 k nodes).
-    sed 's/node_spacing_mm: 2 .*/node_spacing_mm: 1/' "$ROOT/scenes/sinus.yaml" >"$ROOT/scenes/.sinus-1mm.yaml"
-    for scene in sinus .sinus-1mm; do
+    sed 's/node_spacing_mm: 2 .*/node_spacing_mm: 1/' "$ROOT/scenes/sinus.yaml" >"$ROOT/scenes/sinus-1mm.yaml"
+    for scene in sinus sinus-1mm; do
       local t0
       t0=$(date +%s)
       (cd "$ROOT" && timeout 400 "$tsf" run "scenes/$scene.yaml" --backend cuda -o "$work/$scene") \
         >"$OUT/run-$scene.log" 2>&1 || echo "tsf run scenes/$scene.yaml exited $?" >>"$summary"
       local r="$work/$scene/run-report.json"
-      cp "$r" "$OUT/run-report-${scene#.}.json" 2>/dev/null || true
+      cp "$r" "$OUT/run-report-$scene.json" 2>/dev/null || true
       {
         echo "== tsf run scenes/$scene.yaml --backend cuda: $(( $(date +%s) - t0 )) s wall"
         echo "   verdict $(json_get "$r" verdict); backend $(json_get "$r" backend)"
         echo "   steps $(json_get "$r" rates.steps), dt $(json_get "$r" rates.dt_s) s," \
              "steps/s $(json_get "$r" rates.steps_per_s), node-steps/s $(json_get "$r" rates.node_steps_per_s)"
         echo "   real-time factor of the script $(json_get "$r" rates.real_time_factor)"
-        grep -E "edit → render buffer" "$OUT/run-$scene.log" | tail -1
+        grep -E "edit → render buffer" "$OUT/run-$scene.log" | tail -1 || true
       } >>"$summary"
     done
-    rm -f "$ROOT/scenes/.sinus-1mm.yaml"
+    rm -f "$ROOT/scenes/sinus-1mm.yaml"
   fi
   if [[ " $steps " == *" view "* ]]; then
     (cd "$ROOT" && "$tsf" segment data-samples/ct-head-cranium/cranium.nrrd --preset sinus \
@@ -234,6 +262,10 @@ print('   %d frames, %.1f ms render + %.1f ms simulation per frame: %.1f frames/
       grep "closed after" "$OUT/window.log"; } >>"$summary"
   fi
   [ -n "${XVFB_PID:-}" ] && kill "$XVFB_PID" 2>/dev/null || true
+  # The summary and the frames as files, the logs and reports in one archive (a device call
+  # brings few files back).
+  (cd "$OUT" && find . -maxdepth 1 -type f ! -name product-summary.txt ! -name 'frame-*.png' \
+     ! -name product-logs.tgz -printf '%f\n' | tar -czf product-logs.tgz -T - --remove-files) || true
   cat "$summary"
 }
 

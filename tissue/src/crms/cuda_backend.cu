@@ -66,9 +66,12 @@ namespace tsf::crms {
 namespace {
 
 constexpr unsigned long long kNoNode = ULLONG_MAX;
-/// Lattices up to this many nodes step in one node-parallel launch by default (CudaLaunch::kAuto):
-/// there the terms of every alive node (180 bytes each) stay in L2.
+/// The node-parallel launch is the default (CudaLaunch::kAuto) for lattices of up to kNodesMaxNodes
+/// nodes (its terms, 180 bytes a node, stay in L2) with up to kNodesMaxAlive alive ones: above
+/// that, graphs of the tile kernel step faster (docs/crms.md "Small lattices", measured on an
+/// H200: cubes of 195 k nodes 37 µs a step with graphs against 39 µs).
 constexpr std::int64_t kNodesMaxNodes = std::int64_t{1} << 18;
+constexpr std::int64_t kNodesMaxAlive = std::int64_t{1} << 17;
 constexpr long long kNoStep = LLONG_MAX;
 
 /// Device-side guard and step counter.
@@ -673,6 +676,10 @@ class CudaBackend final : public SolverBackend {
         cudaMemcpyAsync(flags_.data(), flags.data(), n, cudaMemcpyHostToDevice, stream_.get()));
     host_flags_ = flags;
     count_moving_tiles();
+    if (nodes_ && launch_ == CudaLaunch::kAuto &&
+        std::count_if(flags.begin(), flags.end(), [](std::uint8_t f) { return f & kAliveBit; }) >
+            kNodesMaxAlive)
+      nodes_ = false;  // many alive nodes: graphs of the tile kernel (see kNodesMaxAlive)
     upload_alive_list();
     TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_.data(), inv_mass.data(), n * sizeof(float),
                                    cudaMemcpyHostToDevice, stream_.get()));
@@ -991,6 +998,7 @@ class CudaBackend final : public SolverBackend {
   /// block has about one tile, so a step takes one tile's time plus a grid barrier.
   void plan_shared_launch(const BackendOptions& options, int multiprocessors, bool cooperative) {
     const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
+    launch_ = options.cuda_launch;
     persistent_ = cooperative && options.cuda_launch == CudaLaunch::kPersistent;
     nodes_ = cooperative && count_ < (std::int64_t{1} << 31) &&  // 32-bit node lists
              (options.cuda_launch == CudaLaunch::kNodes ||
@@ -1219,6 +1227,7 @@ class CudaBackend final : public SolverBackend {
   bool persistent_ = false;
   int persistent_blocks_ = 0;
   bool nodes_ = false;
+  CudaLaunch launch_ = CudaLaunch::kAuto;
   int node_resident_blocks_ = 0;
   int alive_count_ = 0;
   std::vector<std::uint8_t> host_flags_;  // the flags as last uploaded: which tiles move

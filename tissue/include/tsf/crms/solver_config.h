@@ -46,8 +46,8 @@ enum class ForceEvaluation {
 /// How the CUDA backend launches the steps of one Solver::step call (same physics; the symmetric
 /// form with the shared evaluation uses them, other forms use graphs).
 enum class CudaLaunch {
-  /// kNodes for lattices of up to 2^18 nodes (where a step's arithmetic takes less time than
-  /// launching it), graphs above.
+  /// kNodes for lattices of up to 2^18 nodes of which up to 2^17 are alive (where a step is
+  /// bounded by latency, not arithmetic), graphs above.
   kAuto,
   /// CUDA graphs of cuda_steps_per_graph launches, one kernel per step over tiles of the lattice.
   kGraphs,
