@@ -19,7 +19,7 @@
 #                  apart) and its GLX client library: Xvfb offers the GLX extension only with it
 #   scripts/gpu-product.sh run [DIR]      there: unpack DIR's bundles into /opt/tsf-product (kept
 #                                         when already unpacked by an earlier call on a warm
-#                                         machine), start Xvfb on :99 with the driver's GLX
+#                                         machine), start Xvfb (:99 or the next free display) with the driver's GLX
 #                                         (__GLX_VENDOR_LIBRARY_NAME=nvidia), and run
 #     tsf run --backend cuda             the sinus scene on the sample CT (scenes/sinus.yaml)
 #     tsf view --offscreen --backend cuda  a view script on the segmented cranium, saving frames
@@ -36,6 +36,7 @@
 #             TSF_PRODUCT_STEPS=unpack (it unpacks and stops)
 #   2nd call: the same with mesa.tar.xz
 #   3rd call: carry tsf-bin.tar.xz, x11.tar.xz and z3.tar.xz, run `scripts/gpu-product.sh run DIR`
+# TSF_PRODUCT_BACKEND=cpu runs the same steps on a machine without a GPU (to check the script).
 # TSF_PRODUCT_ROOT names the checkout whose scenes and data-samples `run` uses (default: the one
 # holding the script; the bundles may travel in a folder of their own with a copy of it).
 # (docs/run.md "The whole product on the GPU machine").
@@ -45,6 +46,7 @@ ROOT="${TSF_PRODUCT_ROOT:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}"
 MODE="${1:-}"
 DIR="${2:-$ROOT/out/product}"
 PREFIX=/opt/tsf-product
+BACKEND="${TSF_PRODUCT_BACKEND:-cuda}"  # cpu: try the steps on a machine without a GPU
 # glibc, the C++ runtime and the loader: the GPU machine has its own (newer) ones, and the NVIDIA
 # driver's libraries must load the machine's.
 SYSTEM_LIBS='^(ld-linux.*|libc|libm|libdl|libpthread|librt|libutil|libresolv|libstdc\+\+|libgcc_s|libGLX_nvidia.*|libnvidia.*|libcuda)\.so'
@@ -162,13 +164,15 @@ start_x() {
   mkdir -p /tmp/.X11-unix
   export LD_LIBRARY_PATH="$x/lib:$PREFIX/tsf/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
   export LIBGL_DRIVERS_PATH="$x/lib/dri"
-  "$x/bin/Xvfb" :99 -screen 0 1280x1024x24 -xkbdir "$x/share/X11/xkb" -nolisten tcp \
+  local n=99  # the first display number no other server holds
+  while [ -e "/tmp/.X11-unix/X$n" ] || [ -e "/tmp/.X$n-lock" ]; do n=$((n + 1)); done
+  "$x/bin/Xvfb" ":$n" -screen 0 1280x1024x24 -xkbdir "$x/share/X11/xkb" -nolisten tcp \
     >"$OUT/xvfb.log" 2>&1 &
   XVFB_PID=$!
-  for _ in $(seq 50); do [ -S /tmp/.X11-unix/X99 ] && break; sleep 0.1; done
-  [ -S /tmp/.X11-unix/X99 ] || { echo "gpu-product: Xvfb did not start:"; cat "$OUT/xvfb.log"; return 1; }
-  echo "== Xvfb :99 started"
-  export DISPLAY=:99
+  for _ in $(seq 50); do [ -S "/tmp/.X11-unix/X$n" ] && break; sleep 0.1; done
+  [ -S "/tmp/.X11-unix/X$n" ] || { echo "gpu-product: Xvfb did not start:"; cat "$OUT/xvfb.log"; return 1; }
+  echo "== Xvfb :$n started"
+  export DISPLAY=":$n"
   GLX_VENDOR=mesa  # the driver's GLX when it answers, else Mesa's (llvmpipe)
   if [ -x "$x/bin/glxinfo" ]; then
     for vendor in nvidia mesa; do
@@ -216,18 +220,25 @@ run_product() {
   if [[ " $steps " == *" x11 "* || " $steps " == *" view "* ]]; then start_x >>"$summary" 2>&1 || true; fi
   export __GLX_VENDOR_LIBRARY_NAME="${TSF_PRODUCT_GLX_VENDOR:-${GLX_VENDOR:-nvidia}}"
   local tsf=$PREFIX/tsf/bin/tsf
+  # tsf runs in a scratch folder with the scenes, materials and presets installed with it (a
+  # checkout's newer files may hold keys this tsf does not know); the sample data comes from the
+  # checkout, where the bundle's scenes look for it (share/tsf/data-samples).
+  local share=$PREFIX/tsf/share/tsf
+  [ -d "$share/scenes" ] && ln -sfn "$ROOT/data-samples" "$share/data-samples"
   if [[ " $steps " == *" run "* ]]; then
     # The sinus scene as shipped (a node every 2 mm) and at a node every 1 mm (~100 k nodes).
-    sed 's/node_spacing_mm: 2 .*/node_spacing_mm: 1/' "$ROOT/scenes/sinus.yaml" >"$ROOT/scenes/sinus-1mm.yaml"
+    sed 's/node_spacing_mm: 2 .*/node_spacing_mm: 1/' "$share/scenes/sinus.yaml" \
+      >"$share/scenes/sinus-1mm.yaml"
     for scene in sinus sinus-1mm; do
       local t0
       t0=$(date +%s)
-      (cd "$ROOT" && timeout 400 "$tsf" run "scenes/$scene.yaml" --backend cuda -o "$work/$scene") \
+      (cd "$work" && timeout 400 "$tsf" run "$share/scenes/$scene.yaml" --backend "$BACKEND" \
+         -o "$work/$scene") \
         >"$OUT/run-$scene.log" 2>&1 || echo "tsf run scenes/$scene.yaml exited $?" >>"$summary"
       local r="$work/$scene/run-report.json"
       cp "$r" "$OUT/run-report-$scene.json" 2>/dev/null || true
       {
-        echo "== tsf run scenes/$scene.yaml --backend cuda: $(( $(date +%s) - t0 )) s wall"
+        echo "== tsf run scenes/$scene.yaml --backend $BACKEND: $(( $(date +%s) - t0 )) s wall"
         echo "   verdict $(json_get "$r" verdict); backend $(json_get "$r" backend)"
         echo "   steps $(json_get "$r" rates.steps), dt $(json_get "$r" rates.dt_s) s," \
              "steps/s $(json_get "$r" rates.steps_per_s), node-steps/s $(json_get "$r" rates.node_steps_per_s)"
@@ -235,19 +246,21 @@ run_product() {
         grep -E "edit → render buffer" "$OUT/run-$scene.log" | tail -1 || true
       } >>"$summary"
     done
-    rm -f "$ROOT/scenes/sinus-1mm.yaml"
+    rm -f "$share/scenes/sinus-1mm.yaml"
   fi
   if [[ " $steps " == *" view "* ]]; then
-    (cd "$ROOT" && "$tsf" segment data-samples/ct-head-cranium/cranium.nrrd --preset sinus \
-       -o out/cranium) >"$OUT/segment.log" 2>&1 || echo "tsf segment exited $?" >>"$summary"
+    # scenes/cut-cranium.yaml reads ../out/cranium-*: tsf segment's output beside the scenes.
+    (cd "$work" && "$tsf" segment "$ROOT/data-samples/ct-head-cranium/cranium.nrrd" \
+       --preset sinus -o "$share/out/cranium") >"$OUT/segment.log" 2>&1 ||
+      echo "tsf segment exited $?" >>"$summary"
     local t0
     t0=$(date +%s)
-    (cd "$ROOT" && timeout 300 "$tsf" view scenes/cut-cranium.yaml --offscreen --backend cuda \
-       --script scenes/view-cranium.yaml --out "$work/view") \
+    (cd "$work" && timeout 300 "$tsf" view "$share/scenes/cut-cranium.yaml" --offscreen \
+       --backend "$BACKEND" --script "$share/scenes/view-cranium.yaml" --out "$work/view") \
       >"$OUT/view.log" 2>&1 || echo "tsf view --offscreen exited $?" >>"$summary"
     local r="$work/view/view-report.json"
     {
-      echo "== tsf view scenes/cut-cranium.yaml --offscreen --backend cuda" \
+      echo "== tsf view scenes/cut-cranium.yaml --offscreen --backend $BACKEND" \
            "--script scenes/view-cranium.yaml: $(( $(date +%s) - t0 )) s wall"
       tail -2 "$OUT/view.log"
       python3 -c "import json,sys; d=json.load(open(sys.argv[1])); r=d['mean_render_s']; s=d['mean_simulate_s']; f=d['frame_time_s']
@@ -256,9 +269,10 @@ print('   %d frames, %.1f ms render + %.1f ms simulation per frame: %.1f frames/
     cp "$r" "$OUT/view-report.json" 2>/dev/null || true
     for f in 0016 0060; do cp "$work/view/frame-$f.png" "$OUT/frame-$f.png" 2>/dev/null || true; done
     # The live window (not offscreen) for 300 frames: its real-time factor and frame rate.
-    (cd "$ROOT" && timeout 120 "$tsf" view scenes/cut-cranium.yaml --backend cuda --frames 300 \
-       --out "$work/window") >"$OUT/window.log" 2>&1 || echo "tsf view (window) exited $?" >>"$summary"
-    { echo "== tsf view scenes/cut-cranium.yaml --backend cuda --frames 300 (window on Xvfb)";
+    (cd "$work" && timeout 120 "$tsf" view "$share/scenes/cut-cranium.yaml" --backend "$BACKEND" \
+       --frames 300 --out "$work/window") >"$OUT/window.log" 2>&1 ||
+      echo "tsf view (window) exited $?" >>"$summary"
+    { echo "== tsf view scenes/cut-cranium.yaml --backend $BACKEND --frames 300 (window on Xvfb)";
       grep "closed after" "$OUT/window.log"; } >>"$summary"
   fi
   [ -n "${XVFB_PID:-}" ] && kill "$XVFB_PID" 2>/dev/null || true
