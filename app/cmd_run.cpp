@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "run/material_library.h"
 #include "run/run_pipeline.h"
+#include "tsf/volume/tissue_labels.h"
 
 namespace tsf::app {
 namespace {
@@ -54,6 +55,18 @@ void print_materials(const RunArguments& a) {
                 g(d.springs.ks_linear[0]).c_str(), g(d.springs.kd_linear[0]).c_str(),
                 g(d.springs.k_angular[0]).c_str(), g(d.springs.c_angular[0]).c_str(),
                 g(d.node_mass_g).c_str(), g(d.symplectic_stable_dt_s).c_str());
+  }
+  if (lib.removal_rates.empty()) return;
+  std::printf(
+      "\nTool removal rates per tissue label (scenes: `tissue.removal.rates: library`; labels not "
+      "listed: 1):\n\n| label | ablation | cut | basis |\n| --- | ---: | ---: | --- |\n");
+  for (const LabelRemovalRates& r : lib.removal_rates) {
+    std::string basis;
+    for (const MaterialSource& s : r.sources) basis += (basis.empty() ? "" : "; ") + s.citation;
+    if (!r.assumption.empty())
+      basis += (basis.empty() ? "assumption: " : "; assumption: ") + r.assumption;
+    std::printf("| %s | %s | %s | %s |\n", tissue_label_key(r.label).c_str(), g(r.ablation).c_str(),
+                g(r.cut).c_str(), basis.c_str());
   }
 }
 

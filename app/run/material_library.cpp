@@ -42,11 +42,48 @@ std::uint8_t parse_label(const YamlField& f) {
   return static_cast<std::uint8_t>(f.integer(0, 1, 254));
 }
 
+std::vector<MaterialSource> read_sources(const YamlField& sources) {
+  std::vector<MaterialSource> out;
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const YamlField s = sources.at(i);
+    s.expect_keys({"citation", "reports"});
+    out.push_back({s["citation"].required().text(), s["reports"].required().text()});
+  }
+  return out;
+}
+
+/// `removal_rates: {LABEL: {ablation, cut, sources | assumption}}`.
+void read_removal_rates(const YamlField& f, std::vector<LabelRemovalRates>& rates) {
+  if (!f.defined()) return;
+  for (const std::string& key : f.keys()) {
+    const YamlField r = f[key];
+    r.expect_keys({"ablation", "cut", "sources", "assumption"});
+    LabelRemovalRates entry;
+    entry.label = parse_label(YamlField(YAML::Node(key), r.path(), r.file()));
+    for (const LabelRemovalRates& other : rates)
+      if (other.label == entry.label)
+        r.fail("names the same tissue label as '" + std::string(tissue_label_name(other.label)) +
+               "'");
+    entry.ablation = r["ablation"].required_number(0.0, 1.0);
+    entry.cut = r["cut"].required_number(0.0, 1.0);
+    if (r["sources"].defined()) {
+      entry.sources = read_sources(r["sources"]);
+      if (entry.sources.empty()) r["sources"].fail("needs at least one source (citation, reports)");
+    }
+    entry.assumption = r["assumption"].text("");
+    if (entry.sources.empty() && entry.assumption.empty())
+      r.fail(
+          "needs sources (citation, reports) or, where none exists, an assumption saying why "
+          "the values were chosen");
+    rates.push_back(std::move(entry));
+  }
+}
+
 }  // namespace
 
 MaterialLibrary read_material_library(const fs::path& file) {
   const YamlField root(load_yaml_file(file.string()), "", file.string());
-  root.expect_keys({"format", "materials"});
+  root.expect_keys({"format", "materials", "removal_rates"});
   if (root["format"].required().text() != "tsf-materials-1")
     root["format"].fail("expected tsf-materials-1, got '" + root["format"].text() + "'");
   const YamlField list = root["materials"].required();
@@ -73,11 +110,7 @@ MaterialLibrary read_material_library(const fs::path& file) {
     m.poisson_ratio = f["poisson_ratio"].number(0.0, 0.0, 0.5);
     const YamlField sources = f["sources"].required();
     if (sources.size() == 0) sources.fail("needs at least one source (citation and reports)");
-    for (std::size_t i = 0; i < sources.size(); ++i) {
-      const YamlField s = sources.at(i);
-      s.expect_keys({"citation", "reports"});
-      m.sources.push_back({s["citation"].required().text(), s["reports"].required().text()});
-    }
+    m.sources = read_sources(sources);
     m.notes = f["notes"].text("");
     // The solver's own validation (ranges of E, G, η, ρ) as a last check, with this key path.
     try {
@@ -88,6 +121,7 @@ MaterialLibrary read_material_library(const fs::path& file) {
     lib.materials.push_back(std::move(m));
   }
   if (lib.materials.empty()) list.fail("lists no material");
+  read_removal_rates(root["removal_rates"], lib.removal_rates);
   return lib;
 }
 

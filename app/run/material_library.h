@@ -39,9 +39,20 @@ struct LibraryMaterial {
   crms::Material crms_material() const;
 };
 
+/// How fast tools remove a tissue label, relative to soft tissue (`removal_rates` of the library):
+/// the ablation and the cut rate multiply the tool's removal (interaction/tool_stroke.h).
+struct LabelRemovalRates {
+  std::uint8_t label = 0;
+  double ablation = 1.0;                ///< [0, 1]
+  double cut = 1.0;                     ///< [0, 1]
+  std::vector<MaterialSource> sources;  ///< literature, where it exists
+  std::string assumption;               ///< why the values were chosen, where no source exists
+};
+
 struct MaterialLibrary {
   std::filesystem::path file;
-  std::vector<LibraryMaterial> materials;  ///< file order
+  std::vector<LibraryMaterial> materials;        ///< file order
+  std::vector<LabelRemovalRates> removal_rates;  ///< file order, each label once
   const LibraryMaterial* find(const std::string& id) const;
   /// Throws tsf::Error naming `id` and the known ids.
   const LibraryMaterial& get(const std::string& id) const;

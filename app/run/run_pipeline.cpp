@@ -593,27 +593,31 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const Int
     stepping += st;
     steps += n_steps;
     effects_union.insert(r.effects_active.begin(), r.effects_active.end());
-    instances.push_back({{"name", r.name},
-                         {"material", material_json(scene, scene.instances[r.index])},
-                         {"effects_active", r.effects_active},
-                         {"kernel_features", r.kernel_features},
-                         {"bytes_per_node", r.bytes_per_node},
-                         {"labels", scene.instances[r.index].lattice.labels},
-                         {"lattice_spacing_mm", vec(r.lattice_spacing_mm)},
-                         {"alive_nodes_start", r.alive_start},
-                         {"alive_nodes_end", r.alive_end},
-                         {"fixed_nodes", r.fixed_nodes},
-                         {"integrator", r.integrator},
-                         {"dt_s", r.dt_s},
-                         {"steps", n_steps},
-                         {"timings_s", ir["timings_s"]},
-                         {"steps_per_s", st > 0 ? n_steps / st : 0.0},
-                         {"node_steps_per_s", st > 0 ? n_steps * alive / st : 0.0},
-                         {"surface", ir["surface"]},
-                         {"totals", ir["totals"]},
-                         {"outputs", ir["outputs"]},
-                         {"effect_cost", r.extra.is_null() ? json(nullptr) : r.extra},
-                         {"energy", energy_json(io.energy[r.index])}});
+    instances.push_back(
+        {{"name", r.name},
+         {"material", material_json(scene, scene.instances[r.index])},
+         {"effects_active", r.effects_active},
+         {"kernel_features", r.kernel_features},
+         {"bytes_per_node", r.bytes_per_node},
+         {"labels", scene.instances[r.index].lattice.labels},
+         {"lattice_spacing_mm", vec(r.lattice_spacing_mm)},
+         {"alive_nodes_start", r.alive_start},
+         {"alive_nodes_end", r.alive_end},
+         {"fixed_nodes", r.fixed_nodes},
+         {"integrator", r.integrator},
+         {"dt_s", r.dt_s},
+         {"steps", n_steps},
+         {"timings_s", ir["timings_s"]},
+         {"steps_per_s", st > 0 ? n_steps / st : 0.0},
+         {"node_steps_per_s", st > 0 ? n_steps * alive / st : 0.0},
+         {"surface", ir["surface"]},
+         {"totals", ir["totals"]},
+         {"removal", ir["session"]["removal"]},
+         {"lattice_pieces", {{"start", r.components_start}, {"end", r.components_end}}},
+         {"exposures", ir["exposures"]},
+         {"outputs", ir["outputs"]},
+         {"effect_cost", r.extra.is_null() ? json(nullptr) : r.extra},
+         {"energy", energy_json(io.energy[r.index])}});
   }
   // Scene-wide energy: the sum over instances frame by frame (every instance advances every
   // frame).

@@ -1,12 +1,15 @@
 // Markdown and PNG plots of a `tsf run` (run_report.h).
 #include "run/run_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "tsf/common/atomic_file.h"
 
@@ -314,6 +317,27 @@ void force_section(const ReportContext& c, std::ostream& md) {
 
 // ---- what the tools did, per instance ---------------------------------------------------------
 
+/// "mucosa 120 of 120 mm³ reached (rate 1), cortical-bone 1.2 of 24 mm³ (0.05)" from the
+/// {label: mm³} objects of what was removed and what the tools reached, largest first.
+std::string by_label(const json& removed, const json& reached) {
+  std::vector<std::pair<double, std::string>> v;
+  for (auto it = removed.begin(); it != removed.end(); ++it)
+    v.emplace_back(it.value().get<double>(), it.key());
+  std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::string out;
+  for (const auto& [mm3, label] : v) {
+    const bool first = out.empty();
+    out += (first ? "" : ", ") + label + " " + number(mm3);
+    const double r = reached.value(label, 0.0);
+    if (r > 0)
+      out += " of " + number(r) + " mm³ reached (" + (first ? "effective rate " : "") +
+             number(mm3 / r, 2) + ")";
+    else
+      out += " mm³";
+  }
+  return out;
+}
+
 void edits_section(const ReportContext& c, std::ostream& md) {
   md << "## Edits\n\n";
   for (const json& in : c.instances) {
@@ -326,7 +350,46 @@ void edits_section(const ReportContext& c, std::ostream& md) {
        << count(totals.value("springs_broken", 0.0)) << " springs. The final surface is "
        << (surface.value("closed_manifold_end", false) ? "a closed manifold"
                                                        : "**not** a closed manifold")
-       << " (" << count(surface.value("triangles_end", 0.0)) << " triangles).\n";
+       << " (" << count(surface.value("triangles_end", 0.0)) << " triangles).";
+    const json by = totals.value("removed_by_label_mm3", json::object());
+    if (!by.empty()) {
+      const json removal = in.value("removal", json::object());
+      md << " Removed by tissue: "
+         << by_label(by, totals.value("reached_by_label_mm3", json::object()))
+         << " (removal rates: "
+         << (removal.contains("rates_source") ? removal["rates_source"].get<std::string>()
+                                              : std::string("uniform 1"))
+         << (removal.value("feather_force_mn", 0.0) > 0
+                 ? "; ablation × (1 − e^(−F/" + number(removal.value("feather_force_mn", 0.0)) +
+                       " mN)) with F the wand's contact force"
+                 : std::string())
+         << ").";
+    }
+    if (totals.value("springs_torn", 0.0) > 0) {
+      const json pieces = in.value("lattice_pieces", json::object());
+      md << " Tearing tore " << count(totals.value("springs_torn", 0.0)) << " springs ("
+         << count(totals.value("nodes_masked", 0.0)) << " nodes masked) and cleared "
+         << number(totals.value("tear_cleared_mm3", 0.0))
+         << " mm³ of voxels between the torn nodes; the lattice went from "
+         << count(pieces.value("start", 0.0)) << " to " << count(pieces.value("end", 0.0))
+         << (pieces.value("end", 0.0) == 1.0 ? " piece." : " pieces.");
+    }
+    md << "\n";
+    const json exposures = in.value("exposures", json::array());
+    if (!exposures.empty()) {
+      md << "\n**Exposure events** (tissue removed near a watched structure):\n\n"
+         << "| time | tool | structure | distance | position (LPS, mm) |\n"
+         << "| ---: | --- | --- | ---: | --- |\n";
+      for (const json& e : exposures) {
+        const json& p = e["position_mm"];
+        md << "| " << number(e.value("time_s", 0.0) * 1e3) << " ms | " << e.value("tool", "")
+           << " | " << e.value("label_name", "") << " | "
+           << (e.value("distance_mm", 0.0) > 0 ? number(e.value("distance_mm", 0.0)) + " mm"
+                                               : std::string("reached"))
+           << " | " << number(p[0].get<double>()) << ", " << number(p[1].get<double>()) << ", "
+           << number(p[2].get<double>()) << " |\n";
+      }
+    }
   }
   md << "\n";
 }

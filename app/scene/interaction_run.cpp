@@ -1,6 +1,7 @@
 #include "scene/interaction_run.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -18,6 +19,7 @@
 #include "tsf/imt/surface_ply.h"
 #include "tsf/interaction/lattice_components.h"
 #include "tsf/version.h"
+#include "tsf/volume/tissue_labels.h"
 
 namespace tsf::app {
 namespace {
@@ -97,6 +99,7 @@ InstanceRun build_instance_run(const Scene& scene, std::size_t i, const Interact
 
 void record_edit(InstanceResult& r, double t, const std::string& tool,
                  const interaction::EditReport& e) {
+  for (const interaction::ExposureEvent& x : e.exposures) r.exposures.push_back({t, tool, x});
   if (!e.edited) return;
   r.edit_latencies_us.push_back(e.total_us);
   r.edits.push_back({t, tool, e});
@@ -152,6 +155,7 @@ ContactSample advance_instances(const InteractionRunOptions& options, double t_e
       r.instability = a.instability->describe();
       result.instability = r.name + ": " + *r.instability;
     }
+    if (a.tear.any()) r.tears.push_back({t_end, a.tear});
     if (options.on_frame) options.on_frame(t_end, i, model);
     const collision::ContactForce& c = model.contact();
     r.max_tool_force_un = std::max(r.max_tool_force_un, length(c.force_un));
@@ -209,20 +213,30 @@ void print_instance_summary(const Scene& scene, const InteractionResult& result,
   std::printf("%s: %s\n",
               scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
               r.stability.headline().c_str());
+  const bool tearing = std::find(r.effects_active.begin(), r.effects_active.end(), "tearing") !=
+                       r.effects_active.end();
+  const std::string torn = tearing
+                               ? ", " + std::to_string(r.totals.springs_torn) + " springs torn (" +
+                                     std::to_string(r.totals.nodes_masked) + " nodes masked)"
+                               : std::string();
   std::printf(
       "%s: %lld frames (%lld steps of %.3g s) on %s; %zu edits removed %.4g mm³, %zu nodes "
-      "deleted, %zu springs broken; lattice %zu → %zu pieces (%zu free); surface %zu → %zu "
+      "deleted, %zu springs broken%s; lattice %zu → %zu pieces (%zu free); surface %zu → %zu "
       "triangles, %s; edit → render buffer p50 %.0f µs, p99 %.0f µs; %.3g s simulated in %.3g s "
       "(real-time factor %.3g)\n",
       scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
       static_cast<long long>(result.frames), static_cast<long long>(r.steps), r.dt_s,
       r.backend.c_str(), r.totals.edits, r.totals.removed_mm3, r.totals.nodes_deleted,
-      r.totals.springs_broken, r.components_start, r.components_end, r.free_components_end,
-      r.topology_start.triangles, r.topology_end.triangles,
+      r.totals.springs_broken, torn.c_str(), r.components_start, r.components_end,
+      r.free_components_end, r.topology_start.triangles, r.topology_end.triangles,
       r.topology_end.closed_oriented_manifold() ? "closed manifold" : "NOT a closed manifold",
       percentile(r.edit_latencies_us, 0.5), percentile(r.edit_latencies_us, 0.99),
       simulated_s(result), result.script_s,
       result.script_s > 0 ? simulated_s(result) / result.script_s : 0.0);
+  for (const ExposureRecord& e : r.exposures)
+    std::printf("%s: warning: %s\n",
+                scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
+                interaction::describe_exposure(e.event.hit, e.tool, e.time_s).c_str());
   if (!r.outputs.mesh.empty()) std::printf("wrote %s\n", r.outputs.mesh.string().c_str());
   if (!r.outputs.states.empty())
     std::printf("wrote %s (rest + %zu states)\n", r.outputs.states.string().c_str(),
@@ -239,26 +253,66 @@ json contact_json(const std::vector<ContactSample>& samples) {
   return a;
 }
 
+json by_label_json(const std::vector<std::pair<std::uint8_t, double>>& v) {
+  json j = json::object();
+  for (const auto& [label, mm3] : v) j[tissue_label_key(label)] = mm3;
+  return j;
+}
+
+json layer_timings_json(const interaction::EditReport& r) {
+  return {{"map", r.map_us},           {"voxel_edit", r.edit_us}, {"remesh", r.remesh_us},
+          {"topology", r.topology_us}, {"rebind", r.rebind_us},   {"couple", r.couple_us},
+          {"total", r.total_us}};
+}
+
+json tear_json(const TearRecord& t) {
+  const interaction::TearReport& r = t.report;
+  return {{"time_s", t.time_s},
+          {"springs_torn", r.springs_torn},
+          {"nodes_masked", r.nodes_masked},
+          {"cleared_mm3", r.cleared_mm3},
+          {"nodes_deleted", r.layers.nodes_deleted},
+          {"springs_broken", r.layers.springs_broken},
+          {"vertices_rebound", r.layers.vertices_rebound},
+          {"timings_us", layer_timings_json(r.layers)}};
+}
+
+json exposure_json(const ExposureRecord& e, const VolumeGeometry& patient_frame) {
+  const interaction::ExposureHit& h = e.event.hit;
+  return {{"time_s", e.time_s},
+          {"tool", e.tool},
+          {"label", static_cast<int>(h.label)},
+          {"label_name", tissue_label_key(h.label)},
+          {"distance_mm", h.distance_mm},
+          {"position_mm", vec(patient_frame.tissue_to_patient(h.label_mm))},
+          {"first", e.event.first}};
+}
+
+json by_label_json(const std::array<double, 256>& mm3) {
+  std::vector<std::pair<std::uint8_t, double>> v;
+  for (int l = 0; l < 256; ++l)
+    if (mm3[static_cast<std::size_t>(l)] > 0.0)
+      v.emplace_back(static_cast<std::uint8_t>(l), mm3[static_cast<std::size_t>(l)]);
+  return by_label_json(v);
+}
+
 json edit_json(const EditRecord& e) {
   const interaction::EditReport& r = e.report;
   return {{"time_s", e.time_s},
           {"tool", e.tool},
           {"mode", interaction::to_string(r.mode)},
           {"removed_mm3", r.removed_mm3},
+          {"removed_by_label_mm3", by_label_json(r.removed_by_label)},
+          {"reached_by_label_mm3", by_label_json(r.reached_by_label)},
+          {"rate_scale", r.rate_scale},
+          {"contact_force_un", length(r.contact.force_un)},
           {"nodes_deleted", r.nodes_deleted},
           {"springs_broken", r.springs_broken},
           {"vertices_rebound", r.vertices_rebound},
           {"vertices_added", r.vertices_added},
           {"vertices_freed", r.vertices_freed},
           {"triangles_changed", r.triangles_changed},
-          {"timings_us",
-           {{"map", r.map_us},
-            {"voxel_edit", r.edit_us},
-            {"remesh", r.remesh_us},
-            {"topology", r.topology_us},
-            {"rebind", r.rebind_us},
-            {"couple", r.couple_us},
-            {"total", r.total_us}}}};
+          {"timings_us", layer_timings_json(r)}};
 }
 
 /// The worst instance's verdict, named.
@@ -404,8 +458,16 @@ json instance_report_json(const Scene& scene, const InteractionResult& result,
       {"totals",
        {{"edits", r.totals.edits},
         {"removed_mm3", r.totals.removed_mm3},
+        {"removed_by_label_mm3", by_label_json(r.totals.removed_by_label_mm3)},
+        {"reached_by_label_mm3", by_label_json(r.totals.reached_by_label_mm3)},
         {"nodes_deleted", r.totals.nodes_deleted},
         {"springs_broken", r.totals.springs_broken},
+        {"springs_torn", r.totals.springs_torn},
+        {"nodes_masked", r.totals.nodes_masked},
+        {"tear_cleared_mm3", r.totals.tear_cleared_mm3},
+        {"tear_nodes_deleted", r.totals.tear_nodes_deleted},
+        {"tear_springs_broken", r.totals.tear_springs_broken},
+        {"exposure_events", r.exposures.size()},
         {"vertices_rebound", r.totals.vertices_rebound}}},
       {"edit_latency_us",
        {{"p50", percentile(r.edit_latencies_us, 0.5)},
@@ -430,9 +492,14 @@ json instance_report_json(const Scene& scene, const InteractionResult& result,
         {"states_saved", r.outputs.states.empty() ? json(nullptr) : json(r.states_saved)}}},
       {"instability", r.instability ? json(*r.instability) : json(nullptr)},
       {"edits", json::array()},
+      {"tears", json::array()},
+      {"exposures", json::array()},
       {"contact", contact_json(r.contact)},
   };
   for (const EditRecord& e : r.edits) report["edits"].push_back(edit_json(e));
+  for (const TearRecord& t : r.tears) report["tears"].push_back(tear_json(t));
+  for (const ExposureRecord& e : r.exposures)
+    report["exposures"].push_back(exposure_json(e, r.patient_frame));
   if (!r.extra.is_null()) report[result.extra_key] = r.extra;
   return report;
 }

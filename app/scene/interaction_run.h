@@ -53,6 +53,19 @@ struct EditRecord {
   interaction::EditReport report;
 };
 
+/// An exposure event (interaction/exposure.h) with the tool whose edit raised it.
+struct ExposureRecord {
+  double time_s = 0;
+  std::string tool;
+  interaction::ExposureEvent event;
+};
+
+/// What tearing did during one frame (TissueModel::advance), at the frame's end.
+struct TearRecord {
+  double time_s = 0;
+  interaction::TearReport report;
+};
+
 struct ContactSample {
   double time_s = 0;
   Vec3d force_un, torque_un_mm;
@@ -79,6 +92,8 @@ struct InstanceResult {
   std::int64_t steps = 0;
   interaction::InteractionTotals totals;
   std::vector<EditRecord> edits;
+  std::vector<TearRecord> tears;
+  std::vector<ExposureRecord> exposures;
   std::vector<ContactSample> contact;
   std::vector<double> edit_latencies_us;
   double max_tool_force_un = 0;

@@ -45,6 +45,16 @@ struct AnatomyPosition {
   bool rotation_given() const { return !rotation_axis.empty(); }
 };
 
+/// `lattice.paint[i]`: sets the tissue label of the voxels holding tissue inside a shape (a vessel
+/// or nerve the CT does not show, or tissue classes in a box scene); densities stay.
+struct ScenePaint {
+  std::uint8_t label = 0;
+  bool capsule = false;
+  Vec3d min_mm, max_mm;    ///< box (tissue space)
+  Vec3d from_mm, to_mm;    ///< capsule axis (tissue space)
+  double radius_mm = 0.0;  ///< capsule
+};
+
 struct SceneLattice {
   enum class Source { kBox, kVolume };
   Source source = Source::kBox;
@@ -88,6 +98,8 @@ struct SceneLattice {
   /// volume: the segment labels this lattice takes (tissue_labels.h); voxels of other labels are
   /// emptied (density 0, label outside) before the surface and lattice are built. Empty = all.
   std::vector<std::uint8_t> labels;
+  /// Labels painted into the voxels, in order, after the crop and the label selection.
+  std::vector<ScenePaint> paint;
 };
 
 /// The interactive tissue (R1 voxels, R2 surface, coupler) that tools edit (`tissue:`).
@@ -101,6 +113,24 @@ struct SceneTissue {
   double removal_strength = 1.0;
   double falloff_mm = -1.0;  ///< < 0: one voxel
   int contact_passes = 2;
+  /// `removal.rates`: per tissue label the ablation and the cut rate, [0, 1] (a label not named:
+  /// 1); by value, or `rates: library` (the material library's removal_rates).
+  std::array<float, 256> ablation_rates = uniform_rates();
+  std::array<float, 256> cut_rates = uniform_rates();
+  std::string rates_source;  ///< "" (every label 1), "scene", or the library file
+  /// `removal.feather_force_mn`: force-dependent ablation (TissueModelOptions::feather_force_un);
+  /// 0: off.
+  double feather_force_mn = 0.0;
+  /// `exposure`: events when an edit removes tissue within distance_mm of a watched label
+  /// (interaction/exposure.h); 0: off. Labels empty: every overlay label.
+  double exposure_distance_mm = 0.0;
+  std::vector<std::uint8_t> exposure_labels;
+
+  static std::array<float, 256> uniform_rates() {
+    std::array<float, 256> r;
+    r.fill(1.0f);
+    return r;
+  }
 };
 
 struct SceneTool {

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "tsf/common/error.h"
+#include "tsf/interaction/exposure.h"
 #include "tsf/volume/tissue_labels.h"
 #include "yaml_field.h"
 
@@ -71,7 +72,9 @@ crms::Material read_palette_material(const Field& f, std::string& name) {
 std::uint8_t parse_label(const YamlField& f) {
   const std::string t = f.text();
   for (int l = 0; l < 256; ++l)
-    if (t == tissue_label_name(static_cast<std::uint8_t>(l))) return static_cast<std::uint8_t>(l);
+    if (t == tissue_label_name(static_cast<std::uint8_t>(l)) ||
+        t == tissue_label_key(static_cast<std::uint8_t>(l)))
+      return static_cast<std::uint8_t>(l);
   return static_cast<std::uint8_t>(f.integer(-1, 0, 255));
 }
 
@@ -121,11 +124,12 @@ void read_scene_effects(const Field& f, SceneEffects& e, crms::SolverConfig& sol
   }
   const auto count = static_cast<int>(solver.materials.size());
   if (const Field a = f["animation"]; a.defined()) {
-    a.expect_keys({"enabled", "rest_keyframes", "material_tracks", "cut_triggers"});
+    a.expect_keys(
+        {"enabled", "rest_keyframes", "material_tracks", "cut_triggers", "exposure_triggers"});
     e.animation = a["enabled"].boolean(true);
     solver.effects.animation.enabled = e.animation;
     const Field keys = a["rest_keyframes"];
-    for (std::size_t i = 0; i < keys.size(); ++i) {
+    for (std::size_t i = 0; keys.defined() && i < keys.size(); ++i) {
       const Field k = keys.at(i);
       k.expect_keys({"time", "scale", "about", "region"});
       SceneRestKeyframe key;
@@ -141,7 +145,7 @@ void read_scene_effects(const Field& f, SceneEffects& e, crms::SolverConfig& sol
       e.rest_keyframes.push_back(key);
     }
     const Field tracks = a["material_tracks"];
-    for (std::size_t i = 0; i < tracks.size(); ++i) {
+    for (std::size_t i = 0; tracks.defined() && i < tracks.size(); ++i) {
       const Field t = tracks.at(i);
       t.expect_keys({"start", "end", "entry", "region"});
       SceneMaterialTrack track;
@@ -151,18 +155,32 @@ void read_scene_effects(const Field& f, SceneEffects& e, crms::SolverConfig& sol
       track.region = read_region(t["region"]);
       e.material_tracks.push_back(track);
     }
-    const Field triggers = a["cut_triggers"];
-    for (std::size_t i = 0; i < triggers.size(); ++i) {
-      const Field t = triggers.at(i);
-      t.expect_keys({"name", "entry", "region"});
-      SceneCutTrigger trigger;
-      trigger.name = t["name"].defined() ? t["name"].text() : "trigger " + std::to_string(i);
-      trigger.entry = read_entry(t["entry"], e, count);
-      trigger.region = read_region(t["region"]);
-      e.cut_triggers.push_back(trigger);
+    for (const char* list : {"cut_triggers", "exposure_triggers"}) {
+      const bool exposure = std::string(list) == "exposure_triggers";
+      const Field triggers = a[list];
+      for (std::size_t i = 0; triggers.defined() && i < triggers.size(); ++i) {
+        const Field t = triggers.at(i);
+        if (exposure)
+          t.expect_keys({"name", "label", "entry", "region"});
+        else
+          t.expect_keys({"name", "entry", "region"});
+        SceneCutTrigger trigger;
+        trigger.name = t["name"].defined() ? t["name"].text() : "trigger " + std::to_string(i);
+        trigger.entry = read_entry(t["entry"], e, count);
+        trigger.region = read_region(t["region"]);
+        trigger.key = t.path();
+        if (exposure) {
+          trigger.exposure_label = parse_label(t["label"].required());
+          if (trigger.exposure_label == kLabelOutside || trigger.exposure_label == kLabelInvalid)
+            t["label"].fail("expected a tissue label (an overlay: vessel, nerve, 64..127)");
+        }
+        e.cut_triggers.push_back(trigger);
+      }
     }
     if ((!e.material_tracks.empty() || !e.cut_triggers.empty()) && count < 2)
-      a.fail("material tracks and cut triggers need effects.palette with at least one material");
+      a.fail(
+          "material tracks and cut and exposure triggers need effects.palette with at least one "
+          "material");
   }
 }
 
@@ -216,6 +234,7 @@ void apply_scene_effects(const SceneEffects& e, const crms::Lattice& lattice,
     trigger.name = t.name;
     trigger.entry = t.entry;
     trigger.nodes = nodes_in(t.region);
+    if (t.exposure_label != 0) trigger.event = interaction::exposure_event_name(t.exposure_label);
     a.cut_triggers.push_back(std::move(trigger));
   }
 }

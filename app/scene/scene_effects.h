@@ -15,8 +15,10 @@
 //         [..]}}}
 //       material_tracks:             # blends move to an entry over [start, end]
 //         - {start: 0.1, end: 0.3, entry: bone, region: {labels: [mucosa]}}
-//       cut_triggers:                # a cut in the region switches it to an entry
+//       cut_triggers:                # a cut or tear in the region switches it to an entry
 //         - {name: artery, entry: flaccid, region: {box: {min: [..], max: [..]}}}
+//       exposure_triggers:           # an edit exposing a label (tissue.exposure) does too
+//         - {name: vessel-exposed, label: vessel, entry: flaccid, region: {labels: [vessel]}}
 // Schema: docs/scenes.md, docs/effects.md.
 #pragma once
 
@@ -64,6 +66,9 @@ struct SceneCutTrigger {
   std::string name;
   int entry = 0;
   SceneRegion region;
+  /// exposure_triggers: the watched label whose exposure fires it (0: a cut trigger).
+  std::uint8_t exposure_label = 0;
+  std::string key;  ///< its key path, for messages
 };
 
 struct SceneEffects {
@@ -74,8 +79,8 @@ struct SceneEffects {
   std::array<int, 4> channels{0, 0, 0, 0};  ///< segment channel → palette entry
   std::vector<SceneRestKeyframe> rest_keyframes;
   std::vector<SceneMaterialTrack> material_tracks;
-  std::vector<SceneCutTrigger> cut_triggers;
-  bool animation = false;  ///< the animation section is present and enabled
+  std::vector<SceneCutTrigger> cut_triggers;  ///< and exposure triggers (exposure_label ≠ 0)
+  bool animation = false;                     ///< the animation section is present and enabled
 };
 
 /// Reads effects.palette and effects.animation (absent: nothing). Adds the palette's materials to

@@ -1,6 +1,7 @@
 #include "scene/scene_session.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -137,6 +138,16 @@ void keep_labels(VoxelVolume& v, const std::vector<std::uint8_t>& labels, bool c
                 (cropped ? " (after the crop)" : "") + " has these labels");
 }
 
+/// `lattice.paint`: labels of the voxels holding tissue inside each shape, in order.
+void paint_labels(VoxelVolume& v, const std::vector<ScenePaint>& paint) {
+  for (const ScenePaint& p : paint) {
+    if (p.capsule)
+      label_capsule(v, {p.from_mm, p.to_mm, p.radius_mm}, p.label);
+    else
+      label_box(v, p.min_mm, p.max_mm, p.label);
+  }
+}
+
 /// Anchors of an instance on its lattice (box, plane, labels).
 void apply_anchors(const std::vector<SceneAnchor>& anchors, crms::Lattice& lattice) {
   for (const SceneAnchor& a : anchors) {
@@ -156,6 +167,45 @@ void apply_anchors(const std::vector<SceneAnchor>& anchors, crms::Lattice& latti
 
 bool inside(const Vec3d& p, const Vec3d& lo, const Vec3d& hi) {
   return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
+}
+
+/// The tissue's voxels holding tissue, per label (what lattice.labels and lattice.paint left).
+nlohmann::json label_histogram(const VoxelVolume& v) {
+  std::array<std::int64_t, 256> count{};
+  const auto& d = v.density_data();
+  const auto& l = v.label_data();
+  for (std::size_t i = 0; i < d.size(); ++i) count[l[i]] += d[i] > 0.0f;
+  nlohmann::json j = nlohmann::json::object();
+  for (int i = 1; i < 256; ++i)
+    if (count[static_cast<std::size_t>(i)] > 0)
+      j[tissue_label_key(static_cast<std::uint8_t>(i))] = count[static_cast<std::size_t>(i)];
+  return j;
+}
+
+/// How the model removes tissue: per-label rates (those that are not 1), force dependence,
+/// exposure watch.
+nlohmann::json removal_summary(const SceneTissue& t, const interaction::TissueModelOptions& o) {
+  nlohmann::json ablation = nlohmann::json::object(), cut = nlohmann::json::object();
+  for (int l = 1; l < 255; ++l) {
+    const float a = o.removal.rates.rate[static_cast<std::size_t>(l)];
+    const float c = o.cut_rates.rate[static_cast<std::size_t>(l)];
+    // Rates are floats: reported to 6 digits (0.05, not 0.0500000007).
+    auto six = [](float v) { return std::round(static_cast<double>(v) * 1e6) / 1e6; };
+    if (a != 1.0f) ablation[tissue_label_key(static_cast<std::uint8_t>(l))] = six(a);
+    if (c != 1.0f) cut[tissue_label_key(static_cast<std::uint8_t>(l))] = six(c);
+  }
+  nlohmann::json labels = nlohmann::json::array();
+  for (std::uint8_t l : o.exposure.labels) labels.push_back(tissue_label_key(l));
+  return {{"strength", o.removal.strength},
+          {"rates_source",
+           t.rates_source.empty() ? nlohmann::json("uniform 1") : nlohmann::json(t.rates_source)},
+          {"ablation_rates", ablation},
+          {"cut_rates", cut},
+          {"feather_force_mn", o.feather_force_un * 1e-3},
+          {"exposure_distance_mm", o.exposure.distance_mm},
+          {"exposure_labels", o.exposure.labels.empty() && o.exposure.enabled()
+                                  ? nlohmann::json("every overlay label (64..127)")
+                                  : nlohmann::json(labels)}};
 }
 
 }  // namespace
@@ -262,14 +312,17 @@ VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
     if (patient_frame) *patient_frame = g;
     const Vec3d half = sl.size_mm * 0.5, centre = sl.min_corner_mm + half;
     const double ramp = 0.5 * std::min({g.spacing.x, g.spacing.y, g.spacing.z});
-    return make_sdf_volume(
+    VoxelVolume v = make_sdf_volume(
         g, [&](const Vec3d& p) { return box_distance_local(half, p - centre); }, ramp);
+    paint_labels(v, sl.paint);
+    return v;
   }
   VoxelVolume v = read_scene_volume(scene, sl.volume);
   if (patient_frame) *patient_frame = v.geometry();
   if (sl.cropped) v = crop_volume(v, sl.crop_min_mm, sl.crop_max_mm, scene.instance_prefix(index));
   if (sl.crop_oriented) keep_oriented_box(v, sl);
   if (!sl.labels.empty()) keep_labels(v, sl.labels, sl.cropped, scene.instance_prefix(index));
+  paint_labels(v, sl.paint);
   return v;
 }
 
@@ -302,6 +355,11 @@ interaction::TissueModelOptions instance_model_options(const Scene& scene, std::
   o.coupler_mode = inst.tissue.coupler;
   o.removal.strength = static_cast<float>(inst.tissue.removal_strength);
   o.removal.falloff_mm = inst.tissue.falloff_mm;
+  o.removal.rates.rate = inst.tissue.ablation_rates;
+  o.cut_rates.rate = inst.tissue.cut_rates;
+  o.feather_force_un = inst.tissue.feather_force_mn * 1e3;
+  o.exposure.distance_mm = inst.tissue.exposure_distance_mm;
+  o.exposure.labels = inst.tissue.exposure_labels;
   o.min_blade_thickness_voxels = inst.tissue.min_blade_thickness_voxels;
   o.contact_passes_per_advance = inst.tissue.contact_passes;
   // The options own copies of what their callbacks read: they may outlive the caller's scene.
@@ -373,7 +431,9 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
                {"integrator", crms::to_string(solver.config().integrator)},
                {"backend", solver.backend_name()},
                {"gravity_mm_s2", nlohmann::json::array({g.x, g.y, g.z})},
-               {"effects_active", solver.active_effects()}};
+               {"effects_active", solver.active_effects()},
+               {"removal", removal_summary(scene.instances.at(index).tissue, r.model->options())},
+               {"tissue_labels_voxels", label_histogram(r.model->volume())}};
   if (!scene.placement_warnings.empty()) {
     r.summary["placement_warnings"] = scene.placement_warnings;
     if (index == 0)

@@ -74,13 +74,46 @@ Vec3d read_position(const Field& f, AnatomyPosition& anatomy) {
   return f.vec3({});
 }
 
+/// `lattice.paint: [{label, box: {min, max}} | {label, capsule: {from, to, radius}}]`.
+void read_paint(const Field& f, std::vector<ScenePaint>& paint) {
+  if (!f.defined()) return;
+  if (!f.node().IsSequence()) f.fail("expected a list of {label, box | capsule}");
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const Field p = f.at(i);
+    p.expect_keys({"label", "box", "capsule"});
+    ScenePaint out;
+    out.label = parse_label(p["label"].required());
+    if (out.label == kLabelOutside || out.label == kLabelInvalid)
+      p["label"].fail("expected a tissue label (soft-tissue, mucosa, …, vessel, nerve, 1..254)");
+    if (p["box"].defined() == p["capsule"].defined())
+      p.fail("expected exactly one of box, capsule");
+    if (const Field box = p["box"]; box.defined()) {
+      box.expect_keys({"min", "max"});
+      out.min_mm = box["min"].vec3();
+      out.max_mm = box["max"].vec3();
+      for (int a = 0; a < 3; ++a)
+        if (!(out.max_mm[a] >= out.min_mm[a])) box["max"].fail("must not be below min on any axis");
+    } else {
+      const Field c = p["capsule"];
+      c.expect_keys({"from", "to", "radius"});
+      out.capsule = true;
+      out.from_mm = c["from"].vec3();
+      out.to_mm = c["to"].vec3();
+      out.radius_mm = c["radius"].required_number(0.0, 1000.0, true);
+    }
+    paint.push_back(out);
+  }
+}
+
 // `volume_from_pipeline`: the scene has a `pipeline:` section (tsf run, app/run/run_spec.h),
 // which writes the volume and fills lattice.volume in.
 void read_lattice(const Field& f, const std::filesystem::path& folder, SceneLattice& l,
                   bool volume_from_pipeline) {
   if (!f.defined()) f.fail("is required");
   f.expect_keys({"source", "size", "spacing", "origin", "volume", "node_spacing_voxels",
-                 "node_spacing_mm", "occupancy_threshold", "mass_floor", "crop", "labels"});
+                 "node_spacing_mm", "occupancy_threshold", "mass_floor", "crop", "labels",
+                 "paint"});
+  read_paint(f["paint"], l.paint);
   l.source = f["source"].choice(
       SceneLattice::Source::kBox,
       {{"box", SceneLattice::Source::kBox}, {"volume", SceneLattice::Source::kVolume}});
@@ -345,10 +378,46 @@ void read_loads(const Field& f, std::vector<SceneLoad>& loads) {
   }
 }
 
-void read_tissue(const Field& f, SceneTissue& t) {
+/// `removal.rates`: `library` or {LABEL: rate | {ablate, cut}}.
+void read_removal_rates(const Field& f, SceneTissue& t, LibraryRef& library) {
+  if (!f.defined()) return;
+  if (f.node().IsScalar()) {
+    if (f.text() != "library")
+      f.fail(
+          "expected `library` (the material library's removal_rates) or a mapping of tissue "
+          "labels to rates, got '" +
+          f.text() + "'");
+    const MaterialLibrary& lib = library.get();
+    if (lib.removal_rates.empty()) f.fail(lib.file.string() + " has no removal_rates section");
+    for (const LabelRemovalRates& r : lib.removal_rates) {
+      t.ablation_rates[r.label] = static_cast<float>(r.ablation);
+      t.cut_rates[r.label] = static_cast<float>(r.cut);
+    }
+    t.rates_source = lib.file.string();
+    return;
+  }
+  for (const std::string& key : f.keys()) {
+    const Field r = f[key];
+    const std::uint8_t label = parse_label(Field(YAML::Node(key), r.path(), r.file()));
+    if (label == kLabelOutside || label == kLabelInvalid)
+      r.fail("expected a tissue label (soft-tissue, mucosa, …, vessel, nerve, or 1..254)");
+    if (r.node().IsMap()) {
+      r.expect_keys({"ablate", "cut"});
+      if (!r["ablate"].defined() && !r["cut"].defined()) r.fail("needs ablate, cut or both");
+      t.ablation_rates[label] = static_cast<float>(r["ablate"].number(1.0, 0.0, 1.0));
+      t.cut_rates[label] = static_cast<float>(r["cut"].number(1.0, 0.0, 1.0));
+    } else {
+      t.ablation_rates[label] = t.cut_rates[label] =
+          static_cast<float>(r.required_number(0.0, 1.0));
+    }
+  }
+  t.rates_source = "scene";
+}
+
+void read_tissue(const Field& f, SceneTissue& t, LibraryRef& library) {
   if (!f.defined()) return;
   f.expect_keys({"voxels_per_node", "iso", "merge_epsilon", "coupler", "deletion_threshold",
-                 "min_blade_thickness_voxels", "removal", "contact_passes"});
+                 "min_blade_thickness_voxels", "removal", "contact_passes", "exposure"});
   t.voxels_per_node = static_cast<int>(f["voxels_per_node"].integer(2, 1, 16));
   t.iso = f["iso"].number(0.5, 0.0, 1.0, true);
   t.merge_epsilon = f["merge_epsilon"].number(0.1, 0.0, 0.49);
@@ -358,10 +427,27 @@ void read_tissue(const Field& f, SceneTissue& t) {
   t.deletion_threshold = f["deletion_threshold"].number(0.125, 0.0, 1.0, true);
   t.min_blade_thickness_voxels = f["min_blade_thickness_voxels"].number(2.0, 0.0, 100.0);
   const Field r = f["removal"];
-  r.expect_keys({"strength", "falloff"});
+  r.expect_keys({"strength", "falloff", "rates", "feather_force_mn"});
   t.removal_strength = r["strength"].number(1.0, 0.0, 1.0);
   t.falloff_mm = r["falloff"].is_auto() ? -1.0 : r["falloff"].number(-1.0, 0.0, 100.0);
+  read_removal_rates(r["rates"], t, library);
+  t.feather_force_mn = r["feather_force_mn"].number(0.0, 0.0, 1e6, true);
   t.contact_passes = static_cast<int>(f["contact_passes"].integer(2, 1, 1000));
+  const Field e = f["exposure"];
+  if (e.defined()) {
+    e.expect_keys({"distance_mm", "labels"});
+    t.exposure_distance_mm = e["distance_mm"].required_number(0.0, 100.0, true);
+    const Field labels = e["labels"];
+    for (std::size_t i = 0; labels.defined() && i < labels.size(); ++i) {
+      const std::uint8_t l = parse_label(labels.at(i));
+      if (l == kLabelOutside || l == kLabelInvalid)
+        labels.at(i).fail("expected a tissue label (vessel, nerve, 64..127, or any 1..254)");
+      for (std::uint8_t other : t.exposure_labels)
+        if (other == l) labels.at(i).fail("is listed twice");
+      t.exposure_labels.push_back(l);
+    }
+    if (labels.defined() && t.exposure_labels.empty()) labels.fail("expected at least one label");
+  }
 }
 
 Rotation read_rotation(const Field& f, AnatomyPosition* anatomy = nullptr) {
@@ -622,7 +708,7 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
   read_lattice(f["lattice"], folder, inst.lattice, volume_from_pipeline);
   inst.material_id = read_material(f["material"], inst.material, library);
   read_anchors(f["anchors"], inst.anchors);
-  read_tissue(f["tissue"], inst.tissue);
+  read_tissue(f["tissue"], inst.tissue, library);
   inst.effects = effects;
   if (f["effects"].defined()) {
     for (const char* k : {"palette", "animation"})
@@ -761,7 +847,7 @@ Scene read_scene(const std::filesystem::path& file) {
     if (top["material"].defined() && !s.pipeline.material.empty())
       top["pipeline"]["material"].fail("give the material once: here or in `material:`");
     read_anchors(top["anchors"], single.anchors);
-    read_tissue(top["tissue"], single.tissue);
+    read_tissue(top["tissue"], single.tissue, library);
     s.instances.push_back(std::move(single));
   }
   if (s.effect_regions.channels_given)
@@ -805,6 +891,23 @@ Scene read_scene(const std::filesystem::path& file) {
       if (s.anatomy_key.empty() && p->rotation_given()) s.anatomy_key = p->rotation_key;
     }
   if (!s.anatomy_key.empty() && !s.pipeline.present) place_by_segment_report(s, name);
+  // Exposure triggers fire on exposure events: every instance must watch their label.
+  for (const SceneCutTrigger& t : s.effect_regions.cut_triggers) {
+    if (t.exposure_label == 0) continue;
+    for (std::size_t i = 0; i < s.instances.size(); ++i) {
+      const SceneTissue& tissue = s.instances[i].tissue;
+      const auto& watched = tissue.exposure_labels;
+      const bool watches = tissue.exposure_distance_mm > 0.0 &&
+                           (watched.empty() ? is_overlay_label(t.exposure_label)
+                                            : std::find(watched.begin(), watched.end(),
+                                                        t.exposure_label) != watched.end());
+      if (!watches)
+        throw Error(s.instance_prefix(i) + t.key + ": fires when an edit exposes label '" +
+                    tissue_label_name(t.exposure_label) +
+                    "', which tissue.exposure does not watch (set tissue.exposure.distance_mm"
+                    " and, for a label outside 64..127, list it in tissue.exposure.labels)");
+    }
+  }
   // Cross-field checks with the library's own messages (they name material.* fields).
   for (std::size_t i = 0; i < s.instances.size(); ++i) {
     try {

@@ -194,6 +194,32 @@ TEST(SceneKeysByCommand, AnchorsTimeStepGravityAndEffectsMeanTheSameEverywhere) 
   }
 }
 
+TEST(SceneKeysByCommand, RemovalRatesExposureAndPaintMeanTheSameEverywhere) {
+  TSF_NEED_EXE();
+  for (Cmd c : commands()) {
+    std::string scene = scene_text("", tools_for(c));
+    const std::string lattice = "lattice: {source: box, size: [12, 8, 8], spacing: 2}\n";
+    scene.replace(scene.find(lattice), lattice.size(),
+                  "lattice:\n  source: box\n  size: [12, 8, 8]\n  spacing: 2\n  paint:\n"
+                  "    - {label: vessel, capsule: {from: [6, -1, 4], to: [6, 9, 4], radius: 1}}\n"
+                  "    - {label: cortical-bone, box: {min: [-1, -1, -1], max: [13, 9, 1]}}\n");
+    const std::string tissue = "tissue: {voxels_per_node: 2}\n";
+    scene.replace(scene.find(tissue), tissue.size(),
+                  "tissue:\n  voxels_per_node: 2\n  removal:\n    rates: {cortical-bone: {ablate: "
+                  "0.05, cut: 0}}\n    feather_force_mn: 20\n  exposure: {distance_mm: 2}\n");
+    const Outcome o = run_scene(c, scene, "removal");
+    ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
+    const json& removal = o.session["removal"];
+    EXPECT_EQ(removal["ablation_rates"]["cortical-bone"].get<double>(), 0.05) << name(c);
+    EXPECT_EQ(removal["cut_rates"]["cortical-bone"].get<double>(), 0.0) << name(c);
+    EXPECT_EQ(removal["rates_source"], "scene") << name(c);
+    EXPECT_DOUBLE_EQ(removal["feather_force_mn"].get<double>(), 20.0) << name(c);
+    EXPECT_DOUBLE_EQ(removal["exposure_distance_mm"].get<double>(), 2.0) << name(c);
+    EXPECT_GT(o.session["tissue_labels_voxels"].value("vessel", 0), 0) << name(c);
+    EXPECT_GT(o.session["tissue_labels_voxels"].value("cortical-bone", 0), 0) << name(c);
+  }
+}
+
 TEST(SceneKeysByCommand, AnExplicitTimeStepIsTheModelsInEveryCommand) {
   TSF_NEED_EXE();
   for (Cmd c : commands()) {

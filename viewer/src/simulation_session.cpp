@@ -54,8 +54,12 @@ void SimulationSession::step(double dt_display, const ToolCommand& command) {
           tools_[static_cast<std::size_t>(command.tool)].tool, command.pose, command.mode);
       holding_ = true;
       if (r.edited) edited_since_publish_ = true;
+      for (const interaction::ExposureEvent& e : r.exposures)
+        stats_.warning = interaction::describe_exposure(
+            e.hit, tools_[static_cast<std::size_t>(command.tool)].name, e.time_s);
     }
     const interaction::AdvanceReport a = model_->advance(dt_display);
+    if (a.tear.layers.edited) edited_since_publish_ = true;  // a tear re-meshed the surface
     if (a.instability) stats_.error = "unstable: " + a.instability->describe();
   } catch (const std::exception& e) {
     stats_.error = e.what();

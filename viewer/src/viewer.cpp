@@ -673,6 +673,7 @@ void Viewer::Impl::update_hud(const ToolCommand& shown) {
   if (options.slices.show && !slice_description.empty())
     text += "\nslices   " + slice_description + (options.slices.labels ? " + tissue labels" : "");
   if (!options.patient.description.empty()) text += "\npatient  " + options.patient.description;
+  if (!stats.warning.empty()) text += "\nWARNING  " + stats.warning;
   hud->SetInput(text.c_str());
 }
 

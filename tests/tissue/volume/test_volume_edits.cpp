@@ -141,6 +141,39 @@ TEST(VolumeEdits, SetBoxSetsDensityAndLabel) {
   expect_ranges_current(v);
 }
 
+TEST(VolumeEdits, LabelShapesRelabelTissueAndKeepDensity) {
+  VoxelVolume v = solid({20, 20, 20});
+  v.density_data()[v.index(10, 5, 10)] = 0.0f;  // air inside the capsule stays unlabelled
+  v.mark_all_modified();
+  const VoxelVolume before = v;
+  const VoxelBox changed = label_capsule(v, {{10, 2, 10}, {10, 17, 10}, 1.5}, kLabelVessel);
+  EXPECT_EQ(changed, difference(before, v));
+  EXPECT_EQ(v.label(10, 10, 10), kLabelVessel);
+  EXPECT_EQ(v.label(11, 10, 11), kLabelVessel);      // 1.41 mm from the axis
+  EXPECT_EQ(v.label(12, 10, 10), kLabelSoftTissue);  // 2 mm
+  EXPECT_EQ(v.label(10, 5, 10), kLabelSoftTissue);   // no tissue there
+  for (std::size_t i = 0; i < v.density_data().size(); ++i)
+    EXPECT_EQ(v.density_data()[i], before.density_data()[i]);
+  const VoxelBox boxed = label_box(v, {0, 0, 0}, {4, 19, 19}, kLabelCorticalBone);
+  EXPECT_EQ(boxed.lo.x, 0);
+  EXPECT_EQ(boxed.hi.x, 5);
+  EXPECT_EQ(v.label(4, 3, 3), kLabelCorticalBone);
+  EXPECT_EQ(v.label(5, 3, 3), kLabelSoftTissue);
+}
+
+TEST(VolumeEdits, ClearVoxelsEmptiesTheBoxesAndReportsWhatChanged) {
+  VoxelVolume v = solid({12, 12, 12});
+  const VoxelVolume before = v;
+  const VoxelBox changed = clear_voxels(
+      v, {{{2, 2, 2}, {4, 3, 3}}, {{8, 8, 8}, {20, 9, 9}}, {{-5, -5, -5}, {-1, 0, 0}}});
+  EXPECT_EQ(changed, difference(before, v));
+  EXPECT_EQ(v.density(3, 2, 2), 0.0f);
+  EXPECT_EQ(v.density(11, 8, 8), 0.0f);  // clipped to the volume
+  EXPECT_EQ(v.density(4, 2, 2), 1.0f);
+  EXPECT_EQ(v.label(3, 2, 2), kLabelSoftTissue);  // labels stay
+  EXPECT_TRUE(clear_voxels(v, {{{2, 2, 2}, {4, 3, 3}}}).empty()) << "nothing left to clear";
+}
+
 TEST(VolumeEdits, ToolsOutsideTheVolumeChangeNothing) {
   VoxelVolume v = solid({8, 8, 8});
   EXPECT_TRUE(ablate_sphere(v, {{100, 100, 100}, 3}).empty());

@@ -221,28 +221,36 @@ class NarrowPhase {
   }
 
   /// Least-norm corner motion moving a vertex (binding b, corner sources `sources`) by delta
-  /// (trilinear weights W: corner c by W_c·δ/ΣW²); anchored and ungathered corners stay.
+  /// (trilinear weights W: corner c by W_c·δ/ΣW²); anchored and ungathered corners stay. With
+  /// every corner free a corner moves at most about 2|δ|. A vertex held mostly by anchored
+  /// corners (their weight above half) is pinned: it stays where the anchors keep it, inside the
+  /// tool (the tool is in bone), since its few free corners would have to move |δ|/W_c, without
+  /// bound as W_c → 0 (pressing tissue against anchored bone flung nodes metres away). No corner
+  /// moves more than 4|δ| per iteration.
   void push_corners(const Int3& cc, std::uint32_t sources, const coupler::VertexBinding& b,
                     const Vec3d& delta) {
     std::ptrdiff_t at[8];
-    double weight[8], sum_w2 = 0;
+    double weight[8], sum_w2 = 0, anchored_w = 0, source_w = 0;
     for (int c = 0; c < 8; ++c) {
       at[c] = -1;
       weight[c] = 0;
       if (!((sources >> c) & 1u)) continue;
       at[c] = scene_.corner(cc, c);
       if (at[c] < 0) continue;
+      const double w = std::max(0.0f, coupler::trilinear_weight(c, b.w));
+      source_w += w;
       if (scene_.anchored_node(static_cast<std::size_t>(at[c]))) {
+        anchored_w += w;
         at[c] = -1;
         continue;
       }
-      weight[c] = std::max(0.0f, coupler::trilinear_weight(c, b.w));
+      weight[c] = w;
       sum_w2 += weight[c] * weight[c];
     }
-    if (!(sum_w2 > 1e-12)) return;
+    if (!(sum_w2 > 1e-12) || anchored_w > 0.5 * source_w) return;
     for (int c = 0; c < 8; ++c) {
       if (at[c] < 0 || weight[c] <= 0) continue;
-      const Vec3f step = to_float(delta * (weight[c] / sum_w2));
+      const Vec3f step = to_float(delta * std::min(weight[c] / sum_w2, kMaxCornerStepRatio));
       const float len = length(step);
       const auto i = static_cast<std::size_t>(at[c]);
       if (len > correction_len_[i]) {
@@ -260,6 +268,7 @@ class NarrowPhase {
       }
   }
 
+  static constexpr double kMaxCornerStepRatio = 4.0;  // a corner moves at most 4|δ|
   const ContactScene& scene_;
   const NarrowCubes& cubes_;
   const std::vector<coupler::VertexBinding>& bindings_;

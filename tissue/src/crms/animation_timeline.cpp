@@ -119,22 +119,36 @@ void AnimationTimeline::apply_material_tracks(double time_s, Lattice& lattice,
   }
 }
 
+void AnimationTimeline::fire(std::size_t t, Lattice& lattice, const MaterialUpdate& update) {
+  std::vector<MaterialBlend> blends(triggers_[t].nodes.size(),
+                                    MaterialBlend::single(triggers_[t].entry));
+  for (std::int64_t n : triggers_[t].nodes) lattice.set_material(n, blends.front());
+  update(triggers_[t].nodes, blends);
+  trigger_fired_[t] = true;
+  fired_triggers_.push_back(triggers_[t].name.empty() ? "cut trigger " + std::to_string(t)
+                                                      : triggers_[t].name);
+}
+
 void AnimationTimeline::fire_cut_triggers(const std::vector<std::int64_t>& edited, Lattice& lattice,
                                           const MaterialUpdate& update) {
   for (std::size_t t = 0; t < triggers_.size(); ++t) {
-    if (trigger_fired_[t]) continue;
+    if (trigger_fired_[t] || !triggers_[t].event.empty()) continue;
     bool hit = false;
     for (std::int64_t n : edited)
       hit = hit || std::binary_search(trigger_nodes_[t].begin(), trigger_nodes_[t].end(), n);
-    if (!hit) continue;
-    std::vector<MaterialBlend> blends(triggers_[t].nodes.size(),
-                                      MaterialBlend::single(triggers_[t].entry));
-    for (std::int64_t n : triggers_[t].nodes) lattice.set_material(n, blends.front());
-    update(triggers_[t].nodes, blends);
-    trigger_fired_[t] = true;
-    fired_triggers_.push_back(triggers_[t].name.empty() ? "cut trigger " + std::to_string(t)
-                                                        : triggers_[t].name);
+    if (hit) fire(t, lattice, update);
   }
+}
+
+std::size_t AnimationTimeline::fire_event_triggers(const std::string& event, Lattice& lattice,
+                                                   const MaterialUpdate& update) {
+  std::size_t fired = 0;
+  for (std::size_t t = 0; t < triggers_.size(); ++t)
+    if (!trigger_fired_[t] && !event.empty() && triggers_[t].event == event) {
+      fire(t, lattice, update);
+      ++fired;
+    }
+  return fired;
 }
 
 Lattice AnimationTimeline::at_targets(const AnimationConfig& config, const Lattice& lattice) {

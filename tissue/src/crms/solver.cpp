@@ -317,14 +317,36 @@ std::int64_t Solver::torn_springs() const {
 
 void Solver::sync_torn_links() {
   const std::vector<std::uint8_t> flags = effects_->read_flags(backend_->lattice_view());
+  std::vector<std::int64_t> touched;
   for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
     for (int ax = 0; ax < 3; ++ax) {
       const int d = make_direction(ax, 1);
       if (lattice_.link(n, d) && ((flags[n] >> d) & 1u) == 0) {
         lattice_.break_spring(n, d);
         ++torn_synced_;
+        torn_pending_.push_back({n, d});
+        touched.push_back(n);
+        touched.push_back(lattice_.neighbour(n, d));
       }
     }
+  // A tear severs like a cut: the cut triggers watching these nodes fire.
+  if (!touched.empty() && timeline_.has_cut_triggers()) {
+    std::sort(touched.begin(), touched.end());
+    timeline_.fire_cut_triggers(touched, lattice_, backend_material_update());
+  }
+}
+
+std::vector<SpringRef> Solver::take_torn_springs() {
+  if ((effect_bits_ & effect_bits::kTearing) == 0) return {};
+  sync_torn_links();
+  std::vector<SpringRef> torn;
+  torn.swap(torn_pending_);
+  return torn;
+}
+
+std::size_t Solver::raise_event(const std::string& event) {
+  if (!timeline_.has_cut_triggers()) return 0;
+  return timeline_.fire_event_triggers(event, lattice_, backend_material_update());
 }
 
 double Solver::effects_energy_nj() const {

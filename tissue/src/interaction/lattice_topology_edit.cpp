@@ -1,6 +1,7 @@
 #include "tsf/interaction/lattice_topology_edit.h"
 
 #include <algorithm>
+#include <array>
 
 #include "tsf/common/error.h"
 
@@ -30,6 +31,24 @@ double DensitySnapshot::removed_volume_mm3(const VoxelVolume& volume,
                static_cast<double>(volume.density(i, j, k));
   const Vec3d& s = volume.geometry().spacing;
   return sum * s.x * s.y * s.z;
+}
+
+std::vector<std::pair<std::uint8_t, double>> DensitySnapshot::removed_by_label_mm3(
+    const VoxelVolume& volume, const VoxelBox& changed) const {
+  const VoxelBox b = changed.intersected(VoxelBox::of_dims(volume.dims()));
+  std::array<double, 256> sum{};
+  for (int k = b.lo.z; k < b.hi.z; ++k)
+    for (int j = b.lo.y; j < b.hi.y; ++j)
+      for (int i = b.lo.x; i < b.hi.x; ++i)
+        sum[volume.label(i, j, k)] += static_cast<double>(before(volume, i, j, k)) -
+                                      static_cast<double>(volume.density(i, j, k));
+  const Vec3d& s = volume.geometry().spacing;
+  std::vector<std::pair<std::uint8_t, double>> out;
+  for (int l = 0; l < 256; ++l)
+    if (sum[static_cast<std::size_t>(l)] > 0.0)
+      out.emplace_back(static_cast<std::uint8_t>(l),
+                       sum[static_cast<std::size_t>(l)] * s.x * s.y * s.z);
+  return out;
 }
 
 float cell_occupancy(const VoxelVolume& volume, const crms::LatticeGeometry& g, std::int64_t node,

@@ -3,12 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/interaction/lattice_components.h"
 #include "tsf/interaction/lattice_topology_edit.h"
+#include "tsf/interaction/tear_separation.h"
 
 namespace tsf::interaction {
 namespace {
@@ -55,6 +57,15 @@ void TissueModelOptions::validate() const {
           "tissue model: contact_passes_per_advance must be in [1, 1000]");
   require(std::isfinite(removal.strength) && removal.strength >= 0.0f && removal.strength <= 1.0f,
           "tissue model: removal.strength must be in [0, 1]");
+  for (int l = 0; l < 256; ++l)
+    require(
+        std::isfinite(cut_rates.rate[l]) && cut_rates.rate[l] >= 0.0f && cut_rates.rate[l] <= 1.0f,
+        "tissue model: the cut rate of label " + std::to_string(l) + " must be in [0, 1]");
+  require(std::isfinite(feather_force_un) && feather_force_un >= 0.0 && feather_force_un <= 1e12,
+          "tissue model: feather_force must be in [0, 1e12] µN (0 = ablation without contact)");
+  require(std::isfinite(exposure.distance_mm) && exposure.distance_mm >= 0.0 &&
+              exposure.distance_mm <= 100.0,
+          "tissue model: exposure.distance_mm must be in [0, 100] (0 = off)");
   require(contact.margin_spacings >= 1.0 && contact.margin_spacings <= 100.0 &&
               contact.max_narrow_iterations >= 0 && contact.max_narrow_iterations <= 1000 &&
               contact.vertex_tolerance_spacings >= 0.0,
@@ -66,6 +77,7 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
       volume_(std::move(volume)),
       surface_(options_.surface, options_.surface_headroom) {
   options_.validate();
+  exposure_nearest_mm_.fill(std::numeric_limits<double>::infinity());
   require(volume_.voxel_count() > 0, "tissue model: the volume is empty");
   if (!volume_.brick_ranges_current()) volume_.mark_all_modified();
   surface_.build(volume_);
@@ -133,7 +145,7 @@ EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolM
   if (mode == ToolMode::kPress) {
     stroke_.end();
     Stopwatch total;
-    if (last_mode_ == ToolMode::kPress && last_tool_ && !same_tool(tool, last_tool_spec_))
+    if (last_mode_ != ToolMode::kIdle && last_tool_ && !same_tool(tool, last_tool_spec_))
       contact_resolver_->release_all(*solver_);
     const collision::ContactForce c =
         contact_resolver_->resolve(*solver_, *gatherer_, *coupler_, world);
@@ -146,13 +158,28 @@ EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolM
     report.total_us = micros(total);
     return report;
   }
-  if (last_mode_ == ToolMode::kPress) {
+  // Force-dependent ablation presses as it ablates: the tool keeps what it holds (unless it is
+  // another tool) and the force before the move sets the rate. Otherwise editing lets go.
+  const bool presses = mode == ToolMode::kAblate && ablation_presses();
+  const bool held = last_mode_ == ToolMode::kPress || (last_mode_ == ToolMode::kAblate && presses);
+  if (held && (!presses || !last_tool_ || !same_tool(tool, last_tool_spec_))) {
     contact_resolver_->release_all(*solver_);
     publish_contact({});
   }
   const bool sweep = last_tool_ && last_mode_ == mode && same_tool(tool, last_tool_spec_);
   if (!sweep) stroke_.end();
-  report = edit(tool, sweep ? *last_tool_ : world, world, mode);
+  const double scale =
+      presses ? -std::expm1(-length(contact_.force_un) / options_.feather_force_un) : 1.0;
+  report = edit(tool, sweep ? *last_tool_ : world, world, mode, scale);
+  if (presses) {
+    Stopwatch clock;
+    const collision::ContactForce c =
+        contact_resolver_->resolve(*solver_, *gatherer_, *coupler_, world);
+    publish_contact(c);
+    report.contact = c;
+    report.tissue_near = report.tissue_near || c.nodes_gathered > 0;
+    report.total_us += micros(clock);
+  }
   last_tool_ = world;
   last_tool_spec_ = tool;
   last_mode_ = mode;
@@ -160,9 +187,10 @@ EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolM
 }
 
 EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
-                             const collision::WorldTool& to, ToolMode mode) {
+                             const collision::WorldTool& to, ToolMode mode, double rate_scale) {
   EditReport r;
   r.mode = mode;
+  r.rate_scale = rate_scale;
   Stopwatch total, clock;
   const crms::LatticeGeometry& g = solver_->lattice().geometry();
   const VolumeGeometry& vg = volume_.geometry();
@@ -226,14 +254,26 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   DensitySnapshot before;
   before.capture(volume_, voxels_near_box(vg, rest_lo, rest_hi, reach));
   VoxelBox changed{};
-  if (tool.shape == collision::ToolShape::kBlade)
-    changed = stroke_.cut_blade(volume_, blade, pose_from, pose_to, options_.removal);
-  else if (tool.shape == collision::ToolShape::kSphere)
-    changed = stroke_.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, options_.removal);
-  else
-    changed = stroke_.ablate_wand(volume_, cap_from, cap_to, options_.removal);
+  RemovalOptions removal = options_.removal;
+  removal.strength = static_cast<float>(static_cast<double>(removal.strength) * rate_scale);
+  if (tool.shape == collision::ToolShape::kBlade) {
+    removal.rates = options_.cut_rates;
+    changed = stroke_.cut_blade(volume_, blade, pose_from, pose_to, removal);
+  } else if (tool.shape == collision::ToolShape::kSphere) {
+    changed = stroke_.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, removal);
+  } else {
+    changed = stroke_.ablate_wand(volume_, cap_from, cap_to, removal);
+  }
   r.edit_us = micros(clock);
   r.changed_voxels = changed;
+  const double voxel_mm3 = vg.spacing.x * vg.spacing.y * vg.spacing.z;
+  for (int l = 0; l < 256; ++l) {
+    const double reached = stroke_.last_reached()[static_cast<std::size_t>(l)] * voxel_mm3;
+    if (reached > 0.0) {
+      r.reached_by_label.emplace_back(static_cast<std::uint8_t>(l), reached);
+      totals_.reached_by_label_mm3[static_cast<std::size_t>(l)] += reached;
+    }
+  }
   if (changed.empty()) {
     r.total_us = micros(total);
     return r;
@@ -242,8 +282,23 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
           "tissue model: an edit changed voxels outside the region saved before it (internal)");
   r.edited = true;
   r.removed_mm3 = before.removed_volume_mm3(volume_, changed);
+  r.removed_by_label = before.removed_by_label_mm3(volume_, changed);
+  propagate_voxel_change(before, changed, {}, r);
+  r.total_us = micros(total);
+  record_exposures(before, r);
 
-  clock.restart();
+  ++totals_.edits;
+  totals_.removed_mm3 += r.removed_mm3;
+  for (const auto& [label, mm3] : r.removed_by_label) totals_.removed_by_label_mm3[label] += mm3;
+  totals_.nodes_deleted += r.nodes_deleted;
+  totals_.springs_broken += r.springs_broken;
+  totals_.vertices_rebound += r.vertices_rebound;
+  return r;
+}
+
+void TissueModel::propagate_voxel_change(const DensitySnapshot& before, const VoxelBox& changed,
+                                         const std::vector<crms::SpringRef>& torn, EditReport& r) {
+  Stopwatch clock;
   surface_.update(volume_, changed);
   const imt::SurfaceChanges changes = surface_.take_changes();
   r.remesh_us = micros(clock);
@@ -267,8 +322,10 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   r.topology_us = micros(clock);
 
   clock.restart();
-  const coupler::RebindReport rebind = coupler_->apply_changes(
-      surface_, changes, solver_->lattice(), topo.deleted_nodes, topo.broken_springs);
+  std::vector<crms::SpringRef> broken = topo.broken_springs;
+  broken.insert(broken.end(), torn.begin(), torn.end());
+  const coupler::RebindReport rebind =
+      coupler_->apply_changes(surface_, changes, solver_->lattice(), topo.deleted_nodes, broken);
   r.vertices_rebound = rebind.rebound;
   r.vertices_rebound_for_topology = rebind.from_topology;
   r.rebind_us = micros(clock);
@@ -279,14 +336,67 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   else
     coupler_->couple_slots(*solver_, coupler_->last_rebound());
   r.couple_us = micros(clock);
-  r.total_us = micros(total);
+}
 
-  ++totals_.edits;
-  totals_.removed_mm3 += r.removed_mm3;
-  totals_.nodes_deleted += r.nodes_deleted;
-  totals_.springs_broken += r.springs_broken;
+void TissueModel::record_exposures(const DensitySnapshot& before, EditReport& r) {
+  if (!options_.exposure.enabled()) return;
+  for (const ExposureHit& hit :
+       find_exposures(volume_, before, r.changed_voxels, options_.surface.iso, options_.exposure)) {
+    double& nearest = exposure_nearest_mm_[hit.label];
+    if (!(hit.distance_mm < nearest - 1e-9)) continue;
+    ExposureEvent e;
+    e.time_s = totals_.simulated_s;
+    e.hit = hit;
+    e.first = !std::isfinite(nearest);
+    nearest = hit.distance_mm;
+    if (e.first) solver_->raise_event(exposure_event_name(hit.label));
+    r.exposures.push_back(e);
+    exposure_events_.push_back(e);
+  }
+}
+
+TearReport TissueModel::separate_torn() {
+  TearReport t;
+  const std::vector<crms::SpringRef> torn = solver_->take_torn_springs();
+  if (torn.empty()) return t;
+  Stopwatch total;
+  t.springs_torn = torn.size();
+  const TornVoxels voxels =
+      torn_voxels(solver_->lattice(), torn, options_.lattice.node_spacing_voxels, volume_.dims());
+  t.nodes_masked = voxels.masked_nodes.size();
+  EditReport& r = t.layers;
+  r.mode = ToolMode::kIdle;
+  Stopwatch clock;
+  DensitySnapshot before;
+  VoxelBox changed{};
+  if (!voxels.bounds.empty()) {
+    before.capture(volume_, voxels.bounds);
+    changed = clear_voxels(volume_, voxels.boxes);
+  }
+  r.edit_us = micros(clock);
+  r.changed_voxels = changed;
+  if (!changed.empty()) {
+    r.edited = true;
+    r.removed_mm3 = before.removed_volume_mm3(volume_, changed);
+    r.removed_by_label = before.removed_by_label_mm3(volume_, changed);
+    t.cleared_mm3 = r.removed_mm3;
+    propagate_voxel_change(before, changed, torn, r);
+  } else {
+    // No tissue between the nodes (it was cut or torn before): re-bind their cubes alone.
+    clock.restart();
+    const coupler::RebindReport rebind =
+        coupler_->apply_changes(surface_, imt::SurfaceChanges{}, solver_->lattice(), {}, torn);
+    r.vertices_rebound = rebind.rebound;
+    r.rebind_us = micros(clock);
+  }
+  r.total_us = micros(total);
+  totals_.springs_torn += t.springs_torn;
+  totals_.nodes_masked += t.nodes_masked;
+  totals_.tear_cleared_mm3 += t.cleared_mm3;
+  totals_.tear_nodes_deleted += r.nodes_deleted;
+  totals_.tear_springs_broken += r.springs_broken;
   totals_.vertices_rebound += r.vertices_rebound;
-  return r;
+  return t;
 }
 
 AdvanceReport TissueModel::advance(double dt_display) {
@@ -294,7 +404,9 @@ AdvanceReport TissueModel::advance(double dt_display) {
           "advance: the frame time must be in (0, 10] s, got " + std::to_string(dt_display));
   AdvanceReport r;
   const std::int64_t steps = std::max<std::int64_t>(1, std::llround(dt_display / dt_));
-  const bool pressing = last_mode_ == ToolMode::kPress && last_tool_.has_value();
+  const bool pressing =
+      (last_mode_ == ToolMode::kPress || (last_mode_ == ToolMode::kAblate && ablation_presses())) &&
+      last_tool_.has_value();
   const std::int64_t passes =
       pressing ? std::min<std::int64_t>(options_.contact_passes_per_advance, steps) : 1;
   for (std::int64_t p = 0; p < passes; ++p) {
@@ -315,6 +427,8 @@ AdvanceReport TissueModel::advance(double dt_display) {
     }
   }
   r.simulated_s = static_cast<double>(r.steps) * dt_;
+  // What tearing did during these steps, through the voxels, surface and coupler.
+  if (!r.instability) r.tear = separate_torn();
   Stopwatch clock;
   coupler_->couple(*solver_);
   r.couple_us = micros(clock);

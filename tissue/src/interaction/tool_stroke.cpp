@@ -35,6 +35,7 @@ int sub_steps(double travel_mm, double voxel_mm, const char* what) {
 template <typename Weight>
 VoxelBox ToolStroke::apply(VoxelVolume& volume, const VoxelBox& box, const RemovalOptions& o,
                            const Weight& weight) {
+  reached_.fill(0.0);
   if (box.empty() || o.strength <= 0.0f) return {};
   float* density = volume.density_for_tracked_write();
   const std::uint8_t* labels = volume.label_data().data();
@@ -45,11 +46,12 @@ VoxelBox ToolStroke::apply(VoxelVolume& volume, const VoxelBox& box, const Remov
         const std::size_t v = volume.index(i, j, k);
         const float old = density[v];
         if (old <= 0.0f) continue;
-        const float w = weight(i, j, k);
+        const float w = o.strength * weight(i, j, k);
         if (w <= 0.0f) continue;
         float& done = applied_[v];
         if (w <= done) continue;
-        const float removal = o.strength * o.rates[labels[v]] * (w - done);
+        const float removal = o.rates[labels[v]] * (w - done);
+        reached_[labels[v]] += static_cast<double>(std::min(old, w - done));
         done = w;
         const float now = std::max(0.0f, old - removal);
         if (now != old) {

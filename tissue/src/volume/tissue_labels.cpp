@@ -33,4 +33,11 @@ const char* tissue_label_name(std::uint8_t label) {
   }
 }
 
+std::string tissue_label_key(std::uint8_t label) {
+  const std::string name = tissue_label_name(label);
+  if (name == "overlay" || name == "user" || name == "tissue")
+    return "label-" + std::to_string(static_cast<int>(label));
+  return name;
+}
+
 }  // namespace tsf

@@ -226,6 +226,39 @@ VoxelBox cut_swept_blade(VoxelVolume& volume, const BladeTool& blade, const Tool
   return apply_removal(volume, box, options, [&](int i, int j, int k) { return at(i, j, k); });
 }
 
+namespace {
+
+/// Calls write(i, j, k, voxel index) over `box`; it returns whether it changed the voxel. Marks
+/// and returns the box of the changed voxels.
+template <typename Write>
+VoxelBox write_voxels(VoxelVolume& volume, const VoxelBox& box, const Write& write) {
+  VoxelBox changed{};
+  for (int k = box.lo.z; k < box.hi.z; ++k)
+    for (int j = box.lo.y; j < box.hi.y; ++j)
+      for (int i = box.lo.x; i < box.hi.x; ++i)
+        if (write(i, j, k, volume.index(i, j, k))) changed.include(i, j, k);
+  volume.mark_modified(changed);
+  return changed;
+}
+
+/// Labels the voxels of `box` holding tissue for which `inside(position)` holds.
+template <typename Inside>
+VoxelBox label_where(VoxelVolume& volume, const VoxelBox& box, std::uint8_t label,
+                     const Inside& inside) {
+  if (box.empty()) return {};
+  const VolumeGeometry& g = volume.geometry();
+  const std::vector<float>& d = volume.density_data();
+  std::uint8_t* l = volume.labels_for_tracked_write();
+  return write_voxels(volume, box, [&](int i, int j, int k, std::size_t v) {
+    if (d[v] <= 0.0f || l[v] == label) return false;
+    if (!inside(g.index_to_tissue({double(i), double(j), double(k)}))) return false;
+    l[v] = label;
+    return true;
+  });
+}
+
+}  // namespace
+
 VoxelBox set_box(VoxelVolume& volume, const Vec3d& lo_mm, const Vec3d& hi_mm, float density,
                  std::optional<std::uint8_t> label) {
   require(std::isfinite(density) && density >= 0.0f && density <= 1.0f,
@@ -235,18 +268,46 @@ VoxelBox set_box(VoxelVolume& volume, const Vec3d& lo_mm, const Vec3d& hi_mm, fl
   if (box.empty()) return {};
   float* d = volume.density_for_tracked_write();
   std::uint8_t* l = volume.labels_for_tracked_write();
+  return write_voxels(volume, box, [&](int, int, int, std::size_t v) {
+    const bool relabel = label && l[v] != *label;
+    if (d[v] == density && !relabel) return false;
+    d[v] = density;
+    if (label) l[v] = *label;
+    return true;
+  });
+}
+
+VoxelBox label_box(VoxelVolume& volume, const Vec3d& lo_mm, const Vec3d& hi_mm,
+                   std::uint8_t label) {
+  require(all_finite(lo_mm) && all_finite(hi_mm), "label_box: box corners must be finite (mm)");
+  const VoxelBox box = voxels_near_box(volume.geometry(), lo_mm, hi_mm, 0.0);
+  return label_where(volume, box, label, [](const Vec3d&) { return true; });
+}
+
+VoxelBox label_capsule(VoxelVolume& volume, const CapsuleTool& capsule, std::uint8_t label) {
+  require(all_finite(capsule.a) && all_finite(capsule.b) && std::isfinite(capsule.radius) &&
+              capsule.radius >= 0,
+          "label_capsule: the capsule needs finite ends and a radius >= 0 (mm)");
+  const Vec3d lo{std::min(capsule.a.x, capsule.b.x), std::min(capsule.a.y, capsule.b.y),
+                 std::min(capsule.a.z, capsule.b.z)};
+  const Vec3d hi{std::max(capsule.a.x, capsule.b.x), std::max(capsule.a.y, capsule.b.y),
+                 std::max(capsule.a.z, capsule.b.z)};
+  const VoxelBox box = voxels_near_box(volume.geometry(), lo, hi, capsule.radius);
+  return label_where(volume, box, label,
+                     [&](const Vec3d& p) { return capsule_distance(capsule, p) <= 0.0; });
+}
+
+VoxelBox clear_voxels(VoxelVolume& volume, const std::vector<VoxelBox>& boxes) {
+  float* d = volume.density_for_tracked_write();
+  const VoxelBox all = VoxelBox::of_dims(volume.dims());
   VoxelBox changed{};
-  for (int k = box.lo.z; k < box.hi.z; ++k)
-    for (int j = box.lo.y; j < box.hi.y; ++j)
-      for (int i = box.lo.x; i < box.hi.x; ++i) {
-        const std::size_t v = volume.index(i, j, k);
-        const bool relabel = label && l[v] != *label;
-        if (d[v] == density && !relabel) continue;
-        d[v] = density;
-        if (label) l[v] = *label;
-        changed.include(i, j, k);
-      }
-  volume.mark_modified(changed);
+  for (const VoxelBox& b : boxes)
+    changed =
+        changed.united(write_voxels(volume, b.intersected(all), [&](int, int, int, std::size_t v) {
+          if (d[v] == 0.0f) return false;
+          d[v] = 0.0f;
+          return true;
+        }));
   return changed;
 }
 

@@ -58,9 +58,13 @@ class AnimationTimeline {
 
   bool has_cut_triggers() const { return !trigger_nodes_.empty(); }
   /// Fires the cut triggers that watch one of `edited` (nodes deleted or that lost a spring):
-  /// their nodes switch to the trigger's entry, in `lattice` and through `update`.
+  /// their nodes switch to the trigger's entry, in `lattice` and through `update`. Triggers that
+  /// watch an event are left alone.
   void fire_cut_triggers(const std::vector<std::int64_t>& edited, Lattice& lattice,
                          const MaterialUpdate& update);
+  /// Fires the triggers that watch `event` (CutTrigger::event). Returns how many fired.
+  std::size_t fire_event_triggers(const std::string& event, Lattice& lattice,
+                                  const MaterialUpdate& update);
   /// Names of the triggers that have fired, in firing order.
   const std::vector<std::string>& fired_triggers() const { return fired_triggers_; }
 
@@ -77,6 +81,7 @@ class AnimationTimeline {
   std::vector<bool> track_done_;
   std::vector<std::vector<std::int64_t>> trigger_nodes_;  // sorted
   std::vector<bool> trigger_fired_;
+  void fire(std::size_t trigger, Lattice& lattice, const MaterialUpdate& update);
   std::vector<std::string> fired_triggers_;
 };
 

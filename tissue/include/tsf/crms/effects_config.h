@@ -79,11 +79,15 @@ struct MaterialTrack {
 };
 
 /// When one of `nodes` is deleted or loses a spring through the solver's topology edits (a cut,
-/// an ablation), all its nodes switch to palette entry `entry`: a severed artery goes flaccid.
+/// an ablation, a tear), all its nodes switch to palette entry `entry`: a severed artery goes
+/// flaccid. A trigger with an `event` watches that event instead (Solver::raise_event, e.g.
+/// "exposure:vessel" when an edit removes tissue near a vessel, docs/deform-cut.md) and ignores
+/// edits.
 struct CutTrigger {
   std::string name;  ///< for reports
   std::vector<std::int64_t> nodes;
   int entry = 0;
+  std::string event;  ///< empty: fires on edits of `nodes`; else on Solver::raise_event(event)
 };
 
 /// Animation: rest-shape keyframes blended over time (linear between keyframes; the grid's own

@@ -182,6 +182,14 @@ class Solver {
   EffectsState effects_state() const;
   /// Springs broken by tearing since construction (synchronises).
   std::int64_t torn_springs() const;
+  /// Tearing: brings the links that tearing (and node masking) cleared on the backend to the host
+  /// lattice — the cut triggers of their nodes fire, as for a cut — and returns the springs torn
+  /// since the last call, each once from its lower node (+x, +y, +z direction). Synchronises
+  /// (on CUDA: one copy of the flags, a byte per node); empty and free without tearing.
+  std::vector<SpringRef> take_torn_springs();
+  /// Fires the animation's triggers that watch `event` (CutTrigger::event, e.g.
+  /// "exposure:vessel"). Returns how many fired (each trigger fires once).
+  std::size_t raise_event(const std::string& event);
   /// Names of the animation's cut triggers that have fired, in firing order.
   const std::vector<std::string>& fired_triggers() const { return timeline_.fired_triggers(); }
   /// Simulated time since construction, s (Σ n·dt over the steps).
@@ -224,6 +232,7 @@ class Solver {
   unsigned effect_bits_ = 0;
   std::unique_ptr<EffectsEngine> effects_;
   std::int64_t torn_synced_ = 0;  // springs already cleared on the host lattice by sync_torn_links
+  std::vector<SpringRef> torn_pending_;  // synced, not yet taken by take_torn_springs
   double time_s_ = 0.0;
   std::uint64_t edits_ = 0;
   AnimationTimeline timeline_;  // effects.animation (empty when off)

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "tsf/crms/lattice.h"
@@ -43,6 +44,9 @@ class DensitySnapshot {
   }
   /// Σ (before − now) × voxel volume over `changed` (⊆ box), mm³: the tissue an edit removed.
   double removed_volume_mm3(const VoxelVolume& volume, const VoxelBox& changed) const;
+  /// The same, per tissue label of the voxels (labels that lost nothing are left out), ascending.
+  std::vector<std::pair<std::uint8_t, double>> removed_by_label_mm3(const VoxelVolume& volume,
+                                                                    const VoxelBox& changed) const;
 
  private:
   VoxelBox box_{};

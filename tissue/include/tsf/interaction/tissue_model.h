@@ -20,6 +20,12 @@
 // whose nodes changed, and couples them, so the render buffer is current when apply_tool returns.
 // Pieces that no longer connect to an anchor fall under gravity.
 //
+// Tearing (crms effects) runs through the same layers: after each advance() the springs the solver
+// tore come back to the host (Solver::take_torn_springs), the voxels between their nodes are
+// cleared (tear_separation.h), and the surface, lattice topology and coupler follow as for an
+// edit (AdvanceReport::tear). An edit near a watched overlay label (vessels, nerves) raises an
+// exposure event (exposure.h) and the animation triggers watching it.
+//
 // Threading: one thread owns the model (the simulation thread) and calls everything that is not
 // marked otherwise. latest_contact() may be called from any thread (haptics) and never blocks the
 // owner for longer than a copy of ContactForce; solver().snapshots() serves node positions to
@@ -27,12 +33,14 @@
 // copied by it for a render thread (coupler's block versions say what changed).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tsf/collision/node_gatherer.h"
@@ -44,6 +52,7 @@
 #include "tsf/crms/stability_monitor.h"
 #include "tsf/crms/time_step_choice.h"
 #include "tsf/imt/imt_surface.h"
+#include "tsf/interaction/exposure.h"
 #include "tsf/interaction/rest_space_map.h"
 #include "tsf/interaction/tool.h"
 #include "tsf/interaction/tool_stroke.h"
@@ -64,7 +73,18 @@ struct TissueModelOptions {
   double dt_s = 0.0;  ///< solver step, s; 0 = dt_safety × the stable estimate
   double dt_safety = 0.9;
   coupler::CouplerMode coupler_mode = coupler::CouplerMode::kTrilinear;
-  RemovalOptions removal;  ///< strength, fall-off and per-label rates of ablation and cuts
+  /// Strength and fall-off of ablation and cuts; `removal.rates`: the ablation rate per label.
+  RemovalOptions removal;
+  /// The cut rate per label: a blade pass removes rate × its weight (bone resists a scalpel).
+  LabelRates cut_rates = LabelRates::uniform(1.0f);
+  /// Force-dependent ablation (the thesis's coblation "feather pressure"): > 0 makes an ablating
+  /// tool press the tissue as `press` does (contact constraints, a reaction force it feels) and
+  /// remove at rate × (1 − exp(−F/F0)), F the contact force on the tool before the move, F0 this
+  /// value in µN: nothing without contact, the full rate under firm pressure. 0 (the default):
+  /// ablation removes at the full rate and exerts no force.
+  double feather_force_un = 0.0;
+  /// Exposure events of watched overlay labels (exposure.h); off while distance_mm is 0.
+  ExposureOptions exposure;
   /// A blade thinner than this many voxels cuts this wide, ≥ 0. A one-voxel slab is not enough:
   /// its voxel keeps ~0.16 density, the BCC body centres beside it average to the iso-level and
   /// IMT reconnects the two sides through them; two voxels clear the slab.
@@ -89,6 +109,16 @@ struct EditReport {
   bool tissue_near = false;  ///< nodes were found near the tool (else nothing to edit)
   VoxelBox changed_voxels{};
   double removed_mm3 = 0;  ///< tissue removed (Σ density drop × voxel volume)
+  /// removed_mm3 by the voxels' tissue labels (labels that lost nothing left out), ascending.
+  std::vector<std::pair<std::uint8_t, double>> removed_by_label;
+  /// Per label, what the tool reached: the tissue it would have removed at rate 1 (same strength
+  /// and pressure), mm³. removed / reached is the label's effective rate.
+  std::vector<std::pair<std::uint8_t, double>> reached_by_label;
+  /// The factor on the removal strength: 1 − exp(−F/F0) for force-dependent ablation, else 1.
+  double rate_scale = 1.0;
+  /// Exposure events this edit raised (the first within the distance of a label, or nearer than
+  /// any before).
+  std::vector<ExposureEvent> exposures;
   std::size_t nodes_deleted = 0;
   std::size_t springs_broken = 0;
   std::size_t vertices_rebound = 0;
@@ -105,11 +135,23 @@ struct EditReport {
   collision::ContactForce contact;  ///< press mode: the contact resolved at the new pose
 };
 
+/// What the springs the solver tore during one advance() did to the layers.
+struct TearReport {
+  std::size_t springs_torn = 0;  ///< springs the solver tore (tearing, node masking)
+  std::size_t nodes_masked = 0;  ///< nodes the tear left without a spring; their cells cleared
+  double cleared_mm3 = 0;        ///< tissue the separation cleared (Σ density × voxel volume)
+  /// The separation through the layers: voxels changed, nodes deleted and springs broken because
+  /// their cells or bridges emptied, vertices re-bound, timings (mode idle).
+  EditReport layers;
+  bool any() const { return springs_torn > 0; }
+};
+
 struct AdvanceReport {
   std::int64_t steps = 0;
   double simulated_s = 0;
   double step_us = 0, contact_us = 0, couple_us = 0;
   std::optional<crms::Instability> instability;
+  TearReport tear;
 };
 
 /// Running totals since construction.
@@ -121,6 +163,12 @@ struct InteractionTotals {
   std::size_t vertices_rebound = 0;
   std::int64_t steps = 0;
   double simulated_s = 0;
+  /// removed_mm3 by tissue label, and what the tools reached (EditReport::reached_by_label).
+  std::array<double, 256> removed_by_label_mm3{}, reached_by_label_mm3{};
+  // Tearing (AdvanceReport::tear).
+  std::size_t springs_torn = 0, nodes_masked = 0;
+  std::size_t tear_nodes_deleted = 0, tear_springs_broken = 0;
+  double tear_cleared_mm3 = 0;
 };
 
 class TissueModel {
@@ -174,11 +222,24 @@ class TissueModel {
   /// Number of lattice components (alive nodes joined by intact springs). O(nodes).
   std::size_t lattice_components() const;
   const InteractionTotals& totals() const { return totals_; }
+  /// Exposure events so far, in order (EditReport::exposures of every edit).
+  const std::vector<ExposureEvent>& exposure_events() const { return exposure_events_; }
   std::int64_t alive_nodes() const { return solver_->lattice().alive_count(); }
 
  private:
   EditReport edit(const Tool& tool, const collision::WorldTool& from,
-                  const collision::WorldTool& to, ToolMode mode);
+                  const collision::WorldTool& to, ToolMode mode, double rate_scale);
+  /// After voxels changed (`before` holds their old densities): re-mesh, lattice topology,
+  /// re-bind (also the cubes of `torn` springs, already gone from the lattice) and couple the
+  /// re-bound vertices; fills r's layer fields and timings.
+  void propagate_voxel_change(const DensitySnapshot& before, const VoxelBox& changed,
+                              const std::vector<crms::SpringRef>& torn, EditReport& r);
+  /// The springs the solver tore since the last call, through every layer (tear_separation.h).
+  TearReport separate_torn();
+  /// Records the exposures of an edit: events for labels it came nearer to than before.
+  void record_exposures(const DensitySnapshot& before, EditReport& r);
+  /// Whether an ablating tool presses (force-dependent ablation).
+  bool ablation_presses() const { return options_.feather_force_un > 0.0; }
   void publish_contact(const collision::ContactForce& c);
 
   TissueModelOptions options_;
@@ -202,6 +263,8 @@ class TissueModel {
   collision::ContactForce shared_contact_;
   InteractionTotals totals_;
   collision::NodeNeighbourhood nb_;
+  std::vector<ExposureEvent> exposure_events_;
+  std::array<double, 256> exposure_nearest_mm_;  // per label: the nearest event so far
 };
 
 }  // namespace tsf::interaction

@@ -1,6 +1,7 @@
 // One stroke of an ablating or cutting tool, in rest space: consecutive moves of the same tool in
-// the same mode. Each voxel loses density once, with the largest fall-off weight the stroke has
-// given it so far (removal = strength · rate(label) · (w − w_already_applied)), so
+// the same mode. Each voxel loses density once, with the largest strength-scaled fall-off weight
+// the stroke has given it so far (removal = rate(label) · (s·w − (s·w)_already_applied), s the
+// move's strength: force-dependent ablation scales it per move, docs/deform-cut.md), so
 //   * a ball or wand dragged through tissue carves one smooth channel (moves overlap at their
 //     shared pose; applying each move on its own would lower the fall-off band twice there and
 //     widen the channel by up to the band's width);
@@ -11,6 +12,7 @@
 // and is dropped by end() (the tool lifted, or a new stroke).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <unordered_map>
@@ -27,6 +29,10 @@ class ToolStroke {
   /// Ends the stroke: the next move starts a fresh one.
   void end() { applied_.clear(); }
   std::size_t voxels_remembered() const { return applied_.size(); }
+  /// Per tissue label, the density the last move would have removed at rate 1 (Σ over its
+  /// voxels of min(density, s·w − already applied)): with the density it did remove, the
+  /// effective rate of each label (removed / reached).
+  const std::array<double, 256>& last_reached() const { return reached_; }
 
   /// A ball of `radius` moving from `from` to `to` (mm). Returns the changed voxels.
   VoxelBox ablate_ball(VoxelVolume& volume, const Vec3d& from, const Vec3d& to, double radius,
@@ -45,6 +51,7 @@ class ToolStroke {
                  const Weight& weight);
 
   std::unordered_map<std::size_t, float> applied_;
+  std::array<double, 256> reached_{};
 };
 
 }  // namespace tsf::interaction

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "tsf/common/hd.h"
 
@@ -40,7 +41,10 @@ TSF_HD_INLINE bool is_bone_label(std::uint8_t l) {
   return l == kLabelCancellousBone || l == kLabelCorticalBone;
 }
 
-/// Human-readable name ("soft-tissue", "cortical-bone", "overlay-64", "user-130", …).
+/// Human-readable name ("soft-tissue", "cortical-bone", "vessel"; "overlay", "user" or "tissue"
+/// for labels without a name of their own).
 const char* tissue_label_name(std::uint8_t label);
+/// A unique name for reports and keys: the label's own name, else "label-<n>" ("label-130").
+std::string tissue_label_key(std::uint8_t label);
 
 }  // namespace tsf

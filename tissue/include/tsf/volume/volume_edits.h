@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "tsf/volume/tissue_labels.h"
 #include "tsf/volume/tool_shapes.h"
@@ -22,7 +23,9 @@
 
 namespace tsf {
 
-/// Removal rate per tissue label, a multiplier in [0, 1] of the tool strength.
+/// Removal rate per tissue label, a multiplier in [0, 1] of the tool strength. Scenes set them
+/// per label (`tissue.removal.rates`, docs/deform-cut.md), from the material library's
+/// `removal_rates` or by value.
 struct LabelRates {
   std::array<float, 256> rate{};
 
@@ -59,6 +62,16 @@ VoxelBox cut_swept_blade(VoxelVolume& volume, const BladeTool& blade, const Tool
 /// box [lo_mm, hi_mm]. `density` must lie in [0,1]. Returns the changed voxels.
 VoxelBox set_box(VoxelVolume& volume, const Vec3d& lo_mm, const Vec3d& hi_mm, float density,
                  std::optional<std::uint8_t> label = std::nullopt);
+
+/// Labels as `label` every voxel holding tissue (density > 0) whose centre lies in the tissue-space
+/// box [lo_mm, hi_mm]; densities stay. Returns the relabelled voxels.
+VoxelBox label_box(VoxelVolume& volume, const Vec3d& lo_mm, const Vec3d& hi_mm, std::uint8_t label);
+/// The same for the voxels whose centres lie within a capsule (a vessel's or a nerve's course).
+VoxelBox label_capsule(VoxelVolume& volume, const CapsuleTool& capsule, std::uint8_t label);
+
+/// Sets density 0 in every voxel of `boxes` (each clipped to the volume); labels stay. Returns
+/// the bounding box of the voxels that changed (empty when none held tissue).
+VoxelBox clear_voxels(VoxelVolume& volume, const std::vector<VoxelBox>& boxes);
 
 /// The voxels whose centres may lie within `margin_mm` of the tissue-space box [lo_mm, hi_mm],
 /// clipped to the volume (empty when outside).

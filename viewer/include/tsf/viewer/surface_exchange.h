@@ -60,6 +60,9 @@ struct SimulationStats {
   std::string error;  ///< set when the simulation stopped (instability, bad tool); empty else
   std::string stability = "stable";  ///< the verdict so far (crms/stability_monitor.h)
   double dt_over_estimate = 0;       ///< dt / the stable estimate
+  /// The latest exposure event ("vessel exposed: wand removed tissue 0.8 mm from it at t =
+  /// 0.0123 s"), shown as a warning line in the HUD; empty when none.
+  std::string warning;
 };
 
 class SurfaceExchange {
