@@ -11,6 +11,7 @@
 // add their arrays (none for the formulations measured here).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -102,6 +103,49 @@ void node_step_args(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
 }
 BENCHMARK(BM_CrmsNodeSteps)->Apply(node_step_args);
+
+/// The default (symmetric) tile kernel at 256³ by tile shape: rows per tile (4, 8) and z-planes
+/// per block (0: automatic, about eight blocks per multiprocessor), against the automatic choice
+/// in the same run (docs/crms.md "The default kernel against the roofline"). args: rows, planes.
+void BM_CrmsSymmetricTiling(benchmark::State& state) {
+  if (!cuda_status().available) {
+    state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
+    return;
+  }
+  const int edge = 256;
+  BoxLatticeOptions o;
+  o.size_mm = {double(edge), double(edge), double(edge)};
+  o.spacing_mm = 1.0;
+  Lattice l = build_box_lattice(o);
+  fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
+  SolverConfig c;
+  c.backend = Backend::kCuda;
+  c.angular_reactions = AngularReactions::kSymmetric;
+  c.materials[0].youngs_modulus_pa = 10e3;
+  c.materials[0].viscosity_pa_s = 2.0;
+  c.gravity = {0, 0, -9810};
+  c.cuda_steps_per_graph = 64;
+  c.cuda_tile_rows = static_cast<int>(state.range(0));
+  c.cuda_planes_per_block = static_cast<int>(state.range(1));
+  Solver solver(std::move(l), c);
+  const double dt = 0.5 * solver.stable_dt();
+  const int steps = 16;
+  solver.step(steps, dt);
+  for (auto _ : state) solver.step(steps, dt);
+  const double node_steps =
+      double(solver.lattice().node_count()) * steps * double(state.iterations());
+  state.counters["node_steps_per_s"] = benchmark::Counter(node_steps, benchmark::Counter::kIsRate);
+  state.counters["copy_bandwidth_GBps"] = copy_bandwidth() * 1e-9;
+  state.counters["of_roofline"] =
+      benchmark::Counter(node_steps * kBytesPerNodeStep / std::max(copy_bandwidth(), 1.0),
+                         benchmark::Counter::kIsRate);
+  state.SetLabel(solver.backend_name());
+}
+BENCHMARK(BM_CrmsSymmetricTiling)
+    ->ArgsProduct({{4, 8}, {0, 16, 128}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
 
 /// Small lattices, where a step's arithmetic is shorter than a kernel launch: microseconds per
 /// step of the symmetric form (the default), in the same run: CUDA graphs of one launch per step
