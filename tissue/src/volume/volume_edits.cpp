@@ -192,25 +192,14 @@ VoxelBox cut_swept_blade(VoxelVolume& volume, const BladeTool& blade, const Tool
                                           Rotation::slerp(a.orientation, b.orientation, t)};
   }
 
-  // Each sub-step's blade lies in its axis-aligned bounding box (half widths reach[s]: the
-  // rotated half extents' absolute components summed; for a thin blade far smaller than the
-  // sphere around its corners); `box` bounds them all.
-  std::vector<Vec3d> reach(poses.size());
+  // Bounding box of every sub-step's box (each bounded by its corner sphere).
   Vec3d lo = poses[0].position, hi = poses[0].position;
-  for (std::size_t s = 0; s < poses.size(); ++s) {
-    const Rotation& r = poses[s].orientation;
-    const Vec3d ax = r.apply({e.x, 0.0, 0.0}), ay = r.apply({0.0, e.y, 0.0}),
-                az = r.apply({0.0, 0.0, e.z});
-    reach[s] = {std::abs(ax.x) + std::abs(ay.x) + std::abs(az.x),
-                std::abs(ax.y) + std::abs(ay.y) + std::abs(az.y),
-                std::abs(ax.z) + std::abs(ay.z) + std::abs(az.z)};
-    const Vec3d& p = poses[s].position;
-    lo = {std::min(lo.x, p.x - reach[s].x), std::min(lo.y, p.y - reach[s].y),
-          std::min(lo.z, p.z - reach[s].z)};
-    hi = {std::max(hi.x, p.x + reach[s].x), std::max(hi.y, p.y + reach[s].y),
-          std::max(hi.z, p.z + reach[s].z)};
+  for (const ToolPose& p : poses) {
+    lo = {std::min(lo.x, p.position.x), std::min(lo.y, p.position.y), std::min(lo.z, p.position.z)};
+    hi = {std::max(hi.x, p.position.x), std::max(hi.y, p.position.y), std::max(hi.z, p.position.z)};
   }
-  const VoxelBox box = voxels_near_box(g, lo, hi, h);
+  const Vec3d rc{corner, corner, corner};
+  const VoxelBox box = voxels_near_box(g, lo - rc, hi + rc, h);
   if (box.empty()) return {};
 
   // Largest weight over the sub-steps, per voxel of `box`, so overlapping sub-steps remove once.
@@ -222,10 +211,8 @@ VoxelBox cut_swept_blade(VoxelVolume& volume, const BladeTool& blade, const Tool
                       (static_cast<std::size_t>(j - box.lo.y) +
                        static_cast<std::size_t>(ext.y) * static_cast<std::size_t>(k - box.lo.z))];
   };
-  for (std::size_t s = 0; s < poses.size(); ++s) {
-    const ToolPose& p = poses[s];
-    const VoxelBox sb =
-        voxels_near_box(g, p.position - reach[s], p.position + reach[s], h).intersected(box);
+  for (const ToolPose& p : poses) {
+    const VoxelBox sb = voxels_near_box(g, p.position - rc, p.position + rc, h).intersected(box);
     for (int k = sb.lo.z; k < sb.hi.z; ++k)
       for (int j = sb.lo.y; j < sb.hi.y; ++j)
         for (int i = sb.lo.x; i < sb.hi.x; ++i) {
