@@ -331,9 +331,7 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
     if (!surface.vertex_live(s))
       throw Error("coupler: change list names vertex slot " + std::to_string(s) +
                   ", which is not live");
-  // In parallel only above 4,096 slots (bind_slots): a cut re-binds thousands of vertices, a
-  // stroke a few hundred, which a parallel region would slow down.
-  bind_slots(surface, lattice, slots, report, true, cells);
+  bind_slots(surface, lattice, slots, report, false, cells);
   return report;
 }
 
