@@ -41,7 +41,8 @@ double copy_bandwidth() {
 
 std::unique_ptr<Solver> make_solver(Int3 dims, Backend backend, AngularReactions reactions,
                                     AngularForm form = AngularForm::kExact,
-                                    CudaLaunch launch = CudaLaunch::kAuto) {
+                                    CudaLaunch launch = CudaLaunch::kAuto, int tile_rows = 0,
+                                    int planes_per_block = 0) {
   BoxLatticeOptions o;
   o.size_mm = {double(dims.x), double(dims.y), double(dims.z)};
   o.spacing_mm = 1.0;
@@ -58,6 +59,8 @@ std::unique_ptr<Solver> make_solver(Int3 dims, Backend backend, AngularReactions
   c.gravity = {0, 0, -9810};
   c.cuda_steps_per_graph = 64;
   c.cuda_launch = launch;
+  c.cuda_tile_rows = tile_rows;
+  c.cuda_planes_per_block = planes_per_block;
   return std::make_unique<Solver>(std::move(l), c);
 }
 
@@ -112,34 +115,21 @@ void BM_CrmsSymmetricTiling(benchmark::State& state) {
     state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
     return;
   }
-  const int edge = 256;
-  BoxLatticeOptions o;
-  o.size_mm = {double(edge), double(edge), double(edge)};
-  o.spacing_mm = 1.0;
-  Lattice l = build_box_lattice(o);
-  fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
-  SolverConfig c;
-  c.backend = Backend::kCuda;
-  c.angular_reactions = AngularReactions::kSymmetric;
-  c.materials[0].youngs_modulus_pa = 10e3;
-  c.materials[0].viscosity_pa_s = 2.0;
-  c.gravity = {0, 0, -9810};
-  c.cuda_steps_per_graph = 64;
-  c.cuda_tile_rows = static_cast<int>(state.range(0));
-  c.cuda_planes_per_block = static_cast<int>(state.range(1));
-  Solver solver(std::move(l), c);
-  const double dt = 0.5 * solver.stable_dt();
+  auto solver = make_solver({256, 256, 256}, Backend::kCuda, AngularReactions::kSymmetric,
+                            AngularForm::kExact, CudaLaunch::kAuto,
+                            static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const double dt = 0.5 * solver->stable_dt();
   const int steps = 16;
-  solver.step(steps, dt);
-  for (auto _ : state) solver.step(steps, dt);
+  solver->step(steps, dt);
+  for (auto _ : state) solver->step(steps, dt);
   const double node_steps =
-      double(solver.lattice().node_count()) * steps * double(state.iterations());
+      double(solver->lattice().node_count()) * steps * double(state.iterations());
   state.counters["node_steps_per_s"] = benchmark::Counter(node_steps, benchmark::Counter::kIsRate);
   state.counters["copy_bandwidth_GBps"] = copy_bandwidth() * 1e-9;
   state.counters["of_roofline"] =
       benchmark::Counter(node_steps * kBytesPerNodeStep / std::max(copy_bandwidth(), 1.0),
                          benchmark::Counter::kIsRate);
-  state.SetLabel(solver.backend_name());
+  state.SetLabel(solver->backend_name());
 }
 BENCHMARK(BM_CrmsSymmetricTiling)
     ->ArgsProduct({{4, 8}, {0, 16, 128}})
