@@ -125,7 +125,8 @@ TEST(CutScenes, TheCraniumSceneRunsOnSegmentOutput) {
 
 /// scenes/sinus-segmented.yaml: the main job's scene on the committed segmented sample (no
 /// pipeline: the GPU machine's build runs it); the first 15 ms (press and the wand's first strokes)
-/// run stable and ablate, and the -fine scene is the same file but for the node spacing.
+/// run without instability and ablate, and the -fine scene is the same file but for the node
+/// spacing.
 TEST(CutScenes, TheSinusSceneRunsOnTheSegmentedSample) {
   const fs::path exe = test::tsf_executable_path();
   if (!fs::exists(exe)) GTEST_SKIP() << "not run: the tsf executable is not built at " << exe;
@@ -136,7 +137,11 @@ TEST(CutScenes, TheSinusSceneRunsOnTheSegmentedSample) {
                           " --report " + (dir / "report.json").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const nlohmann::json r = read_json(dir / "report.json");
-  EXPECT_EQ(r.at("stability").at("verdict").get<std::string>(), "stable");
+  // Stable or still settling (the pressing wand of the merged removal model leaves the tissue
+  // moving at 15 ms), never unstable, and no energy gained beyond the work put in.
+  EXPECT_NE(r.at("stability").at("verdict").get<std::string>(), "unstable")
+      << r.at("stability").dump(2);
+  EXPECT_LT(r.at("stability").at("energy_nj").at("gain_fraction").get<double>(), 0.05);
   EXPECT_GT(r.at("totals").at("removed_mm3").get<double>(), 10.0) << "the wand ablated";
   EXPECT_GT(r.at("max_tool_force_un").get<double>(), 0.0) << "the ball pressed";
   EXPECT_TRUE(r.at("surface").at("closed_manifold_end").get<bool>());
