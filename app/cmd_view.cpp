@@ -571,7 +571,16 @@ void run_view(const ViewArguments& args) {
                                          {"haptics", haptics_json(live.get(), true)}}
                                   .dump(2) +
                               "\n");
-  if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
+  if (!args.quiet) {
+    // The live loop's rates, as the HUD last showed them: the simulation thread's steps per
+    // second and real-time factor (recent), and the window's mean frame rate.
+    const viewer::SimulationStats st = session.stats();
+    std::printf(
+        "tsf view: closed after %d frames in %.2f s (%.1f frames/s); simulation %.4g s simulated "
+        "at %.0f steps/s, %.3gx real time\n",
+        frames, window_s, window_s > 0 ? frames / window_s : 0.0, st.simulated_s, st.steps_per_s,
+        st.realtime);
+  }
   // The window played `frames` frames: its last state is the final one.
   outputs.frame(session.model(), frames, frames * o.frame_s, true);
   outputs.finish(session.model().deformed_mesh(), frames * o.frame_s);

@@ -239,6 +239,11 @@ void finish_instance(const InteractionRunOptions& options, const InteractionResu
     r.extra = options.after_script(r.index, model);
 }
 
+/// The script's simulated time: frames over the frame rate.
+double simulated_s(const InteractionResult& result) {
+  return result.frame_rate_hz > 0 ? static_cast<double>(result.frames) / result.frame_rate_hz : 0;
+}
+
 void print_instance_summary(const Scene& scene, const InteractionResult& result,
                             const InstanceResult& r) {
   std::printf("%s: %s\n",
@@ -253,14 +258,17 @@ void print_instance_summary(const Scene& scene, const InteractionResult& result,
   std::printf(
       "%s: %lld frames (%lld steps of %.3g s) on %s; %zu edits removed %.4g mm³, %zu nodes "
       "deleted, %zu springs broken%s; lattice %zu → %zu pieces (%zu free); surface %zu → %zu "
-      "triangles, %s; edit → render buffer p50 %.0f µs, p99 %.0f µs\n",
+      "triangles, %s; edit → render buffer p50 %.0f µs, p99 %.0f µs; %.3g s simulated in %.3g s "
+      "(real-time factor %.3g)\n",
       scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),
       static_cast<long long>(result.frames), static_cast<long long>(r.steps), r.dt_s,
       r.backend.c_str(), r.totals.edits, r.totals.removed_mm3, r.totals.nodes_deleted,
       r.totals.springs_broken, torn.c_str(), r.components_start, r.components_end,
       r.free_components_end, r.topology_start.triangles, r.topology_end.triangles,
       r.topology_end.closed_oriented_manifold() ? "closed manifold" : "NOT a closed manifold",
-      percentile(r.edit_latencies_us, 0.5), percentile(r.edit_latencies_us, 0.99));
+      percentile(r.edit_latencies_us, 0.5), percentile(r.edit_latencies_us, 0.99),
+      simulated_s(result), result.script_s,
+      result.script_s > 0 ? simulated_s(result) / result.script_s : 0.0);
   if (r.session.contains("poisson_ratio"))
     std::printf("%s: %s\n",
                 scene.multi_instance ? (scene.name + "/" + r.name).c_str() : scene.name.c_str(),

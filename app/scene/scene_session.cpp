@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -12,6 +13,7 @@
 #include "tsf/common/stopwatch.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/time_step_choice.h"
+#include "tsf/io/nrrd_volume.h"
 #include "tsf/volume/analytic_volumes.h"
 #include "tsf/volume/tissue_labels.h"
 #include "tsf/volume/volume_edits.h"
@@ -27,13 +29,23 @@ namespace {
   throw Error(scene.file.string() + ": " + key + ": tsf " + to_string(command) + " " + why);
 }
 
-#ifndef TSF_HAVE_IMPORT
-[[noreturn]] void needs_itk(const Scene& scene) {
-  throw Error(scene.file.string() +
-              ": lattice.source: volume needs a build with ITK (reconfigure with "
-              "-DTSF_WITH_ITK=ON); this build reads analytic boxes only");
-}
+/// A segmented tissue volume (PREFIX-density.nrrd with its labels and weights): through ITK where
+/// the import module is built (NRRD, MHA, …), else through the core's own NRRD reader, so the
+/// GPU machine's build (no ITK) simulates the segmented tissue too.
+VoxelVolume read_scene_volume(const Scene& scene, const std::filesystem::path& path) {
+#ifdef TSF_HAVE_IMPORT
+  (void)scene;
+  return import::read_tissue_volume(path);
+#else
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".nrrd" && ext != ".nhdr")
+    throw Error(scene.file.string() + ": lattice.volume: '" + path.string() +
+                "': this build reads NRRD volumes only (no ITK; reconfigure with "
+                "-DTSF_WITH_ITK=ON for other formats)");
+  return io::read_tissue_volume_nrrd(path);
 #endif
+}
 
 /// The box lattice of instance `index` (build_box_lattice: node count per axis = the box size
 /// over the spacing, rounded; the spacing then fits the box exactly).
@@ -47,7 +59,6 @@ crms::Lattice box_lattice(const Scene& scene, const SceneInstance& inst) {
   return crms::build_box_lattice(o);
 }
 
-#ifdef TSF_HAVE_IMPORT
 /// The sub-volume of voxels whose centres lie in [lo, hi] mm.
 VoxelVolume crop_volume(const VoxelVolume& v, const Vec3d& lo, const Vec3d& hi,
                         const std::string& error_prefix) {
@@ -127,7 +138,6 @@ void keep_labels(VoxelVolume& v, const std::vector<std::uint8_t>& labels, bool c
     throw Error(error_prefix + "lattice.labels: no voxel of the volume" +
                 (cropped ? " (after the crop)" : "") + " has these labels");
 }
-#endif
 
 /// `lattice.paint`: labels of the voxels holding tissue inside each shape, in order.
 void paint_labels(VoxelVolume& v, const std::vector<ScenePaint>& paint) {
@@ -378,17 +388,13 @@ VoxelVolume instance_tissue_volume(const Scene& scene, std::size_t index,
     paint_labels(v, sl.paint);
     return v;
   }
-#ifdef TSF_HAVE_IMPORT
-  VoxelVolume v = import::read_tissue_volume(sl.volume);
+  VoxelVolume v = read_scene_volume(scene, sl.volume);
   if (patient_frame) *patient_frame = v.geometry();
   if (sl.cropped) v = crop_volume(v, sl.crop_min_mm, sl.crop_max_mm, scene.instance_prefix(index));
   if (sl.crop_oriented) keep_oriented_box(v, sl);
   if (!sl.labels.empty()) keep_labels(v, sl.labels, sl.cropped, scene.instance_prefix(index));
   paint_labels(v, sl.paint);
   return v;
-#else
-  needs_itk(scene);
-#endif
 }
 
 int lattice_node_spacing_voxels(const SceneInstance& inst, const VolumeGeometry& volume) {
@@ -568,15 +574,11 @@ LatticeRun build_lattice_run(const Scene& scene) {
   if (inst.lattice.source == SceneLattice::Source::kBox) {
     lattice = box_lattice(scene, inst);
   } else {
-#ifdef TSF_HAVE_IMPORT
     const VoxelVolume volume = instance_tissue_volume(scene, index);
     frame = volume.geometry();
     const interaction::TissueModelOptions o =
         instance_model_options(scene, index, volume.geometry());
     lattice = crms::build_lattice_from_volume(volume, o.lattice);
-#else
-    needs_itk(scene);
-#endif
   }
   apply_anchors(inst.anchors, lattice);
   LatticeRun run;

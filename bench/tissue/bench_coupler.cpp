@@ -96,11 +96,26 @@ int main(int argc, char** argv) {
   std::printf("tissue: %s; lattice k = %d; bending amplitude %.1f mm; median of %d\n",
               tissue.name.c_str(), k, bend, reps);
   bool header = false;
-  for (crms::Backend backend : backends) {
+  struct Variant {
+    crms::Backend backend;
+    coupler::CouplerMode mode;
+    bool page_locked;
+  };
+  std::vector<Variant> variants;
+  for (crms::Backend backend : backends)
     for (coupler::CouplerMode mode :
-         {coupler::CouplerMode::kTrilinear, coupler::CouplerMode::kLocalFrame}) {
+         {coupler::CouplerMode::kTrilinear, coupler::CouplerMode::kLocalFrame})
+      variants.push_back({backend, mode, true});
+  // The earlier CUDA coupler in the same run: outputs copied into pageable host memory.
+  if (backends.back() == crms::Backend::kCuda)
+    variants.push_back({crms::Backend::kCuda, coupler::CouplerMode::kTrilinear, false});
+  for (const Variant& variant : variants) {
+    const crms::Backend backend = variant.backend;
+    const coupler::CouplerMode mode = variant.mode;
+    {
       auto o = bench::soft_tissue(k, backend);
       o.coupler_mode = mode;
+
       interaction::TissueModel model(VoxelVolume(tissue.volume), o);
       deform(model, bend);
       const std::size_t vertices = model.coupler().bound_count();
@@ -123,6 +138,7 @@ int main(int argc, char** argv) {
         reference_n = ref.coupler().normals();
       }
       auto& coupler = const_cast<coupler::Coupler&>(model.coupler());
+      coupler.set_page_locked_outputs(variant.page_locked);
       const int max_threads = omp_get_num_procs();
       for (int threads : backend == crms::Backend::kCpu ? std::vector<int>{1, max_threads}
                                                         : std::vector<int>{1}) {
@@ -155,14 +171,16 @@ int main(int argc, char** argv) {
           ++with_normal;
         }
         std::printf("%-26s %-12s %8d %10.2f %12.1f | %7.4f/%-6.3f %14s %10.3f\n",
-                    model.solver().backend_name().substr(0, 26).c_str(),
+                    variant.page_locked ? model.solver().backend_name().substr(0, 26).c_str()
+                                        : "cuda, pageable outputs",
                     mode == coupler::CouplerMode::kTrilinear ? "trilinear" : "local-frame", threads,
                     t * 1e3, static_cast<double>(vertices) / t * 1e-6,
                     err_sum / static_cast<double>(counted), err_max, "",
                     ang_sum / static_cast<double>(std::max<std::size_t>(with_normal, 1)));
       }
       omp_set_num_threads(omp_get_num_procs());
-      if (mode == coupler::CouplerMode::kTrilinear && backend == crms::Backend::kCpu) {
+      if (mode == coupler::CouplerMode::kTrilinear && backend == crms::Backend::kCpu &&
+          variant.page_locked) {
         // Baseline: copy the render buffer (positions + normals), same vertex count.
         std::vector<Vec3f> a(coupler.positions()), b(a.size()), c(coupler.normals()), d(c.size());
         const double copy = median_seconds(reps, [&] {

@@ -11,6 +11,7 @@
 // add their arrays (none for the formulations measured here).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -19,6 +20,9 @@
 #include "tsf/crms/device_bandwidth.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/crms/solver.h"
+#include "tsf/io/nrrd_volume.h"
+#include "tsf/volume/tissue_labels.h"
+#include "tsf/volume/volume_edits.h"
 
 namespace {
 
@@ -36,7 +40,9 @@ double copy_bandwidth() {
 }
 
 std::unique_ptr<Solver> make_solver(Int3 dims, Backend backend, AngularReactions reactions,
-                                    AngularForm form = AngularForm::kExact) {
+                                    AngularForm form = AngularForm::kExact,
+                                    CudaLaunch launch = CudaLaunch::kAuto, int tile_rows = 0,
+                                    int planes_per_block = 0) {
   BoxLatticeOptions o;
   o.size_mm = {double(dims.x), double(dims.y), double(dims.z)};
   o.spacing_mm = 1.0;
@@ -52,6 +58,9 @@ std::unique_ptr<Solver> make_solver(Int3 dims, Backend backend, AngularReactions
   c.materials = {m};
   c.gravity = {0, 0, -9810};
   c.cuda_steps_per_graph = 64;
+  c.cuda_launch = launch;
+  c.cuda_tile_rows = tile_rows;
+  c.cuda_planes_per_block = planes_per_block;
   return std::make_unique<Solver>(std::move(l), c);
 }
 
@@ -93,9 +102,140 @@ void node_step_args(benchmark::internal::Benchmark* b) {
     for (int edge : {32, 64, 128, 256})
       for (int reactions : {0, 1}) b->Args({edge, backend, reactions, 0});
   for (int backend : {0, 1}) b->Args({128, backend, 0, 1});  // cheaper angular form
+  b->Args({256, 1, 1, 1});  // the symmetric form's cosine variant at 256³
   b->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
 }
 BENCHMARK(BM_CrmsNodeSteps)->Apply(node_step_args);
+
+/// The default (symmetric) tile kernel at 256³ by tile shape: rows per tile (4, 8) and z-planes
+/// per block (0: automatic, about eight blocks per multiprocessor), against the automatic choice
+/// in the same run (docs/crms.md "The default kernel against the roofline"). args: rows, planes.
+void BM_CrmsSymmetricTiling(benchmark::State& state) {
+  if (!cuda_status().available) {
+    state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
+    return;
+  }
+  auto solver = make_solver({256, 256, 256}, Backend::kCuda, AngularReactions::kSymmetric,
+                            AngularForm::kExact, CudaLaunch::kAuto,
+                            static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const double dt = 0.5 * solver->stable_dt();
+  const int steps = 16;
+  solver->step(steps, dt);
+  for (auto _ : state) solver->step(steps, dt);
+  const double node_steps =
+      double(solver->lattice().node_count()) * steps * double(state.iterations());
+  state.counters["node_steps_per_s"] = benchmark::Counter(node_steps, benchmark::Counter::kIsRate);
+  state.counters["copy_bandwidth_GBps"] = copy_bandwidth() * 1e-9;
+  state.counters["of_roofline"] =
+      benchmark::Counter(node_steps * kBytesPerNodeStep / std::max(copy_bandwidth(), 1.0),
+                         benchmark::Counter::kIsRate);
+  state.SetLabel(solver->backend_name());
+}
+BENCHMARK(BM_CrmsSymmetricTiling)
+    ->ArgsProduct({{4, 8}, {0, 16, 128}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
+
+/// Small lattices, where a step's arithmetic is shorter than a kernel launch: microseconds per
+/// step of the symmetric form (the default), in the same run: CUDA graphs of one launch per step
+/// (the earlier form), one persistent launch over the same tiles (a grid barrier between steps),
+/// and the node-parallel persistent launch (three threads per node, two barriers per step).
+/// args: edge (nodes per axis), launch (1 graphs, 2 persistent tiles, 3 node-parallel).
+void BM_CrmsSmallLatticeStep(benchmark::State& state) {
+  const int edge = static_cast<int>(state.range(0));
+  const auto launch = static_cast<CudaLaunch>(state.range(1));
+  if (!cuda_status().available) {
+    state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
+    return;
+  }
+  auto solver = make_solver({edge, edge, edge}, Backend::kCuda, AngularReactions::kSymmetric,
+                            AngularForm::kExact, launch);
+  const double dt = 0.5 * solver->stable_dt();
+  const int steps = 1024;
+  solver->step(steps, dt);
+  for (auto _ : state) solver->step(steps, dt);
+  const double total = double(steps) * double(state.iterations());
+  state.counters["steps_per_s"] = benchmark::Counter(total, benchmark::Counter::kIsRate);
+  state.counters["us_per_step"] =
+      benchmark::Counter(total * 1e-6, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["nodes"] = double(solver->lattice().node_count());
+  state.counters["node_steps_per_s"] = benchmark::Counter(
+      double(solver->lattice().node_count()) * total, benchmark::Counter::kIsRate);
+  state.SetLabel(solver->backend_name());
+}
+BENCHMARK(BM_CrmsSmallLatticeStep)
+    ->ArgsProduct({{8, 16, 24, 28, 32, 40, 48, 58, 64, 80}, {1, 2, 3}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime()
+    ->MinTime(0.3);
+
+/// The sinus scene's lattice on the segmented cranium (data-samples/ct-head-cranium/segmented,
+/// scripts/segmented-sample.sh): the face region of scenes/sinus.yaml (50 × 56 × 60 mm around the
+/// nose tip of the segment report, (122.4, 231.2, 34.3) mm, 25 mm posterior and 5 mm superior of
+/// it; this CT's anterior is +y), bone and the face 47 mm behind the nose tip anchored, the sinus
+/// scene's material (turbinate soft tissue: 7.6 kPa, damping time 0.5 ms; gravity). Microseconds
+/// per step and the real-time factor at the scene's automatic dt, per launch form. args: voxels per
+/// node (2: the scene, ~13 k alive nodes; 1: ~100 k), launch (1 graphs, 2 persistent tiles, 3
+/// node-parallel).
+void BM_CrmsSinusLatticeStep(benchmark::State& state) {
+  const int k = static_cast<int>(state.range(0));
+  const auto launch = static_cast<CudaLaunch>(state.range(1));
+  if (!cuda_status().available) {
+    state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
+    return;
+  }
+  static const VoxelVolume face = [] {
+    const VoxelVolume v =
+        io::read_tissue_volume_nrrd(std::string(TSF_SOURCE_DIR) +
+                                    "/data-samples/ct-head-cranium/segmented/cranium-density.nrrd");
+    const VoxelBox box = voxels_near_box(v.geometry(), {97.5, 178.2, 9.3}, {147.5, 234.2, 69.3}, 0);
+    VolumeGeometry g = v.geometry();
+    g.dims = box.extent();
+    g.origin = v.geometry().index_to_tissue({double(box.lo.x), double(box.lo.y), double(box.lo.z)});
+    VoxelVolume out(g);
+    for (int z = 0; z < g.dims.z; ++z)
+      for (int y = 0; y < g.dims.y; ++y)
+        for (int x = 0; x < g.dims.x; ++x) {
+          const std::size_t from = v.index(x + box.lo.x, y + box.lo.y, z + box.lo.z);
+          out.density_data()[out.index(x, y, z)] = v.density_data()[from];
+          out.label_data()[out.index(x, y, z)] = v.label_data()[from];
+        }
+    return out;
+  }();
+  VolumeLatticeOptions o;
+  o.node_spacing_voxels = k;
+  Lattice l = build_lattice_from_volume(face, o);
+  fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
+  fix_nodes_behind_plane(l, {122.4, 231.2 - 47.0, 34.3}, {0, 1, 0});
+  SolverConfig c;
+  c.backend = Backend::kCuda;
+  c.cuda_launch = launch;
+  c.materials[0].youngs_modulus_pa = 7.6e3;  // turbinate_soft_tissue, materials/tissues.yaml
+  c.materials[0].viscosity_pa_s = 7.6e3 * 0.5e-3;
+  c.materials[0].density_g_per_mm3 = 1.05e-3;
+  c.gravity = {0, 0, -9810};
+  c.stability.kinetic_damping = 0.01;
+  Solver solver(std::move(l), c);
+  const double dt = 0.9 * solver.stable_dt();
+  const int steps = 1024;
+  solver.step(steps, dt);
+  for (auto _ : state) solver.step(steps, dt);
+  const double total = double(steps) * double(state.iterations());
+  state.counters["steps_per_s"] = benchmark::Counter(total, benchmark::Counter::kIsRate);
+  state.counters["us_per_step"] =
+      benchmark::Counter(total * 1e-6, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["real_time_factor"] = benchmark::Counter(total * dt, benchmark::Counter::kIsRate);
+  state.counters["alive_nodes"] = double(solver.lattice().alive_count());
+  state.counters["nodes"] = double(solver.lattice().node_count());
+  state.counters["dt_us"] = dt * 1e6;
+  state.SetLabel(solver.backend_name());
+}
+BENCHMARK(BM_CrmsSinusLatticeStep)
+    ->ArgsProduct({{2, 1}, {1, 2, 3}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime()
+    ->MinTime(0.3);
 
 /// The thesis's 64×32×32 lattice: steps per second (the thesis: above 30 Hz on a GTX 280).
 void BM_CrmsThesisLatticeStepRate(benchmark::State& state) {

@@ -1,8 +1,7 @@
 // Shared set-up of the deform/cut benchmarks (bench_cut_latency, bench_coupler, bench_collision):
-// the sample cranium as tissue (HU ramp over −300 ± 100 HU, the IMT benchmarks' density) read
-// through ITK, or, in builds without ITK (the GPU machine), from a raw-encoded int16 NRRD copy
-// named by TSF_BENCH_CRANIUM_RAW (docs/deform-cut.md shows how to write one), else 256³ organ-like
-// blobs; a soft tissue model on it; percentiles;
+// the sample cranium as tissue (HU ramp over −300 ± 100 HU, the IMT benchmarks' density) read by
+// the core's NRRD reader (any build, the GPU machine's included); a soft tissue model on it;
+// percentiles;
 // argument parsing that ignores Google Benchmark's flags (scripts/gpu-check.sh passes them).
 #pragma once
 
@@ -21,13 +20,8 @@
 #include "tsf/common/cuda_support.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/interaction/tissue_model.h"
+#include "tsf/io/nrrd_volume.h"
 #include "tsf/volume/analytic_volumes.h"
-#ifdef TSF_BENCH_HAVE_IMPORT
-#include <itkImage.h>
-#include <itkImageFileReader.h>
-
-#include "tsf/import/itk_io_factories.h"
-#endif
 
 namespace tsf::bench {
 
@@ -49,92 +43,23 @@ inline void cranium_density_from_hu(const std::int16_t* hu_int, const float* hu_
   v.mark_all_modified();
 }
 
-/// A raw-encoded, little-endian int16 NRRD (the cranium re-encoded without gzip), read without
-/// ITK. Throws naming the file and field when it is anything else.
-inline VoxelVolume read_raw_int16_nrrd(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  std::string line;
-  std::getline(in, line);
-  if (line.rfind("NRRD", 0) != 0) throw std::runtime_error(path + ": not a NRRD file");
-  VolumeGeometry g;
-  g.origin = {0, 0, 0};
-  bool sizes = false, spacings = false;
-  while (std::getline(in, line) && !line.empty()) {
-    if (line[0] == '#') continue;
-    const std::size_t colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    const std::string key = line.substr(0, colon);
-    std::istringstream value(line.substr(colon + 1));
-    std::string word;
-    if (key == "type") {
-      value >> word;
-      if (word != "int16" && word != "short")
-        throw std::runtime_error(path + ": type " + word + ", expected int16");
-    } else if (key == "encoding") {
-      value >> word;
-      if (word != "raw") throw std::runtime_error(path + ": encoding " + word + ", expected raw");
-    } else if (key == "endian") {
-      value >> word;
-      if (word != "little")
-        throw std::runtime_error(path + ": endian " + word + ", expected little");
-    } else if (key == "dimension") {
-      int n = 0;
-      value >> n;
-      if (n != 3)
-        throw std::runtime_error(path + ": dimension " + std::to_string(n) + ", expected 3");
-    } else if (key == "sizes") {
-      sizes = static_cast<bool>(value >> g.dims.x >> g.dims.y >> g.dims.z);
-    } else if (key == "spacings") {
-      spacings = static_cast<bool>(value >> g.spacing.x >> g.spacing.y >> g.spacing.z);
-    }
-  }
-  if (!sizes || !spacings || g.dims.x < 2 || g.dims.y < 2 || g.dims.z < 2)
-    throw std::runtime_error(path + ": needs sizes and spacings of a 3-D volume");
-  std::vector<std::int16_t> hu(static_cast<std::size_t>(g.dims.x) * g.dims.y * g.dims.z);
-  in.read(reinterpret_cast<char*>(hu.data()),
-          static_cast<std::streamsize>(hu.size() * sizeof(std::int16_t)));
-  if (!in) throw std::runtime_error(path + ": the voxel data is shorter than sizes say");
-  VoxelVolume v(g);
-  cranium_density_from_hu(hu.data(), nullptr, v);
-  return v;
-}
-
-/// The sample cranium as density, or organ-like blobs when the build cannot read it.
+/// The sample cranium as density through the HU ramp (the core's own NRRD reader, so the GPU
+/// machine's build without ITK reads it too), or organ-like blobs when the file is missing.
 inline BenchTissue cranium_or_blobs() {
-  const char* raw = std::getenv("TSF_BENCH_CRANIUM_RAW");
-  if (raw && *raw) {
-    try {
-      return {read_raw_int16_nrrd(raw), "cranium 256×256×108 (0.96×0.96×1.5 mm, −300 HU ramp)"};
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "TSF_BENCH_CRANIUM_RAW: %s; trying the next source\n", e.what());
-    }
-  }
-#ifdef TSF_BENCH_HAVE_IMPORT
   const std::string path =
       std::string(TSF_SOURCE_DIR) + "/data-samples/ct-head-cranium/cranium.nrrd";
   try {
-    import::register_itk_io_factories();
-    using Image = itk::Image<float, 3>;
-    auto reader = itk::ImageFileReader<Image>::New();
-    reader->SetFileName(path);
-    reader->Update();
-    const Image* im = reader->GetOutput();
-    const auto size = im->GetLargestPossibleRegion().GetSize();
-    VolumeGeometry g;
-    g.dims = {int(size[0]), int(size[1]), int(size[2])};
-    g.spacing = {im->GetSpacing()[0], im->GetSpacing()[1], im->GetSpacing()[2]};
-    g.origin = {im->GetOrigin()[0], im->GetOrigin()[1], im->GetOrigin()[2]};
-    VoxelVolume v(g);
-    cranium_density_from_hu(nullptr, im->GetBufferPointer(), v);
+    const io::NrrdVolume ct = io::read_nrrd(path);
+    VoxelVolume v(ct.geometry);
+    const std::vector<float> hu = ct.as_float();
+    cranium_density_from_hu(nullptr, hu.data(), v);
     return {std::move(v), "cranium 256×256×108 (0.96×0.96×1.5 mm, −300 HU ramp)"};
   } catch (const std::exception& e) {
     std::fprintf(stderr, "cranium not read (%s): %s; using organ-like blobs\n", path.c_str(),
                  e.what());
   }
-#endif
   return {make_blob_volume(cube_geometry({256, 256, 256}), 7),
-          "organ-like blobs 256³ (this build cannot read the cranium: no ITK)"};
+          "organ-like blobs 256³ (the sample cranium is missing)"};
 }
 
 /// Soft tissue (E 30 kPa, η 5 Pa·s), node spacing k voxels, gravity, the bottom 2 node layers

@@ -7,12 +7,14 @@
 #include <itkVectorImage.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <string>
 
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
 #include "tsf/import/itk_io_factories.h"
+#include "tsf/io/nrrd_volume.h"
 #include "tsf/volume/tissue_labels.h"
 
 namespace tsf::import {
@@ -57,18 +59,6 @@ void set_geometry(Image* image, const VolumeGeometry& g) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) dir[r][c] = g.direction[r * 3 + c];
   image->SetDirection(dir);
-}
-
-bool same_geometry(const VolumeGeometry& a, const VolumeGeometry& b) {
-  auto close = [](double x, double y) {
-    return std::abs(x - y) <= 1e-4 * std::max(1.0, std::abs(x));
-  };
-  if (a.dims != b.dims) return false;
-  for (int i = 0; i < 3; ++i)
-    if (!close(a.spacing[i], b.spacing[i]) || !close(a.origin[i], b.origin[i])) return false;
-  for (int i = 0; i < 9; ++i)
-    if (std::abs(a.direction[i] - b.direction[i]) > 1e-6) return false;
-  return true;
 }
 
 template <typename Image>
@@ -121,6 +111,15 @@ TissueVolumePaths TissueVolumePaths::from_prefix(const fs::path& prefix) {
 }
 
 VoxelVolume read_tissue_volume(const fs::path& density_path) {
+  // NRRD (what tsf segment writes) through the core's own reader: the ITK-free build (the GPU
+  // machine's) reads the same files the same way. ITK reads the other formats (MHA, …).
+  std::string lower_ext = density_path.extension().string();
+  for (char& c : lower_ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower_ext == ".nrrd" || lower_ext == ".nhdr") {
+    if (!fs::exists(density_path))
+      throw Error("density file '" + density_path.string() + "' does not exist");
+    return io::read_tissue_volume_nrrd(density_path);
+  }
   const auto density = read_image<DensityImage>(density_path, "density");
   const VolumeGeometry g = geometry_of(density.GetPointer());
   const std::string prefix = prefix_of_density(density_path);
@@ -145,7 +144,7 @@ VoxelVolume read_tissue_volume(const fs::path& density_path) {
   auto& labels = volume.label_data();
   if (!labels_path.empty() && fs::exists(labels_path)) {
     const auto li = read_image<LabelImage>(labels_path, "labels");
-    if (!same_geometry(geometry_of(li.GetPointer()), g))
+    if (!io::same_volume_geometry(geometry_of(li.GetPointer()), g))
       throw Error("labels file '" + labels_path.string() + "' does not match the geometry of '" +
                   density_path.string() + "'");
     std::copy(li->GetBufferPointer(), li->GetBufferPointer() + n, labels.begin());
@@ -160,7 +159,7 @@ VoxelVolume read_tissue_volume(const fs::path& density_path) {
       throw Error("weights file '" + weights_path.string() + "' has " +
                   std::to_string(wi->GetNumberOfComponentsPerPixel()) +
                   " components per voxel, expected 4");
-    if (!same_geometry(geometry_of(wi.GetPointer()), g))
+    if (!io::same_volume_geometry(geometry_of(wi.GetPointer()), g))
       throw Error("weights file '" + weights_path.string() + "' does not match the geometry of '" +
                   density_path.string() + "'");
     const unsigned char* w = wi->GetBufferPointer();

@@ -8,7 +8,10 @@
 #include <vector>
 
 #include "physics_assertions.h"
+#include "support/test_data.h"
 #include "tsf/common/error.h"
+#include "tsf/io/nrrd_volume.h"
+#include "tsf/volume/tissue_labels.h"
 
 namespace tsf::crms {
 namespace {
@@ -125,22 +128,97 @@ TEST(CrmsBackendParity, SharedEvaluationMatchesPerNodeOnEveryInstructionSetAndTi
     }
     EXPECT_GE(instruction_sets_run, 1);
     if (cuda_status().available) {
-      for (int rows : {4, 8})
-        for (int planes : {0, 1, 3}) {
-          SolverConfig c = reference;
-          c.backend = Backend::kCuda;
-          c.force_evaluation = ForceEvaluation::kShared;
-          c.cuda_tile_rows = rows;
-          c.cuda_planes_per_block = planes;
-          EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
-              << "CUDA shared, combo " << combo << ", rows " << rows << ", planes " << planes;
-        }
+      for (CudaLaunch launch : {CudaLaunch::kGraphs, CudaLaunch::kPersistent})
+        for (int rows : {4, 8})
+          for (int planes : {0, 1, 3}) {
+            SolverConfig c = reference;
+            c.backend = Backend::kCuda;
+            c.force_evaluation = ForceEvaluation::kShared;
+            c.cuda_tile_rows = rows;
+            c.cuda_planes_per_block = planes;
+            c.cuda_launch = launch;
+            EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
+                << "CUDA shared, combo " << combo << ", " << to_string(launch) << ", rows " << rows
+                << ", planes " << planes;
+          }
       SolverConfig c = reference;
       c.backend = Backend::kCuda;
       EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
           << "CUDA per-node, combo " << combo;
+      c.force_evaluation = ForceEvaluation::kShared;
+      c.cuda_launch = CudaLaunch::kNodes;
+      EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
+          << "CUDA node-parallel, combo " << combo;
     }
   }
+}
+
+/// A lattice whose lower half is anchored and whose corner is dead, so whole tiles of the CUDA
+/// shared evaluation move no node (they only copy the state) and the node-parallel kernel steps
+/// only part of the nodes: CPU, CUDA with graphs, with one persistent launch over tiles and with
+/// the node-parallel launch agree, also after anchors are released (tiles turn active) and nodes
+/// die (tiles turn idle, the alive list shrinks) between calls.
+TEST(CrmsBackendParity, IdleTilesAndPersistentLaunchesMatchTheCpu) {
+  if (!cuda_status().available) GTEST_SKIP() << "CUDA parity not run: " << cuda_status().reason;
+  auto run = [](Backend backend, CudaLaunch launch) {
+    Lattice l = test::box({20, 14, 24}, 1);
+    fix_nodes_in_box(l, {-1, -1, -1}, {30, 30, 11.5});
+    for (std::int64_t n = 0; n < l.node_count(); ++n) {
+      const Vec3d p = l.geometry().rest_position(n);
+      if (p.x > 15 && p.y > 10 && p.z > 18) l.set_alive(n, false);
+    }
+    SolverConfig c;
+    c.backend = backend;
+    c.cuda_launch = launch;
+    c.cuda_planes_per_block = 4;  // tiles of 4 planes: planes 0–11 form whole anchored tiles
+    c.materials = {test::soft_material(10e3, 2e-4)};
+    c.gravity = {0, -3000, -9810};
+    Solver s(std::move(l), c);
+    const double dt = 0.5 * s.stable_dt();
+    s.step(251, dt);
+    // Release a band of anchors (their tiles start to move) and delete a column (idle again).
+    s.release_nodes(
+        test::nodes_where(s.lattice(), [](Vec3d p) { return p.z > 7.5 && p.z < 11.5; }));
+    s.delete_nodes(test::nodes_where(s.lattice(), [](Vec3d p) { return p.x < 3.5 && p.y < 3.5; }));
+    s.step(250, dt);
+    EXPECT_FALSE(s.instability().has_value());
+    return s.positions();
+  };
+  const Lattice rest = test::box({20, 14, 24}, 1);
+  const auto cpu = run(Backend::kCpu, CudaLaunch::kAuto);
+  for (CudaLaunch launch : {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes})
+    EXPECT_LE(max_difference_relative(run(Backend::kCuda, launch), cpu, rest), 1e-4)
+        << to_string(launch);
+}
+
+/// The segmented cranium (the committed sample: tsf segment's sinus output around the nose) as a
+/// lattice at 2 voxels per node with its bone anchored, sagging under gravity: every CUDA launch
+/// form agrees with the CPU on patient tissue, not only on boxes.
+TEST(CrmsBackendParity, SegmentedCraniumAgreesOnEveryLaunch) {
+  if (!cuda_status().available) GTEST_SKIP() << "CUDA parity not run: " << cuda_status().reason;
+  const VoxelVolume volume = io::read_tissue_volume_nrrd(
+      tsf::test::samples_dir() / "ct-head-cranium" / "segmented" / "cranium-density.nrrd");
+  VolumeLatticeOptions o;
+  o.node_spacing_voxels = 2;
+  const Lattice rest = build_lattice_from_volume(volume, o);
+  auto run = [&](Backend backend, CudaLaunch launch) {
+    Lattice l = rest;
+    fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
+    SolverConfig c;
+    c.backend = backend;
+    c.cuda_launch = launch;
+    c.materials = {test::soft_material(20e3, 2e-4)};
+    c.gravity = {0, 0, -9810};
+    Solver s(std::move(l), c);
+    const double dt = 0.5 * s.stable_dt();
+    s.step(400, dt);
+    EXPECT_FALSE(s.instability().has_value());
+    return s.positions();
+  };
+  const auto cpu = run(Backend::kCpu, CudaLaunch::kAuto);
+  for (CudaLaunch launch : {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes})
+    EXPECT_LE(max_difference_relative(run(Backend::kCuda, launch), cpu, rest), 1e-4)
+        << to_string(launch);
 }
 
 }  // namespace

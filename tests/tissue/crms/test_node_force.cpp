@@ -13,6 +13,7 @@
 #include "tsf/crms/dual.h"
 #include "tsf/crms/effects.h"
 #include "tsf/crms/node_force.h"
+#include "tsf/crms/node_force_planes.h"
 #include "tsf/crms/stencil.h"
 
 namespace tsf::crms {
@@ -205,8 +206,8 @@ TEST(CrmsNodeForce, GatherFormDoesNotConserveMomentumOfAngles) {
 /// it equals the per-node force of the whole 19-node stencil, and reaction_towards() is exactly
 /// node_spring_terms()'s reaction, on a deformed, moving lattice with a dead node, a broken link
 /// and two materials.
-template <unsigned F>
-void expect_shared_terms_match_per_node_force(unsigned seed) {
+/// A deformed, moving 5×4×4 lattice with a dead node, a broken link and two materials.
+HostLattice deformed_two_material_lattice(unsigned seed, MaterialPalette& p) {
   HostLattice l({5, 4, 4}, 1.25f);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> jitter(-0.2f, 0.2f);
@@ -225,7 +226,7 @@ void expect_shared_terms_match_per_node_force(unsigned seed) {
   }
   l.flags[l.index(1, 1, 1)] &= static_cast<std::uint8_t>(~(1u << 3));
   l.flags[l.index(1, 2, 1)] &= static_cast<std::uint8_t>(~(1u << 2));
-  MaterialPalette p = palette_of(unit_springs());
+  p = palette_of(unit_springs());
   p.entry[1] = unit_springs();
   for (int a = 0; a < 3; ++a) {
     p.entry[1].ks_linear[a] *= 3.0f;
@@ -234,7 +235,13 @@ void expect_shared_terms_match_per_node_force(unsigned seed) {
   }
   p.count = 2;
   for (std::size_t n = 0; n < l.material.size(); ++n) l.material[n] = (n % 3 == 0) ? 1 : 0;
+  return l;
+}
 
+template <unsigned F>
+void expect_shared_terms_match_per_node_force(unsigned seed) {
+  MaterialPalette p;
+  HostLattice l = deformed_two_material_lattice(seed, p);
   const LatticeView view = l.view();
   const ConstStateView state = l.state();
   auto stencil = [&](int i, int j, int k) {
@@ -273,6 +280,54 @@ TEST(CrmsNodeForce, SharedTermsEqualThePerNodeForce) {
   expect_shared_terms_match_per_node_force<kSymmetricReactions | kHeterogeneous>(5);
   expect_shared_terms_match_per_node_force<kSymmetricReactions | kHeterogeneous | kCosineAngular>(
       6);
+}
+
+/// The plane split of node_force_planes.h: on the same deformed lattice, the three planes' self
+/// terms add up to node_spring_terms' self and the reactions of the two planes holding an arm add
+/// up to its reaction, for every node (the CUDA node-parallel kernel's decomposition).
+template <unsigned F>
+void expect_plane_terms_sum_to_node_terms(unsigned seed) {
+  MaterialPalette p;
+  HostLattice l = deformed_two_material_lattice(seed, p);
+  double worst = 0, scale = 0;
+  for (int k = 0; k < l.dims.z; ++k)
+    for (int j = 0; j < l.dims.y; ++j)
+      for (int i = 0; i < l.dims.x; ++i) {
+        const IndexedStencil st{l.view(), l.state(), l.index(i, j, k), i, j, k};
+        NodeSpringTerms<float> own;
+        node_spring_terms<F>(st, l.rest, p, own);
+        Vec3f self[3], reaction[3][4];
+        plane_spring_terms<F, 0>(st, l.rest, p, self[0], reaction[0]);
+        plane_spring_terms<F, 1>(st, l.rest, p, self[1], reaction[1]);
+        plane_spring_terms<F, 2>(st, l.rest, p, self[2], reaction[2]);
+        const Vec3f total = self[0] + self[1] + self[2];
+        worst = std::max(worst, static_cast<double>(length(total - own.self)));
+        scale = std::max(scale, static_cast<double>(length(own.self)));
+        for (int d = 0; d < 6; ++d) {
+          Vec3f r{0, 0, 0};
+          int planes = 0;
+          for (int plane = 0; plane < 3; ++plane) {
+            if (plane == direction_axis(d)) continue;
+            const int q = plane_arm_slot(plane, d);
+            EXPECT_EQ(plane_arm_direction(plane, q), d);
+            r += reaction[plane][q];
+            ++planes;
+          }
+          EXPECT_EQ(planes, 2);
+          worst = std::max(worst, static_cast<double>(length(r - own.reaction[d])));
+        }
+      }
+  EXPECT_GT(scale, 0.1);
+  EXPECT_LE(worst, 1e-6 * scale) << "features " << F;
+}
+
+TEST(CrmsNodeForce, PlaneTermsSumToTheNodeTerms) {
+  using namespace features;
+  expect_plane_terms_sum_to_node_terms<kSymmetricReactions>(7);
+  expect_plane_terms_sum_to_node_terms<kSymmetricReactions | kCosineAngular>(8);
+  expect_plane_terms_sum_to_node_terms<kSymmetricReactions | kHeterogeneous>(9);
+  expect_plane_terms_sum_to_node_terms<kSymmetricReactions | kHeterogeneous | kCosineAngular |
+                                       kExternalForces>(10);
 }
 
 TEST(CrmsNodeForce, GatherFormSelfIsTheWholeForce) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -127,6 +128,44 @@ TEST(VolumeEdits, SweptBladeCutsASlabThroughABlock) {
   EXPECT_LT(w.density(static_cast<int>(std::lround(20 + 7 * std::cos(a))),
                       static_cast<int>(std::lround(20 + 7 * std::sin(a))), 20),
             0.5f);
+}
+
+TEST(VolumeEdits, ObliqueSweptBladeEmptiesEveryVoxelDeepInsideItsEndPoses) {
+  // A blade tilted about an oblique axis (its bounding box is far from axis-aligned), swept and
+  // turned: every voxel more than the falloff (1 voxel) inside the blade at either end pose is
+  // emptied, and a voxel more than the falloff outside the blade at every sub-step's pose is
+  // untouched (the per-sub-step bounding box must not clip the blade's corners).
+  VoxelVolume v = solid({48, 48, 48});
+  const VoxelVolume before = v;
+  const BladeTool blade{{12.0, 6.0, 1.5}};
+  const ToolPose from{{20, 22, 21}, Rotation::about_axis({1, 2, 3}, 0.9)};
+  const ToolPose to{{27, 25, 26}, Rotation::about_axis({-2, 1, 1}, 0.7)};
+  cut_swept_blade(v, blade, from, to);
+  int deep = 0;
+  for (int k = 0; k < 48; ++k)
+    for (int j = 0; j < 48; ++j)
+      for (int i = 0; i < 48; ++i) {
+        const Vec3d p{double(i), double(j), double(k)};
+        const double d = std::min(blade_distance(blade, from, p), blade_distance(blade, to, p));
+        if (d < -1.0) {
+          ++deep;
+          EXPECT_EQ(v.density(i, j, k), 0.0f) << i << " " << j << " " << k;
+        }
+      }
+  EXPECT_GT(deep, 300);
+  // Far from the whole sweep (beyond the blade's corner distance from every point of the path
+  // plus the falloff): untouched.
+  const double corner = length(blade.half_extents);
+  for (int k = 0; k < 48; ++k)
+    for (int j = 0; j < 48; ++j)
+      for (int i = 0; i < 48; ++i) {
+        const Vec3d p{double(i), double(j), double(k)};
+        const Vec3d ab = to.position - from.position;
+        const double t = std::clamp(dot(p - from.position, ab) / dot(ab, ab), 0.0, 1.0);
+        if (length(p - (from.position + ab * t)) > corner + 1.5) {
+          EXPECT_EQ(v.density(i, j, k), before.density(i, j, k)) << i << " " << j << " " << k;
+        }
+      }
 }
 
 TEST(VolumeEdits, SetBoxSetsDensityAndLabel) {

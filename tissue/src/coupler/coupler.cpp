@@ -35,8 +35,16 @@ Coupler::Coupler(const crms::LatticeGeometry& geometry, const CouplerOptions& op
 
 Coupler::~Coupler() = default;
 
+void Coupler::set_page_locked_outputs(bool on) {
+  if (on == options_.page_locked_outputs) return;
+  if (device_) device_->release_host();
+  options_.page_locked_outputs = on;
+  device_stale_ = true;  // the next sync registers them again (or not)
+}
+
 void Coupler::ensure_capacity(std::uint32_t capacity) {
   if (capacity <= capacity_) return;
+  if (device_) device_->release_host();  // the output arrays move: registered again at the sync
   bindings_.resize(capacity);
   sources_.resize(capacity, 0);
   orphan_.resize(capacity, 0);
@@ -343,6 +351,8 @@ void Coupler::sync_device(const crms::Solver& solver) {
     std::vector<std::uint32_t> frames(frame_slots);
     for (std::uint32_t f = 0; f < frame_slots; ++f) frames[f] = f;
     device_->upload_frames(frames.data(), frames.size(), frames_.data());
+    if (options_.page_locked_outputs)
+      device_->register_host(positions_.data(), normals_.data(), capacity_);
     device_stale_ = false;
   } else {
     if (!pending_frames_.empty()) {
@@ -373,8 +383,9 @@ void Coupler::couple(const crms::Solver& solver) {
     sync_device(solver);
     device_->couple_all(view, static_cast<std::uint32_t>(frames_.size()), slot_count_, mode,
                         dirty_scratch_);
-    // Download the dirty blocks, merged into ranges.
+    // Download the dirty blocks, merged into ranges, in one batch of copies.
     const auto blocks = static_cast<std::uint32_t>(dirty_scratch_.size());
+    download_ranges_.clear();
     std::uint32_t b = 0;
     while (b < blocks) {
       if (!dirty_scratch_[b]) {
@@ -385,9 +396,10 @@ void Coupler::couple(const crms::Solver& solver) {
       while (e < blocks && dirty_scratch_[e]) stamp_block(e++);
       const std::uint32_t first = b * kDirtyBlockSlots;
       const std::uint32_t last = std::min(e * kDirtyBlockSlots, slot_count_);
-      if (last > first) device_->download(first, last - first, positions_.data(), normals_.data());
+      if (last > first) download_ranges_.emplace_back(first, last);
       b = e;
     }
+    device_->download_ranges(download_ranges_, positions_.data(), normals_.data());
     return;
   }
   const LatticeReader reader{view};

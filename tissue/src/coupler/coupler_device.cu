@@ -256,16 +256,47 @@ class CudaCouplerDevice final : public CouplerDevice {
     }
   }
 
-  void download(std::uint32_t first, std::uint32_t count, Vec3f* positions,
-                Vec3f* normals) override {
-    if (count == 0) return;
-    require(first + count <= capacity_, "coupler: download beyond the device capacity");
-    TSF_CUDA_CHECK(cudaMemcpyAsync(positions + first, positions_.data() + first,
-                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_.get()));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(normals + first, normals_.data() + first, count * sizeof(Vec3f),
-                                   cudaMemcpyDeviceToHost, stream_.get()));
+  void download_ranges(const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ranges,
+                       Vec3f* positions, Vec3f* normals) override {
+    if (ranges.empty()) return;
+    for (const auto& [first, last] : ranges) {
+      require(first <= last && last <= capacity_, "coupler: download beyond the device capacity");
+      const std::size_t bytes = (last - first) * sizeof(Vec3f);
+      TSF_CUDA_CHECK(cudaMemcpyAsync(positions + first, positions_.data() + first, bytes,
+                                     cudaMemcpyDeviceToHost, stream_.get()));
+      TSF_CUDA_CHECK(cudaMemcpyAsync(normals + first, normals_.data() + first, bytes,
+                                     cudaMemcpyDeviceToHost, stream_.get()));
+    }
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
+
+  void register_host(Vec3f* positions, Vec3f* normals, std::size_t count) override {
+    release_host();
+    if (count == 0) return;
+    for (Vec3f* p : {positions, normals}) {
+      // Registration rounds to whole pages: an array sharing a page with one registered already
+      // is refused (cudaErrorHostMemoryAlreadyRegistered) and stays pageable.
+      const cudaError_t e = cudaHostRegister(p, count * sizeof(Vec3f), cudaHostRegisterDefault);
+      if (e == cudaSuccess)
+        registered_.push_back(p);
+      else
+        (void)cudaGetLastError();  // clear it: the copies still work, only slower
+    }
+  }
+
+  void release_host() override {
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    for (Vec3f* p : registered_) TSF_CUDA_CHECK(cudaHostUnregister(p));
+    registered_.clear();
+  }
+
+  ~CudaCouplerDevice() override {
+    // Unregister before the owner frees the arrays (errors ignored: a destructor must not throw).
+    if (stream_) cudaStreamSynchronize(stream_.get());
+    for (Vec3f* p : registered_) cudaHostUnregister(p);
+  }
+  CudaCouplerDevice(const CudaCouplerDevice&) = delete;
+  CudaCouplerDevice& operator=(const CudaCouplerDevice&) = delete;
 
  private:
   void release_all() {
@@ -292,6 +323,7 @@ class CudaCouplerDevice final : public CouplerDevice {
   std::vector<VertexFrameBinding> packed_bindings_;
   std::vector<CubeFrame> packed_frames_;
   std::vector<Vec3f> packed_normals_, packed_positions_, packed_out_normals_;
+  std::vector<Vec3f*> registered_;  // host arrays page-locked by register_host
   // Last: destroyed first, after waiting for the work that uses the buffers above.
   UniqueStream stream_;
 };

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "tsf/common/vec3.h"
@@ -35,9 +36,16 @@ class CouplerDevice {
   virtual void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* frames,
                             std::size_t frame_count, const std::uint32_t* slots, std::size_t count,
                             CouplerMode mode, Vec3f* positions, Vec3f* normals) = 0;
-  /// Copies outputs of slots [first, first + count) into the host arrays (indexed by slot).
-  virtual void download(std::uint32_t first, std::uint32_t count, Vec3f* positions,
-                        Vec3f* normals) = 0;
+  /// Copies the outputs of the slot ranges [first, last) into the host arrays (indexed by slot),
+  /// all copies queued before one wait.
+  virtual void download_ranges(const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ranges,
+                               Vec3f* positions, Vec3f* normals) = 0;
+  /// Page-locks the host output arrays (count slots each) so that downloads run at the bus's
+  /// speed rather than through the driver's pageable staging; release_host() before the arrays
+  /// move or are freed. Best effort: an array that cannot be registered (it shares a page with
+  /// one that is) is copied to as it is.
+  virtual void register_host(Vec3f* positions, Vec3f* normals, std::size_t count) = 0;
+  virtual void release_host() = 0;
 };
 
 /// Throws tsf::Error with cuda_status().reason when CUDA is not built or has no device.

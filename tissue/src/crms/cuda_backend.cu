@@ -12,19 +12,34 @@
 //   just below and above the block's z-range evaluate only their reaction towards it (4 angles
 //   instead of 12). Plane t − 1 is finished (force, integration, store) while plane t is
 //   evaluated. Global memory traffic: the state once per step plus the tile borders (L1/L2).
+//   Tiles in which no node moves (dead or anchored: most of a patient's lattice box) only copy
+//   their state (TilePlan).
+// * node-parallel (symmetric form, small lattices, CudaLaunch::kNodes): every alive node's terms
+//   split over three threads by angle plane (node_force_planes.h), then a pass that sums and
+//   integrates; see node_step_kernel.
 //
 // The lattice and both state buffers live on the device for the solver's lifetime; the host sees
-// them only through explicit queries. Steps are launched as CUDA graphs of `steps_per_graph`
-// kernels (ping-pong buffers baked in, the graph count even so the current buffer returns to
-// where it started), which removes the per-launch CPU cost that dominates small lattices; a
-// remainder runs as plain launches. A guard word in device memory records the first non-finite
-// node; kernels of later steps see it and copy their input unchanged, so the state stays finite
-// and the host learns about it at the next synchronize().
+// them only through explicit queries. How the n steps of a call are launched (CudaLaunch):
+// * graphs: CUDA graphs of `steps_per_graph` kernels (ping-pong buffers baked in, the graph count
+//   even so the current buffer returns to where it started), which removes the per-launch CPU
+//   cost; a remainder runs as plain launches;
+// * persistent: one cooperative launch of the tile kernel's body for all n steps, a grid barrier
+//   between steps;
+// * nodes (the default up to 2^18 nodes): one cooperative launch of the node-parallel kernel,
+//   two grid barriers per step. On a small lattice a step's arithmetic is shorter than a launch,
+//   and its time is set by one thread's chain of dependent instructions, which the split into
+//   planes cuts to a third (docs/crms.md "Small lattices").
+// A guard word in device memory records the first non-finite node; kernels of later steps see it
+// and copy their input unchanged, so the state stays finite and the host learns about it at the
+// next synchronize(). The stability monitor's signals (energies, velocity sums against the state
+// before the last step, which is the other ping-pong buffer) are one reduction pass and a
+// read-back of nine numbers (step_signals).
 //
 // Snapshots: a kernel writes positions (rest + u) into a device staging buffer on the compute
 // stream; a side stream copies staging → pinned host (the SnapshotBuffer's back buffer) after an
 // event, and the next poll publishes it. The solver never waits for that copy; a request while
 // one is in flight is dropped.
+#include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -43,6 +58,7 @@
 #include "tsf/crms/device_bandwidth.h"
 #include "tsf/crms/effects.h"
 #include "tsf/crms/node_energy.h"
+#include "tsf/crms/node_force_planes.h"
 #include "tsf/crms/node_update.h"
 #include "tsf/crms/stencil.h"
 
@@ -50,6 +66,12 @@ namespace tsf::crms {
 namespace {
 
 constexpr unsigned long long kNoNode = ULLONG_MAX;
+/// The node-parallel launch is the default (CudaLaunch::kAuto) for lattices of up to kNodesMaxNodes
+/// nodes (its terms, 180 bytes a node, stay in L2) with up to kNodesMaxAlive alive ones: above
+/// that, graphs of the tile kernel step faster (docs/crms.md "Small lattices", measured on an
+/// H200: cubes of 195 k nodes 37 µs a step with graphs against 39 µs).
+constexpr std::int64_t kNodesMaxNodes = std::int64_t{1} << 18;
+constexpr std::int64_t kNodesMaxAlive = std::int64_t{1} << 17;
 constexpr long long kNoStep = LLONG_MAX;
 
 /// Device-side guard and step counter.
@@ -103,28 +125,55 @@ __device__ __forceinline__ Vec3f select_if(bool on, const Vec3f& a) {
   return {on ? a.x : 0.0f, on ? a.y : 0.0f, on ? a.z : 0.0f};
 }
 
-/// The shared evaluation of the symmetric form (see header). Block (32, kRows); grid
-/// (⌈nx/32⌉, ⌈ny/kRows⌉, ⌈nz/planes⌉).
-template <unsigned F, int kRows>
-__global__ void __launch_bounds__(kTileX* kRows, 2048 / (kTileX * kRows) / 4)
-    shared_step_kernel(LatticeView lat, ConstStateView in, StateView out, StepParameters p,
-                       Guard* guard, int local_step, int planes) {
-  static_assert((F & features::kSymmetricReactions) != 0, "shared evaluation is symmetric only");
-  constexpr int kW = kTileX + 2, kH = kRows + 2;
-  // In-plane reactions of the tile and its halo, by plane parity:
-  // [parity][0: reaction +x, 1: −x, 2: +y, 3: −y][component][row][column].
-  __shared__ float in_plane[2][4][3][kH][kW];
+/// The tiles of the shared evaluation: 32 × rows columns of nodes, `planes` z-planes deep, listed
+/// active first (a tile is active when one of its nodes moves: alive and not fixed); an idle tile
+/// only copies its displacements and zeroes its velocities, which is what integrate_node gives
+/// every node that does not move, whatever its force.
+struct TilePlan {
+  int tiles_x = 1, tiles_y = 1, tiles_z = 1;
+  int planes = 1;
+  int count = 0;                ///< tiles_x · tiles_y · tiles_z
+  const int* list = nullptr;    ///< tile indices, the active ones first
+  const int* active = nullptr;  ///< device word: how many of `list` are active
+};
 
+/// In-plane reactions of a tile and its halo, by plane parity:
+/// [parity][0: reaction +x, 1: −x, 2: +y, 3: −y][component][row][column].
+template <int kRows>
+using InPlane = float[2][4][3][kRows + 2][kTileX + 2];
+
+/// A step of the nodes of one tile that no node of moves: u kept, v = 0 (integrate_node).
+__device__ void idle_tile_step(const LatticeView& lat, const ConstStateView& in,
+                               const StateView& out, int i0, int j0, int k0, int k1, bool halted,
+                               int rows) {
+  const int tid = threadIdx.x + kTileX * threadIdx.y;
+  const int i = i0 + tid % kTileX, j = j0 + tid / kTileX;
+  if (tid >= kTileX * rows || i >= lat.dims.x || j >= lat.dims.y) return;
+  for (int k = k0; k < k1; ++k) {
+    const std::int64_t n = i + j * lat.stride_y + static_cast<std::int64_t>(k) * lat.stride_z;
+    for (int a = 0; a < 3; ++a) {
+      out.u[a][n] = in.u[a][n];
+      out.v[a][n] = halted ? in.v[a][n] : 0.0f;
+    }
+  }
+}
+
+/// The shared evaluation of the symmetric form for one tile (see header). Block (32, kRows).
+template <unsigned F, int kRows>
+__device__ void shared_tile_step(const LatticeView& lat, const ConstStateView& in,
+                                 const StateView& out, const StepParameters& p, Guard* guard,
+                                 long long step, bool halted, int bx, int by, int bz, int planes,
+                                 InPlane<kRows>& in_plane) {
+  static_assert((F & features::kSymmetricReactions) != 0, "shared evaluation is symmetric only");
   const int nx = lat.dims.x, ny = lat.dims.y, nz = lat.dims.z;
   const int tx = threadIdx.x, ty = threadIdx.y;
-  const int i0 = blockIdx.x * kTileX, j0 = blockIdx.y * kRows;
+  const int i0 = bx * kTileX, j0 = by * kRows;
   const int i = i0 + tx, j = j0 + ty;
-  const int k0 = blockIdx.z * planes;
+  const int k0 = bz * planes;
   const int k1 = min(k0 + planes, nz);
   const bool inside = i < nx && j < ny;
   const std::int64_t column = i + j * lat.stride_y;
-  const long long step = guard->step_base + local_step;
-  if (guard->bad_step < step) {  // halted by an earlier step (uniform): keep the state
+  if (halted) {  // halted by an earlier step (uniform): keep the state
     if (inside)
       for (int k = k0; k < k1; ++k) {
         const std::int64_t n = column + k * lat.stride_z;
@@ -253,6 +302,206 @@ __global__ void __launch_bounds__(kTileX* kRows, 2048 / (kTileX * kRows) / 4)
   }
 }
 
+/// Tile `q` of the plan: its coordinates, and whether it is active.
+__device__ __forceinline__ void plan_tile(const TilePlan& plan, int q, int& bx, int& by, int& bz,
+                                          bool& active) {
+  const int tile = plan.list[q];
+  bx = tile % plan.tiles_x;
+  by = (tile / plan.tiles_x) % plan.tiles_y;
+  bz = tile / (plan.tiles_x * plan.tiles_y);
+  active = q < *plan.active;
+}
+
+/// Whether the guard halted the solver before `step` (read from memory every time: another
+/// block may have written it before the last grid barrier).
+__device__ __forceinline__ bool halted_before(const Guard* guard, long long step) {
+  return *reinterpret_cast<const volatile long long*>(&guard->bad_step) < step;
+}
+
+/// One step of the shared evaluation: block q of the grid does tile q of the plan.
+template <unsigned F, int kRows>
+__global__ void __launch_bounds__(kTileX* kRows, 2048 / (kTileX * kRows) / 4)
+    shared_step_kernel(LatticeView lat, ConstStateView in, StateView out, StepParameters p,
+                       Guard* guard, int local_step, TilePlan plan) {
+  __shared__ InPlane<kRows> in_plane;
+  const long long step = guard->step_base + local_step;
+  const bool halted = halted_before(guard, step);
+  int bx, by, bz;
+  bool active;
+  plan_tile(plan, blockIdx.x, bx, by, bz, active);
+  if (active)
+    shared_tile_step<F, kRows>(lat, in, out, p, guard, step, halted, bx, by, bz, plan.planes,
+                               in_plane);
+  else
+    idle_tile_step(lat, in, out, bx * kTileX, by * kRows, bz * plan.planes,
+                   min(bz * plan.planes + plan.planes, lat.dims.z), halted, kRows);
+}
+
+/// `steps` steps in one launch (small lattices: the launch, not the arithmetic, bounds a step).
+/// Every block strides over the plan's tiles; a grid barrier separates the steps, and the state
+/// ping-pongs between a and b (step s reads a when s is even). Launched cooperatively, so every
+/// block is resident and the barrier cannot deadlock.
+template <unsigned F, int kRows>
+__global__ void __launch_bounds__(kTileX* kRows, 256 / (kTileX * kRows))
+    persistent_step_kernel(LatticeView lat, StateView a, StateView b, StepParameters p,
+                           Guard* guard, int steps, TilePlan plan) {
+  __shared__ InPlane<kRows> in_plane;
+  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
+  const long long base = guard->step_base;
+  for (int s = 0; s < steps; ++s) {
+    const ConstStateView in = (s & 1) ? b : a;
+    const StateView out = (s & 1) ? a : b;
+    const long long step = base + s;
+    const bool halted = halted_before(guard, step);
+    for (int q = blockIdx.x; q < plan.count; q += gridDim.x) {
+      int bx, by, bz;
+      bool active;
+      plan_tile(plan, q, bx, by, bz, active);
+      if (active)
+        shared_tile_step<F, kRows>(lat, in, out, p, guard, step, halted, bx, by, bz, plan.planes,
+                                   in_plane);
+      else
+        idle_tile_step(lat, in, out, bx * kTileX, by * kRows, bz * plan.planes,
+                       min(bz * plan.planes + plan.planes, lat.dims.z), halted, kRows);
+      __syncthreads();  // in_plane is reused by the next tile
+    }
+    grid.sync();
+  }
+}
+
+/// The node-parallel step for small lattices (CudaLaunch::kNodes; docs/crms.md "Small
+/// lattices"): on a few thousand nodes a step is bounded by the longest chain of dependent
+/// instructions one thread executes, not by arithmetic throughput, so each node's springs and
+/// angles are spread over three threads, one per angle plane (node_force_planes.h), and a step
+/// is two phases separated by grid barriers:
+///   1. terms: for every alive node and plane, the plane's self term and the reactions it puts
+///      on the plane's 4 neighbours, into `terms` (SoA: [plane][slot: self, reaction 0..3][xyz]
+///      × count floats; L2-resident at these sizes); warps are plane-uniform (no divergence);
+///   2. integrate: every node sums its three self terms and, for each link d, the reactions its
+///      neighbour's two planes holding that link put on it, then integrate_node(). In the
+///      launch's first two steps every node is stepped (a dead or anchored node only copies its
+///      state: both state buffers then agree for it); later only the alive ones.
+struct NodePlan {
+  const std::int32_t* alive = nullptr;  ///< indices of the alive nodes
+  int alive_count = 0;
+  float* terms = nullptr;
+};
+
+template <unsigned F, int P>
+__device__ __forceinline__ void node_plane_terms(const LatticeView& lat, const ConstStateView& in,
+                                                 const MaterialPalette& palette, int n,
+                                                 float* terms) {
+  const int nx = lat.dims.x, ny = lat.dims.y;
+  const int i = n % nx, j = (n / nx) % ny, k = n / (nx * ny);
+  const IndexedStencil st{lat, in, n, i, j, k};
+  Vec3f self, reaction[4];
+  plane_spring_terms<F, P>(st, lat.rest_length, palette, self, reaction);
+  const std::int64_t count = lat.count;
+  float* t = terms + static_cast<std::int64_t>(P) * 15 * count + n;
+  t[0] = self.x;
+  t[count] = self.y;
+  t[2 * count] = self.z;
+#pragma unroll
+  for (int q = 0; q < 4; ++q) {
+    t[(3 + 3 * q) * count] = reaction[q].x;
+    t[(4 + 3 * q) * count] = reaction[q].y;
+    t[(5 + 3 * q) * count] = reaction[q].z;
+  }
+}
+
+/// Plane `plane`'s slot `slot` (0 self, 1 + q reaction q) of node n.
+__device__ __forceinline__ Vec3f node_term(const float* terms, std::int64_t count, int plane,
+                                           int slot, std::int64_t n) {
+  const float* t = terms + (static_cast<std::int64_t>(plane) * 15 + 3 * slot) * count + n;
+  return {t[0], t[count], t[2 * count]};
+}
+
+template <unsigned F>
+__device__ __forceinline__ void node_integrate(const LatticeView& lat, const ConstStateView& in,
+                                               const StateView& out, const StepParameters& p,
+                                               Guard* guard, long long step, bool halted,
+                                               const float* terms, std::int64_t n) {
+  const unsigned fl = lat.flags[n];
+  const Vec3f u{in.u[0][n], in.u[1][n], in.u[2][n]};
+  const Vec3f v{in.v[0][n], in.v[1][n], in.v[2][n]};
+  const bool moving = (fl & (kAliveBit | kFixedBit)) == kAliveBit;
+  if (halted || !moving) {  // halted: keep the state; not moving: u kept, v = 0 (integrate_node)
+    out.u[0][n] = u.x, out.u[1][n] = u.y, out.u[2][n] = u.z;
+    out.v[0][n] = halted ? v.x : 0.0f;
+    out.v[1][n] = halted ? v.y : 0.0f;
+    out.v[2][n] = halted ? v.z : 0.0f;
+    return;
+  }
+  const std::int64_t count = lat.count;
+  Vec3f f = node_term(terms, count, 0, 0, n) + node_term(terms, count, 1, 0, n) +
+            node_term(terms, count, 2, 0, n);
+  const std::int64_t stride[3] = {1, lat.stride_y, lat.stride_z};
+#pragma unroll
+  for (int d = 0; d < 6; ++d) {
+    if (((fl >> d) & 1u) == 0) continue;
+    const std::int64_t m = n + direction_sign(d) * stride[direction_axis(d)];
+    const int e = opposite_direction(d);  // the neighbour's arm towards n
+#pragma unroll
+    for (int plane = 0; plane < 3; ++plane)
+      if (plane != direction_axis(d))
+        f += node_term(terms, count, plane, 1 + plane_arm_slot(plane, e), m);
+  }
+  Vec3f external{0.0f, 0.0f, 0.0f};
+  if constexpr ((F & features::kExternalForces) != 0)
+    external = {lat.external_force[0][n], lat.external_force[1][n], lat.external_force[2][n]};
+  const NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[n], external, f, p);
+  out.u[0][n] = r.u.x, out.u[1][n] = r.u.y, out.u[2][n] = r.u.z;
+  out.v[0][n] = r.v.x, out.v[1][n] = r.v.y, out.v[2][n] = r.v.z;
+  if (!r.finite) {
+    guard->bad_step = step;
+    atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
+  }
+}
+
+template <unsigned F>
+__global__ void __launch_bounds__(256, 3)
+    node_step_kernel(LatticeView lat, StateView a, StateView b, StepParameters p, Guard* guard,
+                     int steps, NodePlan plan) {
+  cooperative_groups::grid_group grid = cooperative_groups::this_grid();
+  const long long base = guard->step_base;
+  const int threads = gridDim.x * blockDim.x;
+  const int tid = blockIdx.x * blockDim.x + threadIdx.x;
+  // Phase 1 items: per group of 32 alive nodes, three plane-uniform warps.
+  const int items = ((plan.alive_count + 31) / 32) * 96;
+  for (int s = 0; s < steps; ++s) {
+    const ConstStateView in = (s & 1) ? b : a;
+    const StateView out = (s & 1) ? a : b;
+    const long long step = base + s;
+    const bool halted = halted_before(guard, step);
+    if (!halted)
+      for (int t = tid; t < items; t += threads) {
+        const int index = (t / 96) * 32 + (t & 31);
+        if (index >= plan.alive_count) continue;
+        const int n = plan.alive[index];
+        switch ((t >> 5) % 3) {  // uniform across the warp
+          case 0:
+            node_plane_terms<F, 0>(lat, in, p.palette, n, plan.terms);
+            break;
+          case 1:
+            node_plane_terms<F, 1>(lat, in, p.palette, n, plan.terms);
+            break;
+          default:
+            node_plane_terms<F, 2>(lat, in, p.palette, n, plan.terms);
+            break;
+        }
+      }
+    grid.sync();
+    if (s < 2 || halted) {
+      for (std::int64_t n = tid; n < lat.count; n += threads)
+        node_integrate<F>(lat, in, out, p, guard, step, halted, plan.terms, n);
+    } else {
+      for (int t = tid; t < plan.alive_count; t += threads)
+        node_integrate<F>(lat, in, out, p, guard, step, halted, plan.terms, plan.alive[t]);
+    }
+    grid.sync();
+  }
+}
+
 __global__ void advance_steps_kernel(Guard* guard, int steps) {
   guard->step_base += steps;
 }
@@ -297,31 +546,53 @@ __global__ void positions_kernel(LatticeView lat, ConstStateView s, Vec3f origin
   xyz[3 * n + 2] = x.z;
 }
 
-template <unsigned F>
+/// Energy sums (kinetic, elastic, gravitational) and, with kVelocities, the stability monitor's
+/// velocity signals (node_energy.h) of state `s` against `prev`, the state one step before: one
+/// pass, block sums in double, one atomic per block and sum.
+template <unsigned F, bool kVelocities>
 __global__ void __launch_bounds__(256)
-    energy_kernel(LatticeView lat, ConstStateView s, StepParameters p, double* sums) {
-  __shared__ double partial[3][256];
+    signals_kernel(LatticeView lat, ConstStateView s, ConstStateView prev, StepParameters p,
+                   double kinetic_damping, double* sums) {
+  constexpr int kSums = kVelocities ? 9 : 3;
+  __shared__ double partial[kSums][256];
   const int t = threadIdx.x + blockDim.x * (threadIdx.y + blockDim.y * threadIdx.z);
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   const int j = blockIdx.y * blockDim.y + threadIdx.y;
   const int k = blockIdx.z * blockDim.z + threadIdx.z;
   NodeEnergy e;
+  VelocitySignals v;
   if (i < lat.dims.x && j < lat.dims.y && k < lat.dims.z) {
     const std::int64_t n = i + j * lat.stride_y + k * lat.stride_z;
     const IndexedStencil st{lat, s, n, i, j, k};
     e = node_energy<F>(st, lat.rest_length, p);
+    if constexpr (kVelocities) {
+      const unsigned fl = lat.flags[n];
+      const bool moving = (fl & (kAliveBit | kFixedBit)) == kAliveBit;
+      const double m = moving ? 1.0 / static_cast<double>(lat.inv_mass[n]) : 0.0;
+      add_velocity_signals(fl, m, Vec3d{prev.v[0][n], prev.v[1][n], prev.v[2][n]},
+                           Vec3d{s.v[0][n], s.v[1][n], s.v[2][n]}, p.velocity_limit,
+                           kinetic_damping, v);
+    }
   }
   partial[0][t] = e.kinetic;
   partial[1][t] = e.elastic;
   partial[2][t] = e.gravitational;
+  if constexpr (kVelocities) {
+    partial[3][t] = v.moving;
+    partial[4][t] = v.at_limit;
+    partial[5][t] = v.drag_power;
+    partial[6][t] = v.v0v1;
+    partial[7][t] = v.v0v0;
+    partial[8][t] = v.v1v1;
+  }
   __syncthreads();
   for (int stride = 128; stride > 0; stride >>= 1) {
     if (t < stride)
-      for (int q = 0; q < 3; ++q) partial[q][t] += partial[q][t + stride];
+      for (int q = 0; q < kSums; ++q) partial[q][t] += partial[q][t + stride];
     __syncthreads();
   }
   if (t == 0)
-    for (int q = 0; q < 3; ++q) atomicAdd(&sums[q], partial[q][0]);
+    for (int q = 0; q < kSums; ++q) atomicAdd(&sums[q], partial[q][0]);
 }
 
 template <unsigned F>
@@ -364,8 +635,8 @@ class CudaBackend final : public SolverBackend {
     inv_mass_.resize(n);
     guard_.resize(1);
     guard_host_.resize(1);
-    energy_host_.resize(3);
-    energy_device_.resize(3);
+    energy_host_.resize(9);
+    energy_device_.resize(9);
     staging_.resize(3 * n);
     // Pinned snapshot buffers are allocated on the first request (most runs never ask).
     snapshots_ = std::make_unique<SnapshotBuffer>(nullptr, nullptr, count_);
@@ -375,7 +646,9 @@ class CudaBackend final : public SolverBackend {
     cudaDeviceProp prop{};
     TSF_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
     device_name_ = prop.name;
-    plan_shared_launch(options, prop.multiProcessorCount);
+    int cooperative = 0;
+    TSF_CUDA_CHECK(cudaDeviceGetAttribute(&cooperative, cudaDevAttrCooperativeLaunch, 0));
+    plan_shared_launch(options, prop.multiProcessorCount, cooperative != 0);
   }
 
   ~CudaBackend() override {
@@ -389,7 +662,11 @@ class CudaBackend final : public SolverBackend {
 
   std::string name() const override {
     return "cuda (" + device_name_ + ", shared tiles 32x" + std::to_string(tile_rows_) + "x" +
-           std::to_string(planes_per_block_) + ")";
+           std::to_string(planes_per_block_) +
+           (nodes_        ? ", node-parallel persistent launch"
+            : persistent_ ? ", " + std::to_string(persistent_blocks_) + " persistent blocks"
+                          : ", graphs of " + std::to_string(steps_per_graph_) + " steps") +
+           ")";
   }
 
   void upload_lattice(const std::vector<std::uint8_t>& flags, const std::vector<float>& inv_mass,
@@ -397,6 +674,13 @@ class CudaBackend final : public SolverBackend {
     const auto n = static_cast<std::size_t>(count_);
     TSF_CUDA_CHECK(
         cudaMemcpyAsync(flags_.data(), flags.data(), n, cudaMemcpyHostToDevice, stream_.get()));
+    host_flags_ = flags;
+    count_moving_tiles();
+    if (nodes_ && launch_ == CudaLaunch::kAuto &&
+        std::count_if(flags.begin(), flags.end(), [](std::uint8_t f) { return f & kAliveBit; }) >
+            kNodesMaxAlive)
+      nodes_ = false;  // many alive nodes: graphs of the tile kernel (see kNodesMaxAlive)
+    upload_alive_list();
     TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_.data(), inv_mass.data(), n * sizeof(float),
                                    cudaMemcpyHostToDevice, stream_.get()));
     if (!material.empty()) {
@@ -419,6 +703,20 @@ class CudaBackend final : public SolverBackend {
                     const std::vector<std::uint8_t>& flags) override {
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
+    bool alive_changed = false;
+    for (std::size_t t = 0; t < nodes.size(); ++t) {
+      const std::int64_t n = nodes[t];
+      alive_changed |= ((host_flags_[n] ^ flags[t]) & kAliveBit) != 0;
+      const int was = moving(host_flags_[n]), now = moving(flags[t]);
+      if (was != now) {
+        int& m = tile_moving_[tile_of(n)];
+        if ((m == 0) != (m + now - was == 0)) tile_plan_stale_ = true;
+        m += now - was;
+      }
+      host_flags_[n] = flags[t];
+    }
+    if (tile_plan_stale_) upload_tile_plan();
+    if (alive_changed) upload_alive_list();
     stage_scatter(nodes, flags.data(), flags.size());
     scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
         flags_.data(), scatter_nodes_.data(),
@@ -499,6 +797,21 @@ class CudaBackend final : public SolverBackend {
   void step(int n, const StepParameters& p, unsigned features) override {
     require_compiled_feature_set(features);
     const LatticeView lat = lattice_view();
+    if ((nodes_ || persistent_) && n > 0 && (features & features::kSymmetricReactions) != 0 &&
+        evaluation_ == ForceEvaluation::kShared) {  // every step in one cooperative launch
+      dispatch_features(features, [&](auto f) {
+        if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0) {
+          if (nodes_)
+            launch_nodes<decltype(f)::value>(lat, p, n);
+          else
+            launch_persistent<decltype(f)::value>(lat, p, n);
+        }
+      });
+      advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(), n);
+      TSF_CUDA_CHECK_LAUNCH();
+      steps_started_ += n;
+      return;
+    }
     int done = 0;
     while (n - done >= steps_per_graph_) {
       TSF_CUDA_CHECK(cudaGraphLaunch(graph_for(p, features, lat), stream_.get()));
@@ -537,17 +850,14 @@ class CudaBackend final : public SolverBackend {
   }
 
   EnergySums energy(const StepParameters& p, unsigned features) override {
-    TSF_CUDA_CHECK(cudaMemsetAsync(energy_device_.data(), 0, 3 * sizeof(double), stream_.get()));
-    const LatticeView lat = lattice_view();
-    dispatch_features(features, [&](auto f) {
-      energy_kernel<decltype(f)::value>
-          <<<grid(), kBlock, 0, stream_.get()>>>(lat, state_view(), p, energy_device_.data());
-    });
-    TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_.data(), energy_device_.data(), 3 * sizeof(double),
-                                   cudaMemcpyDeviceToHost, stream_.get()));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    return EnergySums{energy_host_.data()[0], energy_host_.data()[1], energy_host_.data()[2]};
+    VelocitySignals unused;
+    return measure(p, features, false, 0.0, unused);
+  }
+
+  bool step_signals(const StepParameters& p, unsigned features, bool velocities,
+                    double kinetic_damping, EnergySums& energy, VelocitySignals& v) override {
+    energy = measure(p, features, velocities, kinetic_damping, v);
+    return true;
   }
 
   void spring_forces(const StepParameters& p, unsigned features,
@@ -634,6 +944,37 @@ class CudaBackend final : public SolverBackend {
     UniqueGraphExec exec;
   };
 
+  /// One signals_kernel pass and its read-back (9 doubles at most).
+  EnergySums measure(const StepParameters& p, unsigned features, bool velocities,
+                     double kinetic_damping, VelocitySignals& v) {
+    const int sums = velocities ? 9 : 3;
+    TSF_CUDA_CHECK(cudaMemsetAsync(energy_device_.data(), 0, sums * sizeof(double), stream_.get()));
+    const LatticeView lat = lattice_view();
+    const ConstStateView now = state_view(), before = buffer_view(1 - current_);
+    dispatch_features(features, [&](auto f) {
+      if (velocities)
+        signals_kernel<decltype(f)::value, true><<<grid(), kBlock, 0, stream_.get()>>>(
+            lat, now, before, p, kinetic_damping, energy_device_.data());
+      else
+        signals_kernel<decltype(f)::value, false><<<grid(), kBlock, 0, stream_.get()>>>(
+            lat, now, before, p, kinetic_damping, energy_device_.data());
+    });
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_.data(), energy_device_.data(),
+                                   sums * sizeof(double), cudaMemcpyDeviceToHost, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    const double* h = energy_host_.data();
+    if (velocities) {
+      v.moving = h[3];
+      v.at_limit = h[4];
+      v.drag_power = h[5];
+      v.v0v1 = h[6];
+      v.v0v0 = h[7];
+      v.v1v1 = h[8];
+    }
+    return EnergySums{h[0], h[1], h[2]};
+  }
+
   dim3 grid() const {
     return dim3((geometry_.dims.x + kBlock.x - 1) / kBlock.x,
                 (geometry_.dims.y + kBlock.y - 1) / kBlock.y,
@@ -649,23 +990,160 @@ class CudaBackend final : public SolverBackend {
     return v;
   }
 
-  /// Tile rows and planes per block of the shared kernel: rows 8 for large lattices (fewer halo
-  /// nodes per node), 4 for small ones (more blocks); planes so that the grid has about eight
-  /// blocks per multiprocessor (the halo planes cost 2/3 of a plane per block).
-  void plan_shared_launch(const BackendOptions& options, int multiprocessors) {
+  /// Tile rows and planes per block of the shared kernel, and whether steps run as one persistent
+  /// launch. Graphs of launches (large lattices): rows 8 for large lattices (fewer halo nodes per
+  /// node), 4 for small ones (more blocks); planes so that the grid has about eight blocks per
+  /// multiprocessor (the halo planes cost 2/3 of a plane per block). Persistent (small lattices,
+  /// where a step's arithmetic is shorter than a launch): rows 4 and planes so that every resident
+  /// block has about one tile, so a step takes one tile's time plus a grid barrier.
+  void plan_shared_launch(const BackendOptions& options, int multiprocessors, bool cooperative) {
     const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
+    launch_ = options.cuda_launch;
+    persistent_ = cooperative && options.cuda_launch == CudaLaunch::kPersistent;
+    nodes_ = cooperative && count_ < (std::int64_t{1} << 31) &&  // 32-bit node lists
+             (options.cuda_launch == CudaLaunch::kNodes ||
+              (options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes));
+    if (nodes_) {
+      int per_sm = 0;
+      TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
+          &per_sm, node_step_kernel<features::kSymmetricReactions>, 256, 0));
+      node_resident_blocks_ = per_sm * multiprocessors;
+      if (node_resident_blocks_ < 1) nodes_ = false;
+    }
     tile_rows_ = options.cuda_tile_rows;
-    if (tile_rows_ == 0) tile_rows_ = count_ >= (std::int64_t{1} << 20) ? 8 : 4;
+    if (tile_rows_ == 0) tile_rows_ = !persistent_ && count_ >= (std::int64_t{1} << 20) ? 8 : 4;
+    int resident = 0;
+    if (persistent_) {
+      int per_sm = 0;
+      if (tile_rows_ == 8)
+        TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
+            &per_sm, persistent_step_kernel<features::kSymmetricReactions, 8>, kTileX * 8, 0));
+      else
+        TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
+            &per_sm, persistent_step_kernel<features::kSymmetricReactions, 4>, kTileX * 4, 0));
+      resident = per_sm * multiprocessors;
+      if (resident < 1) persistent_ = false;
+    }
     const std::int64_t columns = static_cast<std::int64_t>((nx + kTileX - 1) / kTileX) *
                                  ((ny + tile_rows_ - 1) / tile_rows_);
     planes_per_block_ = options.cuda_planes_per_block;
     if (planes_per_block_ == 0) {
-      const std::int64_t wanted_blocks = 8 * static_cast<std::int64_t>(multiprocessors);
+      const std::int64_t wanted_blocks =
+          persistent_ ? resident : 8 * static_cast<std::int64_t>(multiprocessors);
       const std::int64_t chunks =
           std::clamp<std::int64_t>((wanted_blocks + columns - 1) / columns, 1, nz);
       planes_per_block_ = static_cast<int>((nz + chunks - 1) / chunks);
     }
     planes_per_block_ = std::clamp(planes_per_block_, 1, std::max(1, nz));
+    tiles_x_ = (nx + kTileX - 1) / kTileX;
+    tiles_y_ = (ny + tile_rows_ - 1) / tile_rows_;
+    tiles_z_ = (nz + planes_per_block_ - 1) / planes_per_block_;
+    const int tiles = tiles_x_ * tiles_y_ * tiles_z_;
+    persistent_blocks_ = persistent_ ? std::min(tiles, resident) : 0;
+    tile_moving_.assign(static_cast<std::size_t>(tiles), 0);
+    tile_list_.resize(static_cast<std::size_t>(tiles));
+    tile_active_.resize(1);
+  }
+
+  static int moving(std::uint8_t flags) { return (flags & (kAliveBit | kFixedBit)) == kAliveBit; }
+  int tile_of(std::int64_t n) const {
+    const Int3 c = geometry_.coordinates(n);
+    return c.x / kTileX + tiles_x_ * (c.y / tile_rows_ + tiles_y_ * (c.z / planes_per_block_));
+  }
+  /// Moving nodes per tile from the host copy of the flags, and the plan's tile list.
+  void count_moving_tiles() {
+    std::fill(tile_moving_.begin(), tile_moving_.end(), 0);
+    for (std::int64_t n = 0; n < count_; ++n)
+      if (moving(host_flags_[static_cast<std::size_t>(n)])) ++tile_moving_[tile_of(n)];
+    upload_tile_plan();
+  }
+  void upload_tile_plan() {
+    std::vector<int> list;
+    list.reserve(tile_moving_.size());
+    for (std::size_t t = 0; t < tile_moving_.size(); ++t)
+      if (tile_moving_[t] > 0) list.push_back(static_cast<int>(t));
+    const int active = static_cast<int>(list.size());
+    for (std::size_t t = 0; t < tile_moving_.size(); ++t)
+      if (tile_moving_[t] == 0) list.push_back(static_cast<int>(t));
+    // The kernels read the list while queued steps run: replace it in stream order.
+    plan_staging_.resize(list.size() + 1);
+    std::copy(list.begin(), list.end(), plan_staging_.data());
+    plan_staging_.data()[list.size()] = active;
+    TSF_CUDA_CHECK(cudaMemcpyAsync(tile_list_.data(), plan_staging_.data(),
+                                   list.size() * sizeof(int), cudaMemcpyHostToDevice,
+                                   stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(tile_active_.data(), plan_staging_.data() + list.size(),
+                                   sizeof(int), cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));  // the staging buffer is reused
+    active_tiles_ = active;
+    tile_plan_stale_ = false;
+  }
+  TilePlan tile_plan() const {
+    TilePlan plan;
+    plan.tiles_x = tiles_x_;
+    plan.tiles_y = tiles_y_;
+    plan.tiles_z = tiles_z_;
+    plan.planes = planes_per_block_;
+    plan.count = tiles_x_ * tiles_y_ * tiles_z_;
+    plan.list = tile_list_.data();
+    plan.active = tile_active_.data();
+    return plan;
+  }
+
+  /// The alive list of the node-parallel kernel, from the host copy of the flags.
+  void upload_alive_list() {
+    if (!nodes_) return;
+    std::vector<std::int32_t> alive;
+    alive.reserve(static_cast<std::size_t>(count_));
+    for (std::int64_t n = 0; n < count_; ++n)
+      if (host_flags_[static_cast<std::size_t>(n)] & kAliveBit)
+        alive.push_back(static_cast<std::int32_t>(n));
+    if (alive_list_.size() < alive.size() || alive_list_.empty())
+      alive_list_.resize(std::max<std::size_t>(alive.size(), 1));
+    if (!alive.empty())
+      TSF_CUDA_CHECK(cudaMemcpyAsync(alive_list_.data(), alive.data(),
+                                     alive.size() * sizeof(std::int32_t), cudaMemcpyHostToDevice,
+                                     stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));  // `alive` goes out of scope
+    alive_count_ = static_cast<int>(alive.size());
+    if (node_terms_.empty()) node_terms_.resize(static_cast<std::size_t>(45 * count_));
+  }
+
+  template <unsigned F>
+  void launch_nodes(const LatticeView& lat, const StepParameters& p, int n) {
+    StateView a = buffer_view(current_), b = buffer_view(1 - current_);
+    StepParameters parameters = p;
+    Guard* guard = guard_.data();
+    NodePlan plan;
+    plan.alive = alive_list_.data();
+    plan.alive_count = alive_count_;
+    plan.terms = node_terms_.data();
+    const std::int64_t items = (static_cast<std::int64_t>(alive_count_) + 31) / 32 * 96;
+    const std::int64_t wanted = (std::max<std::int64_t>(items, count_) + 255) / 256;
+    const int blocks = static_cast<int>(std::min<std::int64_t>(wanted, node_resident_blocks_));
+    void* args[] = {const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan};
+    TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&node_step_kernel<F>),
+                                               dim3(std::max(blocks, 1)), dim3(256), args, 0,
+                                               stream_.get()));
+    if (n & 1) current_ = 1 - current_;
+  }
+
+  template <unsigned F>
+  void launch_persistent(const LatticeView& lat, const StepParameters& p, int n) {
+    StateView a = buffer_view(current_), b = buffer_view(1 - current_);
+    StepParameters parameters = p;
+    Guard* guard = guard_.data();
+    TilePlan plan = tile_plan();
+    void* args[] = {const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan};
+    if (tile_rows_ == 8)
+      TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(
+          reinterpret_cast<const void*>(&persistent_step_kernel<F, 8>), dim3(persistent_blocks_),
+          dim3(kTileX, 8), args, 0, stream_.get()));
+    else
+      TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(
+          reinterpret_cast<const void*>(&persistent_step_kernel<F, 4>), dim3(persistent_blocks_),
+          dim3(kTileX, 4), args, 0, stream_.get()));
+    if (n & 1) current_ = 1 - current_;
   }
 
   template <unsigned F>
@@ -674,15 +1152,13 @@ class CudaBackend final : public SolverBackend {
     const StateView out = buffer_view(1 - current_);
     if constexpr ((F & features::kSymmetricReactions) != 0) {
       if (evaluation_ == ForceEvaluation::kShared) {
-        const dim3 grid((geometry_.dims.x + kTileX - 1) / kTileX,
-                        (geometry_.dims.y + tile_rows_ - 1) / tile_rows_,
-                        (geometry_.dims.z + planes_per_block_ - 1) / planes_per_block_);
+        const TilePlan plan = tile_plan();
         if (tile_rows_ == 8)
-          shared_step_kernel<F, 8><<<grid, dim3(kTileX, 8), 0, stream_.get()>>>(
-              lat, in, out, p, guard_.data(), local_step, planes_per_block_);
+          shared_step_kernel<F, 8><<<plan.count, dim3(kTileX, 8), 0, stream_.get()>>>(
+              lat, in, out, p, guard_.data(), local_step, plan);
         else
-          shared_step_kernel<F, 4><<<grid, dim3(kTileX, 4), 0, stream_.get()>>>(
-              lat, in, out, p, guard_.data(), local_step, planes_per_block_);
+          shared_step_kernel<F, 4><<<plan.count, dim3(kTileX, 4), 0, stream_.get()>>>(
+              lat, in, out, p, guard_.data(), local_step, plan);
         TSF_CUDA_CHECK_LAUNCH();
         current_ = 1 - current_;
         return;
@@ -747,6 +1223,17 @@ class CudaBackend final : public SolverBackend {
   ForceEvaluation evaluation_;
   int tile_rows_ = 4;
   int planes_per_block_ = 1;
+  int tiles_x_ = 1, tiles_y_ = 1, tiles_z_ = 1;
+  bool persistent_ = false;
+  int persistent_blocks_ = 0;
+  bool nodes_ = false;
+  CudaLaunch launch_ = CudaLaunch::kAuto;
+  int node_resident_blocks_ = 0;
+  int alive_count_ = 0;
+  std::vector<std::uint8_t> host_flags_;  // the flags as last uploaded: which tiles move
+  std::vector<int> tile_moving_;          // moving nodes per tile
+  int active_tiles_ = 0;
+  bool tile_plan_stale_ = false;
   std::string device_name_;
   // Streams and events first: they outlive the buffers (the destructor waits on the streams).
   UniqueStream stream_, copy_stream_;
@@ -784,6 +1271,10 @@ class CudaBackend final : public SolverBackend {
   std::int64_t in_flight_step_ = 0;
   std::int64_t steps_started_ = 0;
   std::vector<CachedGraph> graphs_;
+  DeviceBuffer<int> tile_list_, tile_active_;
+  DeviceBuffer<std::int32_t> alive_list_;
+  DeviceBuffer<float> node_terms_;  // node-parallel kernel: 15 vec3 terms per node
+  PinnedBuffer<int> plan_staging_;
   DeviceBuffer<std::int64_t> scatter_nodes_;
   DeviceBuffer<std::uint8_t> scatter_values_;
   std::size_t scatter_capacity_ = 0, scatter_value_capacity_ = 0;

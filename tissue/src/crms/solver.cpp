@@ -109,6 +109,7 @@ BackendOptions backend_options(const SolverConfig& config) {
   o.cuda_steps_per_graph = config.cuda_steps_per_graph;
   o.cuda_planes_per_block = config.cuda_planes_per_block;
   o.cuda_tile_rows = config.cuda_tile_rows;
+  o.cuda_launch = config.cuda_launch;
   return o;
 }
 
@@ -185,6 +186,63 @@ void Solver::step_async(int n, double dt) {
   steps_done_ += n;
   time_s_ += n * dt;
   backend_->poll_snapshot();
+}
+
+StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSignals& signals) {
+  signals = StepSignals{};
+  signals.velocities = with_velocities;
+  const double k_sys = config_.stability.kinetic_damping;
+  if (on_cuda_ && !effects_ && config_.integrator != Integrator::kImplicitEuler) {
+    const std::int64_t before = steps_done_;
+    StepReport report = step(n, dt);
+    report.steps_run = steps_done_ - before;
+    const StepParameters p = step_parameters(dt);
+    EnergySums sums;
+    // v0 is the other state buffer: the state before the last step, if there was one.
+    const bool have_v0 = with_velocities && report.steps_run > 0;
+    if (backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
+      signals.energy.kinetic_nj = sums.kinetic;
+      signals.energy.elastic_nj = sums.elastic;
+      signals.energy.gravitational_nj = sums.gravitational;
+      signals.energy.load_nj = load_energy_nj();
+      if (with_velocities && !have_v0) {  // nothing stepped: no v0, no period-2 products
+        const std::vector<Vec3f> v = velocities();
+        measure_velocities(v, v, dt, signals.velocity);
+        signals.velocity.v0v1 = signals.velocity.v0v0 = 0;
+      }
+      return report;
+    }
+  }
+  // Host measurement: the last step alone, the velocities copied before and after it.
+  StepReport report;
+  std::vector<Vec3f> v0;
+  if (!with_velocities) {
+    report = step(n, dt);
+  } else {
+    if (n > 1) report = step(n - 1, dt);
+    if (!report.instability) {
+      v0 = velocities();
+      const StepReport last = step(1, dt);
+      report.steps_run += last.steps_run;
+      report.instability = last.instability;
+    }
+  }
+  signals.energy = energy();
+  if (with_velocities) {
+    const std::vector<Vec3f> v1 = velocities();
+    measure_velocities(v0.empty() ? v1 : v0, v1, dt, signals.velocity);
+    if (v0.empty()) signals.velocity.v0v1 = signals.velocity.v0v0 = 0;
+  }
+  return report;
+}
+
+void Solver::measure_velocities(const std::vector<Vec3f>& v0, const std::vector<Vec3f>& v1,
+                                double dt, VelocitySignals& s) const {
+  const double limit = velocity_limit_mm_s(dt);
+  const double k_sys = config_.stability.kinetic_damping;
+  for (std::int64_t i = 0; i < lattice_.node_count(); ++i)
+    add_velocity_signals(lattice_.packed_flags(i), lattice_.mass(i), to_double(v0[i]),
+                         to_double(v1[i]), limit, k_sys, s);
 }
 
 EffectParameters Solver::effect_parameters(double dt) const {
@@ -541,13 +599,19 @@ EnergyReport Solver::energy() const {
   r.kinetic_nj = s.kinetic;
   r.elastic_nj = s.elastic + effects_energy_nj();
   r.gravitational_nj = s.gravitational;
-  if (external_forces_) {  // constant loads: potential −Σ F·u (µN·mm = nJ)
-    std::vector<Vec3f> u;
-    backend_->read_state(&u, nullptr);
-    for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
-      if (lattice_.alive(n)) r.load_nj -= static_cast<double>(dot(external_host_[n], u[n]));
-  }
+  r.load_nj = load_energy_nj();
   return r;
+}
+
+double Solver::load_energy_nj() const {
+  if (!external_forces_) return 0.0;
+  // Constant loads: potential −Σ F·u (µN·mm = nJ).
+  std::vector<Vec3f> u;
+  backend_->read_state(&u, nullptr);
+  double e = 0.0;
+  for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
+    if (lattice_.alive(n)) e -= static_cast<double>(dot(external_host_[n], u[n]));
+  return e;
 }
 
 std::vector<Vec3f> Solver::spring_forces() const {

@@ -11,6 +11,7 @@
 
 #include "tsf/common/vec3.h"
 #include "tsf/crms/lattice_geometry.h"
+#include "tsf/crms/node_energy.h"
 #include "tsf/crms/node_state_view.h"
 #include "tsf/crms/snapshot_buffer.h"
 #include "tsf/crms/solver_config.h"
@@ -63,6 +64,17 @@ class SolverBackend {
   virtual void reset_guard() = 0;
 
   virtual EnergySums energy(const StepParameters& parameters, unsigned features) = 0;
+  /// The energy sums and, with `velocities`, the velocity signals of the moving nodes
+  /// (node_energy.h), v0 being the state before the last step (the other ping-pong buffer): in
+  /// one pass where the state lives, read back as a few numbers. Valid right after step() with
+  /// nothing written in between. Returns false where the backend has no such pass (the solver
+  /// then measures through read_state).
+  virtual bool step_signals(const StepParameters& parameters, unsigned features, bool velocities,
+                            double kinetic_damping, EnergySums& energy, VelocitySignals& v) {
+    (void)parameters, (void)features, (void)velocities, (void)kinetic_damping, (void)energy,
+        (void)v;
+    return false;
+  }
   /// Spring force on every node at the current state, µN (external loads and gravity excluded).
   virtual void spring_forces(const StepParameters& parameters, unsigned features,
                              std::vector<Vec3f>& forces) = 0;
@@ -87,6 +99,7 @@ struct BackendOptions {
   int cuda_steps_per_graph = 64;
   int cuda_planes_per_block = 0;
   int cuda_tile_rows = 0;
+  CudaLaunch cuda_launch = CudaLaunch::kAuto;
 };
 BackendOptions backend_options(const SolverConfig& config);
 

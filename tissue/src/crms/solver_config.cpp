@@ -53,6 +53,20 @@ const char* to_string(CpuInstructionSet isa) {
   return "?";
 }
 
+const char* to_string(CudaLaunch launch) {
+  switch (launch) {
+    case CudaLaunch::kAuto:
+      return "auto";
+    case CudaLaunch::kGraphs:
+      return "graphs";
+    case CudaLaunch::kPersistent:
+      return "persistent";
+    case CudaLaunch::kNodes:
+      return "nodes";
+  }
+  return "?";
+}
+
 void validate_solver_config(const SolverConfig& c) {
   const double g = std::sqrt(length_squared(c.gravity));
   require(std::isfinite(g) && g <= 1e7,

@@ -14,12 +14,6 @@ double magnitude(const EnergyReport& e) {
          std::fabs(e.load_nj);
 }
 
-/// Mass-weighted sums over the moving nodes (alive, not fixed).
-struct VelocitySums {
-  double at_limit = 0, moving = 0;  ///< node counts
-  double drag_power = 0;            ///< Σ m·k_sys·|v|³, nJ/s
-};
-
 }  // namespace
 
 const char* to_string(StabilityVerdict verdict) {
@@ -57,41 +51,14 @@ StepReport StabilityMonitor::step(Solver& solver, int n, double dt) {
     return report;
   }
   const bool measure_v = calls_++ % std::max(1, thresholds_.velocity_every) == 0;
-  // The call's last step alone: the velocities on both sides of it give the period-2 score.
-  std::vector<Vec3f> v0, v1;
-  if (!measure_v) {
-    report = solver.step(n, dt);
-  } else {
-    if (n > 1) report = solver.step(n - 1, dt);
-    if (!report.instability) {
-      v0 = solver.velocities();
-      const StepReport last = solver.step(1, dt);
-      report.steps_run += last.steps_run;
-      report.instability = last.instability;
-    }
-  }
-  const EnergyReport after = solver.energy();
-  if (measure_v) v1 = solver.velocities();
-  const Lattice& lattice = solver.lattice();
+  // The velocities on both sides of the call's last step give the period-2 score; the solver
+  // measures them where the state lives (on CUDA, without breaking the call's launch).
+  StepSignals signals;
+  report = solver.step_measured(n, dt, measure_v, signals);
+  const EnergyReport after = signals.energy;
   velocity_limit_ = solver.velocity_limit_mm_s(dt);
-  const double k_sys = solver.config().stability.kinetic_damping;
-  VelocitySums sums;
-  double vv = 0, v00 = 0, v11 = 0;
-  for (std::int64_t i = 0; measure_v && i < lattice.node_count(); ++i) {
-    if (!lattice.alive(i) || lattice.fixed(i)) continue;
-    const double m = lattice.mass(i);
-    const Vec3d b = to_double(v1[i]);
-    const double speed = std::sqrt(dot(b, b));
-    sums.moving += 1;
-    if (velocity_limit_ > 0 && speed >= 0.999 * velocity_limit_) sums.at_limit += 1;
-    sums.drag_power += m * k_sys * speed * speed * speed;
-    v11 += m * dot(b, b);
-    if (!v0.empty()) {
-      const Vec3d a = to_double(v0[i]);
-      vv += m * dot(a, b);
-      v00 += m * dot(a, a);
-    }
-  }
+  const VelocitySignals& sums = signals.velocity;
+  const double vv = signals.velocity.v0v1, v00 = signals.velocity.v0v0, v11 = signals.velocity.v1v1;
 
   StabilitySample s;
   s.step = solver.steps_done();

@@ -25,6 +25,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "tsf/common/vec3.h"
@@ -43,6 +44,10 @@ constexpr std::uint32_t kDirtyBlockSlots = 256;
 
 struct CouplerOptions {
   CouplerMode mode = CouplerMode::kTrilinear;
+  /// On CUDA, page-lock the host output arrays so that the changed blocks come back at the bus's
+  /// speed; false leaves them pageable (the driver stages every copy: several times slower; kept
+  /// for the benchmark's comparison).
+  bool page_locked_outputs = true;
 };
 
 /// What one rebinding pass did.
@@ -68,6 +73,8 @@ class Coupler {
 
   const CouplerOptions& options() const { return options_; }
   void set_mode(CouplerMode mode) { options_.mode = mode; }
+  /// CouplerOptions::page_locked_outputs (takes effect at the next couple()).
+  void set_page_locked_outputs(bool on);
 
   /// Binds every live vertex of `surface` (after build() or a reallocation). Multithreaded.
   RebindReport bind_all(const imt::ImtSurface& surface, const crms::Lattice& lattice);
@@ -153,7 +160,8 @@ class Coupler {
   std::vector<std::int32_t> scratch_old_cell_;
   std::vector<std::uint8_t> scratch_full_, scratch_single_;
   // CUDA: device mirror, slots whose binding changed since the last upload, full upload flag.
-  std::unique_ptr<CouplerDevice> device_;
+  std::unique_ptr<CouplerDevice> device_;  // after the output arrays: unregisters them first
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> download_ranges_;
   std::vector<std::uint32_t> pending_upload_;
   bool device_stale_ = true;
   std::uint32_t device_frame_capacity_ = 0;

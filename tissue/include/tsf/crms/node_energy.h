@@ -6,12 +6,15 @@
 //                  (elastic_energy in node_force.h: each spring and angle counted once)
 //   gravitational  V_n = −m_n·g·u_n (fixed nodes: 0; 0 at rest)
 //   position       x_n = origin + (i·hx, j·hy, k·hz) + u_n
+// and the stability monitor's velocity signals (stability_monitor.h), summed over the moving
+// nodes (alive, not fixed) from a node's velocity v0 before and v1 after a call's last step.
 #pragma once
 
 #include "tsf/common/hd.h"
 #include "tsf/common/vec3.h"
 #include "tsf/crms/node_force.h"
 #include "tsf/crms/node_state_view.h"
+#include "tsf/crms/velocity_signals.h"
 
 namespace tsf::crms {
 
@@ -45,6 +48,19 @@ TSF_HD_INLINE Vec3f node_position(const Vec3<R>& origin, const Vec3<R>& spacing,
   return {static_cast<float>(origin.x + static_cast<R>(i) * spacing.x + static_cast<R>(u.x)),
           static_cast<float>(origin.y + static_cast<R>(j) * spacing.y + static_cast<R>(u.y)),
           static_cast<float>(origin.z + static_cast<R>(k) * spacing.z + static_cast<R>(u.z))};
+}
+
+/// Adds one node (any node: only moving ones count) with mass m, g.
+TSF_HD_INLINE void add_velocity_signals(unsigned flags, double m, const Vec3d& v0, const Vec3d& v1,
+                                        double velocity_limit, double k_sys, VelocitySignals& s) {
+  if ((flags & (kAliveBit | kFixedBit)) != kAliveBit) return;
+  const double speed = crms_sqrt(dot(v1, v1));
+  s.moving += 1;
+  if (velocity_limit > 0 && speed >= 0.999 * velocity_limit) s.at_limit += 1;
+  s.drag_power += m * k_sys * speed * speed * speed;
+  s.v1v1 += m * dot(v1, v1);
+  s.v0v1 += m * dot(v0, v1);
+  s.v0v0 += m * dot(v0, v0);
 }
 
 }  // namespace tsf::crms

@@ -34,6 +34,7 @@
 #include "tsf/crms/snapshot_buffer.h"
 #include "tsf/crms/solver_config.h"
 #include "tsf/crms/stable_time_step.h"
+#include "tsf/crms/velocity_signals.h"
 #include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
@@ -64,6 +65,13 @@ struct EnergyReport {
   double gravitational_nj = 0;  ///< −Σ m·g·u (0 at rest)
   double load_nj = 0;           ///< −Σ F·u of the constant external forces (0 without loads)
   double total_nj() const { return kinetic_nj + elastic_nj + gravitational_nj + load_nj; }
+};
+
+/// What StabilityMonitor samples around a step call (stability_monitor.h).
+struct StepSignals {
+  EnergyReport energy;       ///< after the call
+  bool velocities = false;   ///< the velocity signals were measured
+  VelocitySignals velocity;  ///< v0 = the state before the call's last step, v1 after it
 };
 
 /// A spring by one end: node and face direction d (0..5 = −x,+x,−y,+y,−z,+z).
@@ -106,6 +114,11 @@ class Solver {
   /// Enqueues n steps without waiting (CUDA); on the CPU the same as step(). Instabilities are
   /// reported by the next synchronize().
   void step_async(int n, double dt);
+  /// step(n, dt), then the energy after it and, with `velocities`, the velocity signals. On CUDA
+  /// without effects one pass on the device measures them from the two state buffers and a few
+  /// numbers come back (the n steps stay one launch); elsewhere the call's last step is taken
+  /// alone and the velocities are copied to the host before and after it.
+  StepReport step_measured(int n, double dt, bool with_velocities, StepSignals& signals);
   StepReport synchronize();
   std::int64_t steps_done() const { return steps_done_; }
   const std::optional<Instability>& instability() const { return instability_; }
@@ -190,6 +203,11 @@ class Solver {
 
  private:
   StepParameters step_parameters(double dt) const;
+  /// −Σ F·u of the constant external loads, nJ (0 without loads; reads the state back).
+  double load_energy_nj() const;
+  /// Adds the velocity signals of every node (host copies of the velocities).
+  void measure_velocities(const std::vector<Vec3f>& v0, const std::vector<Vec3f>& v1, double dt,
+                          VelocitySignals& s) const;
   void refresh_flags(const std::vector<std::int64_t>& nodes);
   void step_implicit(int n, double dt, StepReport& report);
   Instability make_instability(std::int64_t node, std::int64_t step) const;

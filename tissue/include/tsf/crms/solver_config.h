@@ -43,6 +43,20 @@ enum class ForceEvaluation {
   /// kernels, kept as the reference the shared evaluation is tested and benchmarked against.
   kPerNode,
 };
+/// How the CUDA backend launches the steps of one Solver::step call (same physics; the symmetric
+/// form with the shared evaluation uses them, other forms use graphs).
+enum class CudaLaunch {
+  /// kNodes for lattices of up to 2^18 nodes of which up to 2^17 are alive (where a step is
+  /// bounded by latency, not arithmetic), graphs above.
+  kAuto,
+  /// CUDA graphs of cuda_steps_per_graph launches, one kernel per step over tiles of the lattice.
+  kGraphs,
+  /// One cooperative launch runs all the steps over the same tiles, a grid barrier between steps.
+  kPersistent,
+  /// One cooperative launch runs all the steps, each alive node's angles spread over three
+  /// threads (one per angle plane), two grid barriers per step (docs/crms.md "Small lattices").
+  kNodes,
+};
 /// Instruction set of the CPU kernels. kAuto takes the widest the processor has; naming one the
 /// processor lacks is an error.
 enum class CpuInstructionSet { kAuto, kBaseline, kAvx2, kAvx512 };
@@ -53,6 +67,7 @@ const char* to_string(AngularForm form);
 const char* to_string(AngularReactions reactions);
 const char* to_string(ForceEvaluation evaluation);
 const char* to_string(CpuInstructionSet isa);
+const char* to_string(CudaLaunch launch);
 
 struct StabilityControls {
   /// k_sys, 1/mm: speed-dependent drag a = −k_sys·|v|·v (node_update.h). Range [0, 1e3].
@@ -96,6 +111,8 @@ struct SolverConfig {
   /// else 4 or 8). Tuning knobs for benchmarks; results do not depend on them.
   int cuda_planes_per_block = 0;
   int cuda_tile_rows = 0;
+  /// CUDA: how the steps of a call are launched (see CudaLaunch). A tuning and benchmark knob.
+  CudaLaunch cuda_launch = CudaLaunch::kAuto;
   /// Implicit Euler: Newton iterations per step (1 = linearised backward Euler) and the relative
   /// residual at which they stop early. Ranges [1, 50] and [0, 1).
   int implicit_newton_iterations = 8;
