@@ -58,6 +58,8 @@ struct LiveState {
   std::vector<bool> was_held;
   std::vector<Vec3d> force_sum;  ///< per binding, over the instances of this frame
   double behind_s = 0;           ///< how far the simulation ran behind the wall clock, at most
+  double time_s = 0;             ///< the frame's session time
+  std::vector<std::size_t> served_triangles;  ///< per instance, of the last surface served
 };
 
 /// Before each instance's advance: wait for the wall clock (frame start = session time), then
@@ -73,14 +75,15 @@ std::vector<EditRecord> drive_tools(LiveState& s, double t, std::size_t instance
     }
   }
   if (instance == 0) {
-    const auto due = s.start + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(t));
+    const auto due =
+        s.start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t));
     const auto now = Clock::now();
     if (now < due)
       std::this_thread::sleep_until(due);
     else
       s.behind_s = std::max(s.behind_s, std::chrono::duration<double>(now - due).count());
   }
+  s.time_s = t;
   if (s.frames.size() <= instance) s.frames.resize(instance + 1);
   s.frames[instance] = frame;
   s.drives = s.session->drives(frame, t);
@@ -106,9 +109,21 @@ std::vector<EditRecord> drive_tools(LiveState& s, double t, std::size_t instance
 void serve_frame(LiveState& s, std::size_t instance, const interaction::TissueModel& model,
                  bool surface_due) {
   const VolumeGeometry& frame = s.frames.at(instance);
-  if (surface_due)
-    s.session->publish_surface(mesh_in_patient_frame(model.deformed_mesh(), frame),
+  if (surface_due) {
+    const imt::SurfaceMesh& mesh = model.deformed_mesh();
+    s.session->publish_surface(mesh_in_patient_frame(mesh, frame),
                                s.scene->multi_instance ? s.scene->instances[instance].name : "");
+    // A cut or an ablation reaches the served surface: say so (a peer's model changes now).
+    if (s.served_triangles.size() <= instance) s.served_triangles.resize(instance + 1, 0);
+    std::size_t& before = s.served_triangles[instance];
+    if (before != 0 && before != mesh.triangles.size() && !s.quiet) {
+      std::printf("tsf link: %.3f s: served surface %s%zu -> %zu triangles\n", s.time_s,
+                  s.scene->multi_instance ? (s.scene->instances[instance].name + ": ").c_str() : "",
+                  before, mesh.triangles.size());
+      std::fflush(stdout);
+    }
+    before = mesh.triangles.size();
+  }
   if (instance == 0) s.force_sum.assign(s.drives.size(), Vec3d{0, 0, 0});
   for (const link::LinkSession::Drive& d : s.drives)
     if (d.held) s.force_sum[d.binding] += model.contact().force_un;
@@ -121,10 +136,10 @@ void run_link(const LinkArguments& args) {
   Scene scene = read_scene(args.scene);
   check_scene_for_command(scene, SceneCommand::kLink);
   override_backend(scene, args.backend);
-  const OutputFolder folder = OutputFolder::prepare(
-      args.out.empty() ? std::filesystem::path("out") / (scene.name + "-link")
-                       : std::filesystem::path(args.out),
-      args.force, "--out");
+  const OutputFolder folder =
+      OutputFolder::prepare(args.out.empty() ? std::filesystem::path("out") / (scene.name + "-link")
+                                             : std::filesystem::path(args.out),
+                            args.force, "--out");
   std::vector<link::LinkSession::NamedTool> tools;
   for (const SceneTool& t : scene.tools) tools.push_back({t.name, t.tool});
   // The link first (a port in use or a bad --igtl-tool is said before the slow model build).
@@ -166,8 +181,9 @@ void run_link(const LinkArguments& args) {
   json report = interaction_report_json(scene, result);
   json link = session.report_json(session_s);
   link["session_s"] = session_s;
-  link["stopped_by"] = result.interrupted ? "signal" : result.instability ? "instability"
-                                                                          : "--seconds";
+  link["stopped_by"] = result.interrupted   ? "signal"
+                       : result.instability ? "instability"
+                                            : "--seconds";
   link["simulated_s"] = static_cast<double>(result.frames) / scene.script.frame_rate_hz;
   link["max_behind_wall_clock_s"] = live.behind_s;
   report["link"] = link;

@@ -47,7 +47,9 @@ bool text_field(const std::uint8_t* p, std::size_t n, Allowed allowed, std::stri
 bool is_type_char(std::uint8_t c) {
   return (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
 }
-bool is_name_char(std::uint8_t c) { return c >= 0x20 && c < 0x7f; }
+bool is_name_char(std::uint8_t c) {
+  return c >= 0x20 && c < 0x7f;
+}
 
 bool starts_with(const std::string& s, const char* prefix) {
   return s.rfind(prefix, 0) == 0;
@@ -218,8 +220,8 @@ std::vector<std::uint8_t> pack_polydata(const imt::SurfaceMesh& mesh, const std:
   info.header.npolygons = static_cast<igtl_uint32>(mesh.triangles.size());
   info.header.size_polygons = static_cast<igtl_uint32>(polygons.size() * sizeof(igtl_uint32));
   // The codec reads the arrays only; it takes non-const pointers.
-  info.points = const_cast<igtl_float32*>(reinterpret_cast<const igtl_float32*>(
-      mesh.positions.data()));
+  info.points =
+      const_cast<igtl_float32*>(reinterpret_cast<const igtl_float32*>(mesh.positions.data()));
   info.polygons = polygons.empty() ? nullptr : polygons.data();
   static_assert(sizeof(Vec3f) == 3 * sizeof(igtl_float32), "Vec3f is three packed floats");
   if (!mesh.normals.empty() && mesh.normals.size() == mesh.positions.size())

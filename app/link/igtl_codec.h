@@ -31,15 +31,17 @@ WireFrame wire_frame_from_string(const std::string& text, const std::string& opt
 inline Vec3d lps_to_wire(const Vec3d& p, WireFrame f) {
   return f == WireFrame::kRas ? Vec3d{-p.x, -p.y, p.z} : p;
 }
-inline Vec3d wire_to_lps(const Vec3d& p, WireFrame f) { return lps_to_wire(p, f); }
+inline Vec3d wire_to_lps(const Vec3d& p, WireFrame f) {
+  return lps_to_wire(p, f);
+}
 
 constexpr std::size_t kHeaderSize = 58;
 constexpr std::size_t kDeviceNameSize = 20;  ///< device names longer than this are cut
 
 struct Header {
   std::uint16_t version = 1;
-  std::string type;    ///< "TRANSFORM", "GET_POLYDATA", …
-  std::string device;  ///< the device name ("Tracker", "StylusToReference")
+  std::string type;             ///< "TRANSFORM", "GET_POLYDATA", …
+  std::string device;           ///< the device name ("Tracker", "StylusToReference")
   std::uint64_t timestamp = 0;  ///< OpenIGTLink format: seconds << 32 | fraction of a second
   std::uint64_t body_size = 0;
   std::uint64_t crc = 0;
@@ -64,7 +66,7 @@ struct BodyPlan {
 
 /// Limits of what a peer may send (docs/live.md, "A peer that misbehaves").
 struct BodyLimits {
-  std::uint64_t max_read_bytes = 64 * 1024;           ///< a message tsf reads (TRANSFORM, STRING)
+  std::uint64_t max_read_bytes = 64 * 1024;             ///< a message tsf reads (TRANSFORM, STRING)
   std::uint64_t max_skip_bytes = 256ull * 1024 * 1024;  ///< a message tsf skips
 };
 

@@ -75,8 +75,10 @@ Endpoint parse_endpoint(const std::string& text, const std::string& option) {
   char* end = nullptr;
   const long p = std::strtol(port.c_str(), &end, 10);
   if (port.empty() || end == nullptr || *end != '\0' || p < 1 || p > 65535 || e.host.empty())
-    throw Error(option + ": expected HOST:PORT with a port in 1…65535 (e.g. 127.0.0.1:18944), "
-                         "got '" + text + "'");
+    throw Error(option +
+                ": expected HOST:PORT with a port in 1…65535 (e.g. 127.0.0.1:18944), "
+                "got '" +
+                text + "'");
   e.port = static_cast<int>(p);
   return e;
 }
@@ -86,16 +88,16 @@ struct LinkServer::Peer {
   int id = 0;
   int fd = -1;
   std::string address;
-  bool outgoing = false;      ///< we connected to it
-  std::size_t endpoint = 0;   ///< outgoing: index into options.connect
-  bool connecting = false;    ///< outgoing: connect() in progress
+  bool outgoing = false;     ///< we connected to it
+  std::size_t endpoint = 0;  ///< outgoing: index into options.connect
+  bool connecting = false;   ///< outgoing: connect() in progress
   Clock::time_point since = Clock::now();
   // Surface policy: streamed (listeners after the grace time, or after STT_POLYDATA), or sent
   // when asked (GET_POLYDATA).
   bool streaming = false;
-  bool asked = false;        ///< ever sent GET_POLYDATA or STT/STP: no automatic stream
-  int replies_owed = 0;      ///< GET_POLYDATA not yet answered
-  std::string requested;     ///< the device name of the last GET_POLYDATA
+  bool asked = false;     ///< ever sent GET_POLYDATA or STT/STP: no automatic stream
+  int replies_owed = 0;   ///< GET_POLYDATA not yet answered
+  std::string requested;  ///< the device name of the last GET_POLYDATA
   std::map<std::string, std::uint64_t> surface_version_sent;
   // Reading.
   std::uint8_t header_bytes[kHeaderSize];
@@ -354,8 +356,7 @@ void LinkServer::run() {
         if (p.in_body) {
           const std::uint64_t want = p.header.body_size - p.body_filled;
           const std::size_t take = static_cast<std::size_t>(std::min<std::uint64_t>(left, want));
-          if (p.action == BodyAction::kRead)
-            std::memcpy(p.body.data() + p.body_filled, at, take);
+          if (p.action == BodyAction::kRead) std::memcpy(p.body.data() + p.body_filled, at, take);
           p.body_filled += take;
           at += take;
           left -= take;
@@ -396,9 +397,7 @@ void LinkServer::run() {
       count([n](LinkStatistics& st) { st.bytes_out += n; });
       if (o.offset == o.bytes->size()) {
         const bool surface = o.surface;
-        count([surface](LinkStatistics& st) {
-          ++(surface ? st.polydata_sent : st.sensors_sent);
-        });
+        count([surface](LinkStatistics& st) { ++(surface ? st.polydata_sent : st.sensors_sent); });
         p.current.reset();
       }
     }
@@ -434,11 +433,10 @@ void LinkServer::run() {
       while (true) {
         sockaddr_in a;
         socklen_t len = sizeof a;
-        const int fd =
-            ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&a), &len, SOCK_CLOEXEC);
+        const int fd = ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&a), &len, SOCK_CLOEXEC);
         if (fd < 0) break;
-        const long live = std::count_if(peers.begin(), peers.end(),
-                                        [](const auto& p) { return p->fd >= 0; });
+        const long live =
+            std::count_if(peers.begin(), peers.end(), [](const auto& p) { return p->fd >= 0; });
         if (live >= options_.max_peers) {
           ::close(fd);
           count([](LinkStatistics& st) { ++st.peers_refused; });

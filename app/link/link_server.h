@@ -72,7 +72,7 @@ struct LinkStatistics {
   std::int64_t sensors_sent = 0, sensors_dropped = 0;
   std::int64_t bytes_in = 0, bytes_out = 0;
   std::int64_t surfaces_packed = 0;
-  double pack_s = 0;                   ///< time spent packing POLYDATA
+  double pack_s = 0;                    ///< time spent packing POLYDATA
   std::size_t last_polydata_bytes = 0;  ///< size of the newest POLYDATA message
 };
 

@@ -17,8 +17,8 @@ constexpr std::size_t kTraceLength = 2000;  // applied poses kept for the report
 
 bool valid_name(const std::string& s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](unsigned char c) {
-           return std::isprint(c) && c != ':' && c != '=' && c != ',';
-         });
+    return std::isprint(c) && c != ':' && c != '=' && c != ',';
+  });
 }
 
 Vec3d column(const Matrix4& m, int c) {
@@ -111,8 +111,9 @@ Matrix4 read_registration(const std::string& file) {
     char* end = nullptr;
     const double x = std::strtod(word.c_str(), &end);
     if (end == nullptr || *end != '\0' || !std::isfinite(x))
-      throw Error(file + ": '" + word + "' is not a number (expected 12 or 16 numbers: a 4x4 "
-                                        "matrix, rows, mm)");
+      throw Error(file + ": '" + word +
+                  "' is not a number (expected 12 or 16 numbers: a 4x4 "
+                  "matrix, rows, mm)");
     v.push_back(x);
   }
   if (v.size() != 12 && v.size() != 16)
@@ -172,6 +173,18 @@ ToolPose patient_pose_to_tissue(const ToolPose& lps, const VolumeGeometry& frame
   return t;
 }
 
+std::optional<ToolPose> wire_matrix_to_patient_pose(const Matrix4& wire, WireFrame frame,
+                                                    const std::optional<Matrix4>& registration) {
+  Matrix4 m = registration ? multiply(*registration, wire) : wire;
+  // Wire → LPS: the diagonal F on the left (F·M; F = F⁻¹).
+  const Vec3d sign = frame_signs(frame);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) m[r][c] *= sign[r];
+  const std::optional<Rotation> rot = rotation_of(m);
+  if (!rot) return std::nullopt;
+  return ToolPose{{m[0][3], m[1][3], m[2][3]}, *rot};
+}
+
 LinkSession::LinkSession(const LinkOptions& options, std::vector<NamedTool> tools,
                          const std::string& surface_name)
     : options_(options), tools_(std::move(tools)) {
@@ -186,8 +199,8 @@ LinkSession::LinkSession(const LinkOptions& options, std::vector<NamedTool> tool
     if (it == tools_.end()) {
       std::string names;
       for (const NamedTool& t : tools_) names += (names.empty() ? "" : ", ") + t.name;
-      throw Error("--igtl-tool: the scene has no tool '" + b.tool + "' (its tools: " +
-                  (names.empty() ? "none" : names) + ")");
+      throw Error("--igtl-tool: the scene has no tool '" + b.tool +
+                  "' (its tools: " + (names.empty() ? "none" : names) + ")");
     }
     if (!it->tool.supports(b.mode))
       throw Error("--igtl-tool: tool '" + b.tool + "' cannot " + interaction::to_string(b.mode) +
@@ -210,14 +223,14 @@ LinkSession::LinkSession(const LinkOptions& options, std::vector<NamedTool> tool
 
 std::vector<LinkSession::Drive> LinkSession::drives(const VolumeGeometry& frame, double time_s) {
   std::vector<Drive> out;
-  const Vec3d sign = frame_signs(frame_);
   for (std::size_t b = 0; b < bindings_.size(); ++b) {
     BindingState& st = state_[b];
     Drive d;
     d.binding = b;
     d.tool = binding_tool_[b];
     d.mode = bindings_[b].mode;
-    if (const auto text = server_->text(bindings_[b].device); text && text->second != st.mode_seen) {
+    if (const auto text = server_->text(bindings_[b].device);
+        text && text->second != st.mode_seen) {
       st.mode_seen = text->second;
       try {
         st.mode_override = interaction::tool_mode_from_string(text->first);
@@ -229,24 +242,20 @@ std::vector<LinkSession::Drive> LinkSession::drives(const VolumeGeometry& frame,
     if (st.mode_override) d.mode = *st.mode_override;
     const std::optional<PoseUpdate> u = server_->pose(bindings_[b].device);
     if (u) {
-      Matrix4 m = registration_ ? multiply(*registration_, u->matrix) : u->matrix;
-      // Wire → LPS: the diagonal F on the left (F·M; F = F⁻¹).
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c) m[r][c] *= sign[r];
-      const std::optional<Rotation> rot = rotation_of(m);
-      if (!rot) {
+      const std::optional<ToolPose> lps =
+          wire_matrix_to_patient_pose(u->matrix, frame_, registration_);
+      if (!lps) {
         if (u->count != st.seen) ++st.rejected;
         st.seen = u->count;
       } else {
         d.held = true;
         d.fresh = u->count != st.seen;
-        ToolPose lps{{m[0][3], m[1][3], m[2][3]}, *rot};
-        d.pose = patient_pose_to_tissue(lps, frame);
+        d.pose = patient_pose_to_tissue(*lps, frame);
         if (d.fresh) {
           st.seen = u->count;
           st.stamp = u->timestamp;
           ++st.applied;
-          st.trace.push_back({time_s, lps.position.x, lps.position.y, lps.position.z,
+          st.trace.push_back({time_s, lps->position.x, lps->position.y, lps->position.z,
                               static_cast<double>(u->count)});
           if (st.trace.size() > kTraceLength) st.trace.pop_front();
         }
@@ -291,8 +300,8 @@ std::string LinkSession::describe() const {
     s = "listening on " + options_.bind + ":" + std::to_string(server_->port());
   for (const std::string& c : options_.connect)
     s += (s.empty() ? "connecting to " : ", connecting to ") + c;
-  s += std::string(" (coordinates ") + (frame_ == WireFrame::kRas ? "RAS" : "LPS") +
-       ", surface '" + surface_name_ + "'";
+  s += std::string(" (coordinates ") + (frame_ == WireFrame::kRas ? "RAS" : "LPS") + ", surface '" +
+       surface_name_ + "'";
   if (registration_) s += ", registration " + options_.registration;
   s += "); tools:";
   if (bindings_.empty()) s += " none";
@@ -319,8 +328,8 @@ json LinkSession::report_json(double session_s) const {
   json connect = json::array();
   for (const std::string& c : options_.connect) connect.push_back(c);
   return {
-      {"frame_on_wire", frame_ == WireFrame::kRas ? "RAS (3D Slicer's scene), mm"
-                                                  : "LPS (patient), mm"},
+      {"frame_on_wire",
+       frame_ == WireFrame::kRas ? "RAS (3D Slicer's scene), mm" : "LPS (patient), mm"},
       {"trace_frame", "patient (LPS), mm"},
       {"listen", server_->port() >= 0 ? json(options_.bind + ":" + std::to_string(server_->port()))
                                       : json(nullptr)},

@@ -33,14 +33,14 @@ namespace tsf::link {
 
 /// The command-line options of a live link (the same names on every command that has one).
 struct LinkOptions {
-  int port = -1;               ///< --igtl-port; −1: do not listen
+  int port = -1;  ///< --igtl-port; −1: do not listen
   std::string bind = "127.0.0.1";
   std::vector<std::string> connect;  ///< --igtl-connect HOST:PORT
   std::vector<std::string> tools;    ///< --igtl-tool TOOL[=DEVICE][:MODE]
   std::string frame = "ras";
-  double rate_hz = 30.0;        ///< POLYDATA per second at most
-  std::string registration;     ///< --igtl-registration FILE
-  std::string name;             ///< --igtl-name: the POLYDATA device name (default: the scene's)
+  double rate_hz = 30.0;     ///< POLYDATA per second at most
+  std::string registration;  ///< --igtl-registration FILE
+  std::string name;          ///< --igtl-name: the POLYDATA device name (default: the scene's)
 
   bool enabled() const { return port >= 0 || !connect.empty(); }
 };
@@ -72,6 +72,11 @@ std::optional<Rotation> rotation_of(const Matrix4& m);
 /// A pose in patient LPS → the tissue space of `frame`, and a tissue-space direction → LPS.
 ToolPose patient_pose_to_tissue(const ToolPose& lps, const VolumeGeometry& frame);
 
+/// A received TRANSFORM (the wire frame; first mapped by `registration`, tracker → wire, when
+/// given) as a pose in patient LPS; empty when its 3×3 part is not a rotation.
+std::optional<ToolPose> wire_matrix_to_patient_pose(const Matrix4& wire, WireFrame frame,
+                                                    const std::optional<Matrix4>& registration);
+
 class LinkSession {
  public:
   struct NamedTool {
@@ -89,8 +94,8 @@ class LinkSession {
     std::size_t tool = 0;     ///< into the tools given
     ToolPose pose;            ///< tissue space of the frame asked for
     interaction::ToolMode mode = interaction::ToolMode::kPress;
-    bool held = false;        ///< false: no pose (none yet, or its peer left): lift the tool
-    bool fresh = false;       ///< a TRANSFORM arrived since the previous frame
+    bool held = false;   ///< false: no pose (none yet, or its peer left): lift the tool
+    bool fresh = false;  ///< a TRANSFORM arrived since the previous frame
   };
   /// Every binding's state now, the poses in the tissue space of `frame`. Call once per frame
   /// (the simulation thread); `time_s` is the session's time for the trace.

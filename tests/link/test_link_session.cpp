@@ -1,0 +1,205 @@
+// The live link's session and device (app/link/link_session.h, igtl_device.h): which tool follows
+// which TRANSFORM, the frames (wire RAS or LPS → patient LPS → tissue space), the registration,
+// and the device a haptic loop reads, driven by the OpenIGTLink library's own client.
+#include <gtest/gtest.h>
+
+#include <igtlClientSocket.h>
+#include <igtlMessageHeader.h>
+#include <igtlSensorMessage.h>
+#include <igtlTransformMessage.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <thread>
+
+#include "link/igtl_device.h"
+#include "link/link_session.h"
+#include "tsf/common/error.h"
+
+namespace tsf::link {
+namespace {
+
+template <typename F>
+bool eventually(F done) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (std::chrono::steady_clock::now() < until) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return done();
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(LinkSession, ToolBindingReadsToolDeviceAndMode) {
+  const ToolBinding b = parse_tool_binding("wand=StylusTipToReference:ablate");
+  EXPECT_EQ(b.tool, "wand");
+  EXPECT_EQ(b.device, "StylusTipToReference");
+  EXPECT_EQ(b.mode, interaction::ToolMode::kAblate);
+  const ToolBinding plain = parse_tool_binding("ball");
+  EXPECT_EQ(plain.device, "ball");
+  EXPECT_EQ(plain.mode, interaction::ToolMode::kPress);
+}
+
+TEST(LinkSession, BadToolBindingNamesTheOptionAndWhatIsExpected) {
+  EXPECT_NE(error_of([] { parse_tool_binding("ball:squeeze"); }).find("mode 'squeeze'"),
+            std::string::npos);
+  EXPECT_NE(error_of([] { parse_tool_binding("=Tracker"); }).find("TOOL[=DEVICE][:MODE]"),
+            std::string::npos);
+  EXPECT_NE(error_of([] {
+              parse_tool_binding("ball=ANameLongerThanTwentyChars");
+            }).find("longer than 20"),
+            std::string::npos);
+}
+
+TEST(LinkSession, UnknownSceneToolIsRefusedListingTheScenesTools) {
+  LinkOptions o;
+  o.port = 0;
+  o.tools = {"scalpel=Tracker"};
+  interaction::Tool ball;
+  const std::string e = error_of([&] { LinkSession s(o, {{"ball", ball}}, "block"); });
+  EXPECT_NE(e.find("no tool 'scalpel'"), std::string::npos) << e;
+  EXPECT_NE(e.find("ball"), std::string::npos) << e;
+}
+
+TEST(LinkSession, RasTransformBecomesThePatientPoseWithXAndYNegated) {
+  Matrix4 m = identity_matrix();
+  m[0][3] = 10;
+  m[1][3] = -20;
+  m[2][3] = 30;
+  const auto ras = wire_matrix_to_patient_pose(m, WireFrame::kRas, std::nullopt);
+  ASSERT_TRUE(ras);
+  EXPECT_EQ(ras->position, (Vec3d{-10, 20, 30}));
+  // The identity rotation in RAS is a half turn about S in LPS: x and y flip, z stays.
+  EXPECT_NEAR(length(ras->orientation.apply({1, 0, 0}) - Vec3d{-1, 0, 0}), 0, 1e-12);
+  EXPECT_NEAR(length(ras->orientation.apply({0, 0, 1}) - Vec3d{0, 0, 1}), 0, 1e-12);
+  const auto lps = wire_matrix_to_patient_pose(m, WireFrame::kLps, std::nullopt);
+  ASSERT_TRUE(lps);
+  EXPECT_EQ(lps->position, (Vec3d{10, -20, 30}));
+}
+
+TEST(LinkSession, RegistrationIsAppliedBeforeTheWireFrame) {
+  Matrix4 reg = identity_matrix();  // tracker → wire: a quarter turn about z and a shift
+  reg[0][0] = 0;
+  reg[0][1] = -1;
+  reg[1][0] = 1;
+  reg[1][1] = 0;
+  reg[0][3] = 100;
+  Matrix4 m = identity_matrix();
+  m[0][3] = 5;  // 5 mm along the tracker's x
+  const auto p = wire_matrix_to_patient_pose(m, WireFrame::kLps, reg);
+  ASSERT_TRUE(p);
+  EXPECT_NEAR(p->position.x, 100, 1e-12);
+  EXPECT_NEAR(p->position.y, 5, 1e-12);
+}
+
+TEST(LinkSession, ScaledOrShearedMatrixIsNotAPose) {
+  Matrix4 m = identity_matrix();
+  m[0][0] = 2;
+  EXPECT_FALSE(wire_matrix_to_patient_pose(m, WireFrame::kRas, std::nullopt));
+  m = identity_matrix();
+  m[2][2] = -1;  // a mirror
+  EXPECT_FALSE(rotation_of(m));
+  const Rotation q = Rotation::about_axis({1, 2, 3}, 2.5);
+  Matrix4 r = identity_matrix();
+  for (int c = 0; c < 3; ++c) {
+    const Vec3d col = q.apply({c == 0 ? 1.0 : 0, c == 1 ? 1.0 : 0, c == 2 ? 1.0 : 0});
+    r[0][c] = col.x;
+    r[1][c] = col.y;
+    r[2][c] = col.z;
+  }
+  ASSERT_TRUE(rotation_of(r));
+  EXPECT_LT(rotation_of(r)->angle_to(q), 1e-9);
+}
+
+TEST(LinkSession, RegistrationFileThatIsNotRigidIsRefusedNamingTheFile) {
+  const auto file = std::filesystem::temp_directory_path() / "tsf-link-registration-test.txt";
+  {
+    std::ofstream out(file);
+    out << "2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";
+  }
+  const std::string e = error_of([&] { read_registration(file.string()); });
+  EXPECT_NE(e.find(file.string()), std::string::npos) << e;
+  EXPECT_NE(e.find("not a rotation"), std::string::npos) << e;
+  {
+    std::ofstream out(file);
+    out << "1 0 0 5\n0 1 0 6\n0 0 1 7\n";  // 12 numbers: the last row implied
+  }
+  const Matrix4 m = read_registration(file.string());
+  EXPECT_EQ(m[1][3], 6);
+  EXPECT_EQ(m[3][3], 1);
+  std::filesystem::remove(file);
+}
+
+TEST(LinkSession, PatientPoseGoesToTissueSpaceThroughTheVolumeDirection) {
+  VolumeGeometry g;
+  g.dims = {10, 10, 10};
+  g.origin = {5, 6, 7};
+  g.direction = {-1, 0, 0, 0, -1, 0, 0, 0, 1};  // a RAS-stored volume
+  ToolPose lps{{15, 6, 7}, Rotation{}};         // 10 mm along L from the origin
+  const ToolPose t = patient_pose_to_tissue(lps, g);
+  EXPECT_NEAR(t.position.x, -5, 1e-9);  // tissue x runs along R: 10 mm back
+  EXPECT_NEAR(t.position.y, 6, 1e-9);
+  EXPECT_NEAR(t.position.z, 7, 1e-9);
+  EXPECT_NEAR(length(g.tissue_to_patient(t.position) - lps.position), 0, 1e-9);
+}
+
+TEST(IgtlDevice, FollowsTheTrackerInPatientLpsAndSendsTheForceBackInNewtons) {
+  IgtlDeviceOptions o;
+  o.server.listen = {"127.0.0.1", 0};
+  o.server.log = [](const std::string&) {};
+  IgtlDevice device(o);
+  EXPECT_FALSE(device.read().valid);  // nothing received yet: the tool is lifted
+  igtl::ClientSocket::Pointer tracker = igtl::ClientSocket::New();
+  ASSERT_EQ(tracker->ConnectToServer("127.0.0.1", device.server().port()), 0);
+  tracker->SetReceiveTimeout(5000);
+  igtl::TransformMessage::Pointer msg = igtl::TransformMessage::New();
+  msg->SetDeviceName("Tracker");
+  igtl::Matrix4x4 m;
+  igtl::IdentityMatrix(m);
+  m[0][3] = 10;  // R 10, A 20, S 30
+  m[1][3] = 20;
+  m[2][3] = 30;
+  msg->SetMatrix(m);
+  msg->Pack();
+  tracker->Send(msg->GetPackPointer(), msg->GetPackSize());
+  ASSERT_TRUE(eventually([&] { return device.read().valid; }));
+  const haptics::DeviceState s = device.read();
+  EXPECT_NEAR(s.pose.position.x, -10, 1e-6);  // L = −R
+  EXPECT_NEAR(s.pose.position.y, -20, 1e-6);  // P = −A
+  EXPECT_NEAR(s.pose.position.z, 30, 1e-6);
+  EXPECT_EQ(device.poses_read(), 1u);
+  // A force of 2 N towards L (patient) is 2 N towards −R on the wire.
+  device.apply_force({2e6, 0, -1e6});
+  igtl::MessageHeader::Pointer h = igtl::MessageHeader::New();
+  h->InitPack();
+  ASSERT_EQ(tracker->Receive(h->GetPackPointer(), h->GetPackSize()), h->GetPackSize());
+  h->Unpack();
+  EXPECT_STREQ(h->GetDeviceType(), "SENSOR");
+  igtl::SensorMessage::Pointer sensor = igtl::SensorMessage::New();
+  sensor->SetMessageHeader(h);
+  sensor->AllocatePack();
+  ASSERT_EQ(tracker->Receive(sensor->GetPackBodyPointer(), sensor->GetPackBodySize()),
+            sensor->GetPackBodySize());
+  ASSERT_TRUE(sensor->Unpack(1) & igtl::MessageHeader::UNPACK_BODY);
+  EXPECT_NEAR(sensor->GetValue(0), -2.0, 1e-12);
+  EXPECT_NEAR(sensor->GetValue(1), 0.0, 1e-12);
+  EXPECT_NEAR(sensor->GetValue(2), -1.0, 1e-12);
+  // The tracker leaves: the device is no longer valid (the loop lifts the tool).
+  tracker->CloseSocket();
+  EXPECT_TRUE(eventually([&] { return !device.read().valid; }));
+}
+
+}  // namespace
+}  // namespace tsf::link
