@@ -6,8 +6,8 @@
 // scene's outputs and link-report.json.
 //
 //   tsf link scenes/link-block.yaml                        # Slicer: connect a client to :18944
-//   tsf link scenes/sinus.yaml --igtl-tool wand=StylusTipToReference:ablate \
-//       --igtl-connect 127.0.0.1:18944                     # a PlusServer's stylus drives the wand
+//   tsf link scenes/cut-cranium.yaml --igtl-tool wand=StylusTipToReference:ablate
+//            --igtl-connect 127.0.0.1:18944 --igtl-port -1  # a PlusServer's stylus drives the wand
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -140,6 +140,10 @@ void run_link(const LinkArguments& args) {
       OutputFolder::prepare(args.out.empty() ? std::filesystem::path("out") / (scene.name + "-link")
                                              : std::filesystem::path(args.out),
                             args.force, "--out");
+  if (!args.link.enabled())
+    throw Error(
+        "--igtl-port -1 and no --igtl-connect: nothing to link (listen on a port, or "
+        "connect to a server with --igtl-connect HOST:PORT)");
   std::vector<link::LinkSession::NamedTool> tools;
   for (const SceneTool& t : scene.tools) tools.push_back({t.name, t.tool});
   // The link first (a port in use or a bad --igtl-tool is said before the slow model build).

@@ -51,10 +51,6 @@ bool is_name_char(std::uint8_t c) {
   return c >= 0x20 && c < 0x7f;
 }
 
-bool starts_with(const std::string& s, const char* prefix) {
-  return s.rfind(prefix, 0) == 0;
-}
-
 /// The types tsf reads: what it acts on.
 bool read_type(const std::string& t) {
   return t == "TRANSFORM" || t == "STRING" || t == "GET_POLYDATA" || t == "STT_POLYDATA" ||
@@ -67,8 +63,10 @@ void write_header(const std::string& type, const std::string& device, std::uint6
   igtl_header h;
   std::memset(&h, 0, sizeof h);
   h.version = 1;
-  std::strncpy(h.name, type.c_str(), IGTL_HEADER_TYPE_SIZE);
-  std::strncpy(h.device_name, device.c_str(), IGTL_HEADER_NAME_SIZE);
+  // NUL-padded, not NUL-terminated at full length (OpenIGTLink's fields).
+  std::memcpy(h.name, type.data(), std::min<std::size_t>(type.size(), IGTL_HEADER_TYPE_SIZE));
+  std::memcpy(h.device_name, device.data(),
+              std::min<std::size_t>(device.size(), IGTL_HEADER_NAME_SIZE));
   h.timestamp = timestamp;
   h.body_size = body_size;
   h.crc = crc64(const_cast<unsigned char*>(body), body_size, 0);

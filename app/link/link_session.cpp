@@ -38,11 +38,11 @@ void add_link_options(CLI::App& sub, LinkOptions& o, int default_port) {
   sub.add_option("--igtl-port", o.port,
                  default_port >= 0
                      ? "Serve OpenIGTLink on this TCP port (3D Slicer's default is 18944; 0: any "
-                       "free port, printed)"
+                       "free port, printed; -1: do not listen, only --igtl-connect)"
                      : "Serve OpenIGTLink on this TCP port (18944 is 3D Slicer's default; 0: any "
                        "free port, printed): the surface out as POLYDATA, tool poses in as "
                        "TRANSFORM, forces out as SENSOR")
-      ->check(CLI::Range(0, 65535))
+      ->check(CLI::Range(-1, 65535))
       ->group(g);
   sub.add_option("--igtl-bind", o.bind,
                  "Address to listen on (default 127.0.0.1: this machine only; 0.0.0.0: every "

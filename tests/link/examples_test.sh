@@ -131,12 +131,21 @@ def replies(path):
     for line in open(path):
         line = line.strip()
         if line.startswith("========== PolyData Contents"):
-            cur = {"points": [], "cells": 0}
+            cur = {"points": [], "cells": 0, "triangles": [], "normals": []}
+            attribute = ""
             out.append(cur)
+        elif cur is not None and line.startswith("Name = "):
+            attribute = line[len("Name = "):]
+        elif cur is not None and line.startswith("data[") and attribute == "Normals":
+            v = line.split("=", 1)[1].strip().strip("()").split(",")
+            cur["normals"].append(tuple(float(c) for c in v))
         elif cur is not None and line.startswith("point["):
             v = line.split("=", 1)[1].strip().strip("()").split(",")
             cur["points"].append(tuple(float(c) for c in v))
         elif cur is not None and line.startswith("cell["):
+            # The example prints a cell's first index twice: "(a, a, b, c)".
+            v = [int(c) for c in line.split("=", 1)[1].strip().strip("()").split(",")]
+            cur["triangles"].append(tuple(v[-3:]))
             cur["cells"] += 1
     return out
 
@@ -166,7 +175,7 @@ def read_ply(path):
         elif w[0] == "property":
             elements[-1][2].append(w[1:])
     at = end
-    verts, faces = [], 0
+    verts, faces = [], []
     for name, count, props in elements:
         if name == "vertex":
             fmt = "<" + "".join(sizes[p[0]] for p in props)
@@ -182,14 +191,17 @@ def read_ply(path):
             cnt, idx = sizes[p[1]], sizes[p[2]]
             for i in range(count):
                 n = struct.unpack_from("<" + cnt, data, at)[0]
-                at += struct.calcsize(cnt) + n * struct.calcsize(idx)
-            faces = count
+                at += struct.calcsize(cnt)
+                faces.append(struct.unpack_from("<" + idx * n, data, at))
+                at += n * struct.calcsize(idx)
     return verts, faces
 
 verts, faces = read_ply("session/final.ply")
-if faces != last["cells"] or len(verts) != len(last["points"]):
+if len(faces) != last["cells"] or len(verts) != len(last["points"]):
     fail("the last POLYDATA (%d points, %d triangles) is not the exported mesh (%d, %d)"
-         % (len(last["points"]), last["cells"], len(verts), faces))
+         % (len(last["points"]), last["cells"], len(verts), len(faces)))
+if [tuple(f) for f in faces] != last["triangles"]:
+    fail("the last POLYDATA's triangles are not the exported mesh's")
 worst = 0.0
 for (x, y, z), (r, a, s) in zip(verts, last["points"]):
     worst = max(worst, abs(x + r), abs(y + a), abs(z - s))
@@ -197,6 +209,19 @@ print("last POLYDATA vs exported final.ply: %d points, largest difference %.4f m
       % (len(verts), worst))
 if worst > 0.05:
     fail("the last POLYDATA differs from the exported mesh by %.4f mm" % worst)
+# The surfaces as received (RAS, mm), for a picture (docs/live.md).
+for name, reply in (("received-before.ply", first), ("received-after.ply", last)):
+    with open(name, "w") as out:
+        out.write("ply\nformat ascii 1.0\ncomment OpenIGTLink POLYDATA as received, RAS mm\n")
+        out.write("element vertex %d\nproperty float x\nproperty float y\nproperty float z\n" % len(reply["points"]))
+        out.write("property float nx\nproperty float ny\nproperty float nz\n")
+        out.write("element face %d\nproperty list uchar int vertex_indices\nend_header\n" % len(reply["triangles"]))
+        if len(reply["normals"]) != len(reply["points"]):
+            fail("a POLYDATA without its 'Normals' point attribute")
+        for p, n in zip(reply["points"], reply["normals"]):
+            out.write("%g %g %g %g %g %g\n" % (p + n))
+        for t in reply["triangles"]:
+            out.write("3 %d %d %d\n" % t)
 print("surface: rate %.1f/s, %d bytes per POLYDATA" % (link["surface"]["rate_hz"], link["surface"]["message_bytes"]))
 EOF
 echo "PASS"
