@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstring>
 #include <deque>
+#include <set>
 
 #include "tsf/common/error.h"
 
@@ -116,7 +117,7 @@ struct LinkServer::Peer {
   std::optional<Out> current;
   std::deque<Bytes> control;
   std::size_t control_bytes = 0;
-  std::map<std::string, Bytes> surface_next;  ///< per device, the newest not yet started
+  std::set<std::string> surface_next;  ///< devices whose newest surface it is owed
   bool wants_write() const {
     return current.has_value() || !control.empty() || !surface_next.empty();
   }
@@ -217,9 +218,12 @@ void LinkServer::run() {
   // Outgoing endpoints: when each may be tried again, and whether its last attempt was said.
   std::vector<Clock::time_point> retry_at(options_.connect.size(), Clock::now());
   std::vector<bool> said_down(options_.connect.size(), false);
-  // The newest packed surface of each device and its version.
+  // The newest surface of each device and its version, packed when a peer first takes it (a
+  // surface no peer can take now costs nothing).
   struct Served {
-    Bytes bytes;
+    std::shared_ptr<const imt::SurfaceMesh> mesh;
+    std::uint64_t timestamp = 0;
+    Bytes bytes;  ///< POLYDATA of `mesh`; null until packed
     std::uint64_t version = 0;
   };
   std::map<std::string, Served> served;
@@ -249,10 +253,24 @@ void LinkServer::run() {
     return true;
   };
   auto offer_surface = [&](Peer& p, const std::string& device, const Served& s) {
-    Bytes& slot = p.surface_next[device];
-    if (slot) count([](LinkStatistics& st) { ++st.polydata_skipped; });
-    slot = s.bytes;
+    if (!p.surface_next.insert(device).second)
+      count([](LinkStatistics& st) { ++st.polydata_skipped; });
     p.surface_version_sent[device] = s.version;
+  };
+  auto packed = [&](Served& sv, const std::string& device) {
+    if (!sv.bytes) {
+      const auto t0 = Clock::now();
+      sv.bytes = std::make_shared<const std::vector<std::uint8_t>>(
+          pack_polydata(*sv.mesh, device, sv.timestamp));
+      const double took = seconds_since(t0);
+      const std::size_t size = sv.bytes->size();
+      count([took, size](LinkStatistics& st) {
+        ++st.surfaces_packed;
+        st.pack_s += took;
+        st.last_polydata_bytes = size;
+      });
+    }
+    return sv.bytes;
   };
 
   // One message read whole: act on it.
@@ -379,8 +397,11 @@ void LinkServer::run() {
           p.current = Peer::Out{std::move(p.control.front()), 0, false};
           p.control.pop_front();
         } else if (!p.surface_next.empty()) {
-          p.current = Peer::Out{std::move(p.surface_next.begin()->second), 0, true};
+          const std::string device = *p.surface_next.begin();
           p.surface_next.erase(p.surface_next.begin());
+          Served& sv = served.at(device);
+          p.current = Peer::Out{packed(sv, device), 0, true};
+          p.surface_version_sent[device] = sv.version;  // the newest, maybe newer than offered
         } else {
           return true;
         }
@@ -524,19 +545,11 @@ void LinkServer::run() {
       for (const auto& [device, u] : poses_) owner[device] = u.peer;
     }
     for (auto& [device, s] : surfaces) {
-      const auto t0 = Clock::now();
-      auto bytes = std::make_shared<const std::vector<std::uint8_t>>(
-          pack_polydata(*s.mesh, device, s.timestamp));
-      const double took = seconds_since(t0);
       Served& sv = served[device];
-      sv.bytes = std::move(bytes);
+      sv.mesh = std::move(s.mesh);
+      sv.timestamp = s.timestamp;
+      sv.bytes.reset();
       ++sv.version;
-      const std::size_t size = sv.bytes->size();
-      count([took, size](LinkStatistics& st) {
-        ++st.surfaces_packed;
-        st.pack_s += took;
-        st.last_polydata_bytes = size;
-      });
     }
     for (const auto& [device, f] : forces) {
       const auto it = owner.find(device);

@@ -6,8 +6,9 @@
 //   simulation thread                       link thread (poll loop)
 //   pose("Tracker") → the newest TRANSFORM  reads peers: header checked, body sized by the
 //   publish_surface(name, mesh)             header only within limits, CRC checked
-//   send_force("Tracker", F, stamp)         packs the newest surface once, streams it to every
-//                                           listener, answers GET_POLYDATA
+//   send_force("Tracker", F, stamp)         streams the newest surface to every listener and
+//                                           answers GET_POLYDATA; packs it once, when the first
+//                                           peer that can take it does (none: never packed)
 // Neither side waits for the other longer than a copy under a mutex. Memory is bounded: per peer
 // at most the message being sent, the next surface (shared, not copied) and max_queued_bytes of
 // small messages; a slow peer is sent the newest surface when it can take one (frames in between

@@ -232,11 +232,11 @@ std::vector<LinkSession::Drive> LinkSession::drives(const VolumeGeometry& frame,
     if (const auto text = server_->text(bindings_[b].device);
         text && text->second != st.mode_seen) {
       st.mode_seen = text->second;
+      // A mode the tool cannot do, or text that is no mode, is ignored (the mode stays).
       try {
-        st.mode_override = interaction::tool_mode_from_string(text->first);
-        if (!tools_[d.tool].tool.supports(*st.mode_override)) st.mode_override.reset();
+        const interaction::ToolMode m = interaction::tool_mode_from_string(text->first);
+        if (tools_[d.tool].tool.supports(m)) st.mode_override = m;
       } catch (const Error&) {
-        st.mode_override.reset();
       }
     }
     if (st.mode_override) d.mode = *st.mode_override;
@@ -343,6 +343,7 @@ json LinkSession::report_json(double session_s) const {
         {"vertices", last_vertices_},
         {"triangles", last_triangles_},
         {"message_bytes", st.last_polydata_bytes},
+        {"packed", st.surfaces_packed},
         {"pack_ms_mean", st.surfaces_packed > 0 ? 1e3 * st.pack_s / st.surfaces_packed : 0.0}}},
       {"tools", tools},
       {"peers",

@@ -128,6 +128,23 @@ TEST(LinkServer, GetPolydataIsAnsweredWithTheNewestSurface) {
   EXPECT_FLOAT_EQ(p[2], 2.0f);
 }
 
+TEST(LinkServer, SurfaceNoPeerTakesIsNeverPackedAndOneTakenIsPackedOnce) {
+  LinkServer server(quiet_any_port());
+  for (int i = 0; i < 5; ++i) server.publish_surface("tissue", triangle(1), timestamp_now());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(server.statistics().surfaces_packed, 0);
+  igtl::ClientSocket::Pointer a = connect_to(server);
+  igtl::ClientSocket::Pointer b = connect_to(server);
+  for (igtl::ClientSocket::Pointer* c : {&a, &b}) {
+    igtl::GetPolyDataMessage::Pointer get = igtl::GetPolyDataMessage::New();
+    get->SetDeviceName("tissue");
+    get->Pack();
+    (*c)->Send(get->GetPackPointer(), get->GetPackSize());
+    ASSERT_TRUE(receive_header(*c).IsNotNull());
+  }
+  EXPECT_EQ(server.statistics().surfaces_packed, 1);  // both got the same bytes
+}
+
 TEST(LinkServer, ListenerThatAsksNothingIsStreamedEverySurface) {
   LinkServer server(quiet_any_port());
   igtl::ClientSocket::Pointer viewer = connect_to(server);  // 3D Slicer: connects and listens

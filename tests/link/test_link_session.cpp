@@ -16,6 +16,8 @@
 #include <string>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "link/igtl_device.h"
 #include "link/link_session.h"
 #include "tsf/common/error.h"
@@ -153,6 +155,51 @@ TEST(LinkSession, PatientPoseGoesToTissueSpaceThroughTheVolumeDirection) {
   EXPECT_NEAR(t.position.y, 6, 1e-9);
   EXPECT_NEAR(t.position.z, 7, 1e-9);
   EXPECT_NEAR(length(g.tissue_to_patient(t.position) - lps.position), 0, 1e-9);
+}
+
+TEST(LinkSession, ToolFollowsItsTransformAndAStringSwitchesItsMode) {
+  LinkOptions o;
+  o.port = 0;
+  o.tools = {"ball=Tracker:press"};
+  interaction::Tool ball;  // a sphere: press and ablate
+  LinkSession session(o, {{"ball", ball}}, "block");
+  VolumeGeometry identity;
+  identity.dims = {10, 10, 10};
+  std::vector<LinkSession::Drive> d = session.drives(identity, 0.0);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_FALSE(d[0].held);  // no TRANSFORM yet: lifted
+  igtl::ClientSocket::Pointer tracker = igtl::ClientSocket::New();
+  ASSERT_EQ(tracker->ConnectToServer("127.0.0.1", session.server().port()), 0);
+  igtl::TransformMessage::Pointer msg = igtl::TransformMessage::New();
+  msg->SetDeviceName("Tracker");
+  igtl::Matrix4x4 m;
+  igtl::IdentityMatrix(m);
+  m[0][3] = -4;  // R −4 = L 4
+  msg->SetMatrix(m);
+  msg->Pack();
+  tracker->Send(msg->GetPackPointer(), msg->GetPackSize());
+  ASSERT_TRUE(eventually([&] { return session.server().pose("Tracker").has_value(); }));
+  d = session.drives(identity, 0.1);
+  ASSERT_TRUE(d[0].held);
+  EXPECT_TRUE(d[0].fresh);
+  EXPECT_NEAR(d[0].pose.position.x, 4, 1e-6);
+  EXPECT_EQ(d[0].mode, interaction::ToolMode::kPress);
+  EXPECT_FALSE(session.drives(identity, 0.2)[0].fresh);  // the same TRANSFORM again
+  // A pedal on the bridge: STRING "ablate" from the tool's device switches its mode; "cut" (a
+  // sphere cannot) is ignored.
+  for (const char* text : {"ablate", "cut"}) {
+    const std::vector<std::uint8_t> bytes = pack_string(text, "Tracker", 0);
+    tracker->Send(bytes.data(), static_cast<int>(bytes.size()));
+    const auto n = std::string(text) == "ablate" ? 1u : 2u;
+    ASSERT_TRUE(eventually([&] {
+      const auto t = session.server().text("Tracker");
+      return t && t->second == n;
+    }));
+    EXPECT_EQ(session.drives(identity, 0.3)[0].mode, interaction::ToolMode::kAblate) << text;
+  }
+  const nlohmann::json r = session.report_json(1.0);
+  EXPECT_EQ(r["tools"][0]["poses_applied"], 1);
+  EXPECT_EQ(r["tools"][0]["trace"][0][1], 4.0);  // patient LPS x
 }
 
 TEST(IgtlDevice, FollowsTheTrackerInPatientLpsAndSendsTheForceBackInNewtons) {
