@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstring>
 #include <memory>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
@@ -254,6 +255,63 @@ TEST(LinkServer, ConnectsToAServerAndTakesItsTransforms) {
   EXPECT_TRUE(eventually([&] { return server.pose("StylusTipToReference").has_value(); }));
   peer->CloseSocket();
   plus->CloseSocket();
+}
+
+}  // namespace
+}  // namespace tsf::link
+
+namespace tsf::link {
+namespace {
+
+// Hostile peers: random bytes, headers claiming huge bodies, truncated and bit-flipped messages,
+// each from its own connection that then drops. The server stays up, bounded, and a good tracker
+// afterwards is still heard (CI also runs this under ASan + UBSan).
+TEST(LinkServerRobustness, RandomTruncatedAndCorruptedMessagesNeverStopTheServer) {
+  LinkServer server(quiet_any_port());
+  std::mt19937 rng(20261126);
+  const std::vector<std::uint8_t> good = pack_transform(identity_matrix(), "Tracker", 0);
+  const std::vector<std::uint8_t> poly = pack_polydata(*triangle(0), "x", 0);
+  for (int round = 0; round < 150; ++round) {
+    igtl::ClientSocket::Pointer peer = igtl::ClientSocket::New();
+    ASSERT_EQ(peer->ConnectToServer("127.0.0.1", server.port()), 0);
+    std::vector<std::uint8_t> bytes;
+    switch (round % 5) {
+      case 0:  // random bytes
+        bytes.resize(std::uniform_int_distribution<int>(1, 400)(rng));
+        for (auto& b : bytes) b = static_cast<std::uint8_t>(rng());
+        break;
+      case 1: {  // a TRANSFORM header claiming a huge body
+        bytes.assign(good.begin(), good.begin() + kHeaderSize);
+        for (int i = 42; i < 50; ++i) bytes[i] = static_cast<std::uint8_t>(rng());
+        break;
+      }
+      case 2:  // a message cut short
+        bytes.assign(good.begin(),
+                     good.begin() + std::uniform_int_distribution<int>(1, good.size() - 1)(rng));
+        break;
+      case 3:  // bits flipped anywhere
+        bytes = good;
+        for (int k = 0; k < 3; ++k)
+          bytes[std::uniform_int_distribution<std::size_t>(0, bytes.size() - 1)(rng)] ^=
+              static_cast<std::uint8_t>(1u << (rng() % 8));
+        break;
+      default:  // a type tsf does not act on (skipped), then bits flipped in a TRANSFORM
+        bytes = poly;
+        bytes.insert(bytes.end(), good.begin(), good.end());
+        bytes[bytes.size() - 1 - rng() % 48] ^= 0x40;
+        break;
+    }
+    peer->Send(bytes.data(), static_cast<int>(bytes.size()));
+    peer->CloseSocket();
+  }
+  ASSERT_TRUE(eventually([&] { return server.statistics().peers_now == 0; }));
+  igtl::ClientSocket::Pointer tracker = connect_to(server);
+  send_transform(tracker, "Tracker", 3, 2, 1);
+  ASSERT_TRUE(eventually([&] {
+    const auto p = server.pose("Tracker");
+    return p && p->matrix[0][3] == 3;
+  }));
+  EXPECT_GT(server.statistics().peers_refused, 0);
 }
 
 }  // namespace
