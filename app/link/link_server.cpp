@@ -138,7 +138,7 @@ LinkServer::LinkServer(ServerOptions options) : options_(std::move(options)) {
     int one = 1;
     ::setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
     if (listen_fd_ < 0 || ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
-        ::listen(listen_fd_, 8) != 0) {
+        ::listen(listen_fd_, 64) != 0) {
       const std::string why = std::strerror(errno);
       if (listen_fd_ >= 0) ::close(listen_fd_);
       ::close(wake_fd_);

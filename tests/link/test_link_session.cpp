@@ -19,30 +19,16 @@
 #include <nlohmann/json.hpp>
 
 #include "link/igtl_device.h"
+#include "link/igtl_test_peer.h"
 #include "link/link_session.h"
+#include "support/error_of.h"
 #include "tsf/common/error.h"
 
 namespace tsf::link {
 namespace {
 
-template <typename F>
-bool eventually(F done) {
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (std::chrono::steady_clock::now() < until) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return done();
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::eventually;
+using tsf::test::error_of;
 
 TEST(LinkSession, ToolBindingReadsToolDeviceAndMode) {
   const ToolBinding b = parse_tool_binding("wand=StylusTipToReference:ablate");
@@ -170,14 +156,7 @@ TEST(LinkSession, ToolFollowsItsTransformAndAStringSwitchesItsMode) {
   EXPECT_FALSE(d[0].held);  // no TRANSFORM yet: lifted
   igtl::ClientSocket::Pointer tracker = igtl::ClientSocket::New();
   ASSERT_EQ(tracker->ConnectToServer("127.0.0.1", session.server().port()), 0);
-  igtl::TransformMessage::Pointer msg = igtl::TransformMessage::New();
-  msg->SetDeviceName("Tracker");
-  igtl::Matrix4x4 m;
-  igtl::IdentityMatrix(m);
-  m[0][3] = -4;  // R −4 = L 4
-  msg->SetMatrix(m);
-  msg->Pack();
-  tracker->Send(msg->GetPackPointer(), msg->GetPackSize());
+  test::send_transform(tracker, "Tracker", -4, 0, 0);  // R −4 = L 4
   ASSERT_TRUE(eventually([&] { return session.server().pose("Tracker").has_value(); }));
   d = session.drives(identity, 0.1);
   ASSERT_TRUE(d[0].held);
@@ -211,16 +190,7 @@ TEST(IgtlDevice, FollowsTheTrackerInPatientLpsAndSendsTheForceBackInNewtons) {
   igtl::ClientSocket::Pointer tracker = igtl::ClientSocket::New();
   ASSERT_EQ(tracker->ConnectToServer("127.0.0.1", device.server().port()), 0);
   tracker->SetReceiveTimeout(5000);
-  igtl::TransformMessage::Pointer msg = igtl::TransformMessage::New();
-  msg->SetDeviceName("Tracker");
-  igtl::Matrix4x4 m;
-  igtl::IdentityMatrix(m);
-  m[0][3] = 10;  // R 10, A 20, S 30
-  m[1][3] = 20;
-  m[2][3] = 30;
-  msg->SetMatrix(m);
-  msg->Pack();
-  tracker->Send(msg->GetPackPointer(), msg->GetPackSize());
+  test::send_transform(tracker, "Tracker", 10, 20, 30);  // R 10, A 20, S 30
   ASSERT_TRUE(eventually([&] { return device.read().valid; }));
   const haptics::DeviceState s = device.read();
   EXPECT_NEAR(s.pose.position.x, -10, 1e-6);  // L = −R
@@ -229,17 +199,11 @@ TEST(IgtlDevice, FollowsTheTrackerInPatientLpsAndSendsTheForceBackInNewtons) {
   EXPECT_EQ(device.poses_read(), 1u);
   // A force of 2 N towards L (patient) is 2 N towards −R on the wire.
   device.apply_force({2e6, 0, -1e6});
-  igtl::MessageHeader::Pointer h = igtl::MessageHeader::New();
-  h->InitPack();
-  ASSERT_EQ(tracker->Receive(h->GetPackPointer(), h->GetPackSize()), h->GetPackSize());
-  h->Unpack();
+  igtl::MessageHeader::Pointer h = test::receive_header(tracker);
+  ASSERT_TRUE(h.IsNotNull());
   EXPECT_STREQ(h->GetDeviceType(), "SENSOR");
-  igtl::SensorMessage::Pointer sensor = igtl::SensorMessage::New();
-  sensor->SetMessageHeader(h);
-  sensor->AllocatePack();
-  ASSERT_EQ(tracker->Receive(sensor->GetPackBodyPointer(), sensor->GetPackBodySize()),
-            sensor->GetPackBodySize());
-  ASSERT_TRUE(sensor->Unpack(1) & igtl::MessageHeader::UNPACK_BODY);
+  igtl::SensorMessage::Pointer sensor = test::receive_sensor(tracker, h);
+  ASSERT_TRUE(sensor.IsNotNull());
   EXPECT_NEAR(sensor->GetValue(0), -2.0, 1e-12);
   EXPECT_NEAR(sensor->GetValue(1), 0.0, 1e-12);
   EXPECT_NEAR(sensor->GetValue(2), -1.0, 1e-12);
