@@ -235,7 +235,7 @@ void add_link_command(CLI::App& app) {
   sub->add_option("--backend", args->backend, "Override the scene's backend: cpu, cuda or auto")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   sub->add_flag("--quiet,-q", args->quiet, "No summary on the terminal");
-  link::add_link_options(*sub, args->link, 18944);
+  link::add_link_options(*sub, args->link, 18944, true);
   sub->callback([args] { run_link(*args); });
 }
 

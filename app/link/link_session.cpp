@@ -32,31 +32,31 @@ Vec3d frame_signs(WireFrame f) {
 
 }  // namespace
 
-void add_link_options(CLI::App& sub, LinkOptions& o, int default_port) {
+void add_link_options(CLI::App& sub, LinkOptions& o, int default_port, bool tools) {
   o.port = default_port;
   const std::string g = "Live link (OpenIGTLink, docs/live.md)";
   sub.add_option("--igtl-port", o.port,
-                 default_port >= 0
-                     ? "Serve OpenIGTLink on this TCP port (3D Slicer's default is 18944; 0: any "
-                       "free port, printed; -1: do not listen, only --igtl-connect)"
-                     : "Serve OpenIGTLink on this TCP port (18944 is 3D Slicer's default; 0: any "
-                       "free port, printed): the surface out as POLYDATA, tool poses in as "
-                       "TRANSFORM, forces out as SENSOR")
+                 tools ? "Serve OpenIGTLink on this TCP port (3D Slicer's default is 18944; 0: any "
+                         "free port, printed; -1: do not listen, only --igtl-connect)"
+                       : "Serve the deformed, cut surface as OpenIGTLink POLYDATA on this TCP "
+                         "port (3D Slicer's default is 18944; 0: any free port, printed)")
       ->check(CLI::Range(-1, 65535))
       ->group(g);
   sub.add_option("--igtl-bind", o.bind,
                  "Address to listen on (default 127.0.0.1: this machine only; 0.0.0.0: every "
                  "network interface, for a Slicer on another machine)")
       ->group(g);
-  sub.add_option("--igtl-connect", o.connect,
-                 "Also connect to an OpenIGTLink server at HOST:PORT (a PlusServer, or Slicer "
-                 "as a server) and take its TRANSFORMs; repeatable")
-      ->group(g);
-  sub.add_option("--igtl-tool", o.tools,
-                 "TOOL[=DEVICE][:MODE]: the scene's TOOL follows the TRANSFORM named DEVICE "
-                 "(default: TOOL) in MODE (press, ablate, cut or idle; default press); "
-                 "repeatable (default: every scene tool follows the TRANSFORM of its own name)")
-      ->group(g);
+  if (tools) {
+    sub.add_option("--igtl-connect", o.connect,
+                   "Also connect to an OpenIGTLink server at HOST:PORT (a PlusServer, or Slicer "
+                   "as a server) and take its TRANSFORMs; repeatable")
+        ->group(g);
+    sub.add_option("--igtl-tool", o.tools,
+                   "TOOL[=DEVICE][:MODE]: the scene's TOOL follows the TRANSFORM named DEVICE "
+                   "(default: TOOL) in MODE (press, ablate, cut or idle; default press); "
+                   "repeatable (default: every scene tool follows the TRANSFORM of its own name)")
+        ->group(g);
+  }
   sub.add_option("--igtl-frame", o.frame,
                  "Frame of the coordinates on the wire: ras (3D Slicer's scene, the default) or "
                  "lps (DICOM's patient frame)")
@@ -65,11 +65,12 @@ void add_link_options(CLI::App& sub, LinkOptions& o, int default_port) {
   sub.add_option("--igtl-rate", o.rate_hz, "POLYDATA per second at most (default 30)")
       ->check(CLI::Range(0.1, 1000.0))
       ->group(g);
-  sub.add_option("--igtl-registration", o.registration,
-                 "Text file of a rigid 4x4 matrix (rows, mm) from the tracker's reference frame "
-                 "to the wire frame, applied to every TRANSFORM received")
-      ->check(CLI::ExistingFile)
-      ->group(g);
+  if (tools)
+    sub.add_option("--igtl-registration", o.registration,
+                   "Text file of a rigid 4x4 matrix (rows, mm) from the tracker's reference frame "
+                   "to the wire frame, applied to every TRANSFORM received")
+        ->check(CLI::ExistingFile)
+        ->group(g);
   sub.add_option("--igtl-name", o.name,
                  "Device name of the POLYDATA (default: the scene's name; at most 20 characters)")
       ->group(g);
@@ -303,8 +304,8 @@ std::string LinkSession::describe() const {
   s += std::string(" (coordinates ") + (frame_ == WireFrame::kRas ? "RAS" : "LPS") + ", surface '" +
        surface_name_ + "'";
   if (registration_) s += ", registration " + options_.registration;
-  s += "); tools:";
-  if (bindings_.empty()) s += " none";
+  s += ")";
+  if (!bindings_.empty()) s += "; tools:";
   for (const ToolBinding& b : bindings_)
     s += " " + b.tool + " <- TRANSFORM '" + b.device + "' (" + interaction::to_string(b.mode) + ")";
   return s;

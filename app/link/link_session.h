@@ -45,10 +45,10 @@ struct LinkOptions {
   bool enabled() const { return port >= 0 || !connect.empty(); }
 };
 
-/// Adds --igtl-port, --igtl-bind, --igtl-connect, --igtl-tool, --igtl-frame, --igtl-rate,
-/// --igtl-registration and --igtl-name to `sub`. `default_port`: what --igtl-port is when not
-/// given (−1: the link is off unless asked for).
-void add_link_options(CLI::App& sub, LinkOptions& options, int default_port);
+/// Adds --igtl-port, --igtl-bind, --igtl-frame, --igtl-rate and --igtl-name to `sub`, and with
+/// `tools` --igtl-connect, --igtl-tool and --igtl-registration (TRANSFORMs drive the scene's
+/// tools). `default_port`: what --igtl-port is when not given (−1: the link is off unless asked).
+void add_link_options(CLI::App& sub, LinkOptions& options, int default_port, bool tools);
 
 /// Which scene tool follows which TRANSFORM device, in which mode.
 struct ToolBinding {

@@ -8,6 +8,7 @@
 #      scene's scripted cut, and again after it: the surface it received changed (more
 #      triangles), and the last one it received is the mesh tsf exports at the end (final.ply,
 #      patient LPS), point for point.
+#   3. `tsf view --offscreen --igtl-port` serves the same scene's surface to PolyDataClient.
 # Usage: examples_test.sh SOURCE_DIR TSF CMAKE WORK_DIR
 set -eu
 SRC=$1
@@ -86,6 +87,25 @@ if [ "$status" -ne 0 ]; then
   exit 1
 fi
 cat tsf.log
+
+# 3. tsf view serves the same surface (--igtl-port): offscreen frames of the same scene, asked
+#    by PolyDataClient while they render. Needs X (scripts/test.sh gives ctest a virtual display).
+XRUN=""
+[ -z "${DISPLAY:-}" ] && XRUN="xvfb-run -a"
+$XRUN "$TSF" view "$SRC/scenes/link-block.yaml" --offscreen --frames 40 --width 320 --height 240 \
+  --igtl-port 0 --out view --force >view.log 2>&1 &
+TSF_PID=$!
+wait_for view.log "listening on 127.0.0.1:" 120
+PORT=$(sed -n 's/.*listening on 127\.0\.0\.1:\([0-9]*\).*/\1/p' view.log | head -n 1)
+build-PolyData/PolyDataClient 127.0.0.1 "$PORT" >polydata-view.txt 2>&1 || true
+status=0
+wait "$TSF_PID" || status=$?
+TSF_PID=""
+if [ "$status" -ne 0 ]; then
+  echo "FAIL: tsf view --igtl-port exited with $status" >&2
+  cat view.log >&2
+  exit 1
+fi
 
 python3 - <<'EOF'
 import json, struct, sys
@@ -209,6 +229,19 @@ print("last POLYDATA vs exported final.ply: %d points, largest difference %.4f m
       % (len(verts), worst))
 if worst > 0.05:
     fail("the last POLYDATA differs from the exported mesh by %.4f mm" % worst)
+# 3. tsf view served its surface: its first is the rest surface tsf link served first.
+view = replies("polydata-view.txt")
+if not view:
+    fail("PolyDataClient received no POLYDATA from tsf view --igtl-port")
+v0 = view[0]
+if v0["triangles"] != first["triangles"] or len(v0["points"]) != len(first["points"]):
+    fail("tsf view's first surface (%d points) is not tsf link's (%d)" % (len(v0["points"]), len(first["points"])))
+worst_view = max(max(abs(a - b) for a, b in zip(p, q)) for p, q in zip(v0["points"], first["points"]))
+print("tsf view --igtl-port: %d POLYDATA received; the first is tsf link's first (largest difference %.4f mm)"
+      % (len(view), worst_view))
+if worst_view > 0.05:
+    fail("tsf view's first surface differs from tsf link's by %.4f mm" % worst_view)
+
 # The surfaces as received (RAS, mm), for a picture (docs/live.md).
 for name, reply in (("received-before.ply", first), ("received-after.ply", last)):
     with open(name, "w") as out:

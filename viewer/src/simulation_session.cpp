@@ -84,6 +84,7 @@ void SimulationSession::step(double dt_display, const ToolCommand& command) {
   }
   exchange_.publish(*model_, edited_since_publish_, stats_);
   edited_since_publish_ = false;
+  if (on_published_) on_published_(*model_);
 }
 
 SimulationThread::SimulationThread(SimulationSession& session, double frame_s)
