@@ -374,7 +374,8 @@ void LinkServer::run() {
         if (p.in_body) {
           const std::uint64_t want = p.header.body_size - p.body_filled;
           const std::size_t take = static_cast<std::size_t>(std::min<std::uint64_t>(left, want));
-          if (p.action == BodyAction::kRead) std::memcpy(p.body.data() + p.body_filled, at, take);
+          if (p.action == BodyAction::kRead && take > 0)  // an empty body has no storage
+            std::memcpy(p.body.data() + p.body_filled, at, take);
           p.body_filled += take;
           at += take;
           left -= take;
