@@ -5,7 +5,11 @@
 //   DIR/metrics.json   jitter, kicks, pop-through, latency, compute time, and the run's settings
 //   DIR/force.png      force magnitude and direction (angle to the motion) over time (gnuplot)
 // The playback is deterministic (haptic_playback.h): simulation steps and haptic ticks interleave
-// as in a live session, on one thread. Trajectory files are YAML (scenes/trajectories/*.yaml):
+// as in a live session, on one thread. `--live SECONDS` runs the same loop for real instead: its
+// own thread in wall-clock time, a device (--device, default the scripted trajectory) driving the
+// stylus, the simulation pumped on another thread; it reports the achieved rate and the tick
+// latency percentiles beside the same samples, metrics and plot. Trajectory files are YAML
+// (scenes/trajectories/*.yaml):
 //
 //   stylus: {radius: 2.5, voxel_resolution: 16, sphere_resolution: 1, sampling: trilinear}
 //   force_law: {c1: 1.0e4, c2: 1.0, cutoff: 0.5, taper: 0.5}
@@ -32,9 +36,12 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "commands.h"
+#include "output/interrupt.h"
 #include "output/output_folder.h"
+#include "scene/haptic_devices.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_session.h"
@@ -44,9 +51,11 @@
 #include "tsf/common/stopwatch.h"
 #include "tsf/haptics/force_models.h"
 #include "tsf/haptics/frame_capture.h"
+#include "tsf/haptics/haptic_loop.h"
 #include "tsf/haptics/haptic_metrics.h"
 #include "tsf/haptics/haptic_playback.h"
 #include "tsf/haptics/haptic_trajectory.h"
+#include "tsf/haptics/scripted_device.h"
 #include "tsf/imt/extract_surface.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/version.h"
@@ -339,8 +348,68 @@ struct HapticsArguments {
   std::string scene, trajectory, model = "voxel", out;
   std::optional<int> resolution, filter;
   std::optional<double> rate;
+  std::optional<double> live;  ///< seconds of wall-clock loop
+  std::string device = "scripted";
   bool no_plot = false, quiet = false, force = false;
 };
+
+/// What a live run measured besides the samples.
+struct LiveRun {
+  haptics::LoopStatistics loop;
+  std::int64_t sim_steps = 0;
+  double sim_max_step_us = 0;
+  std::string device;
+  bool interrupted = false;
+};
+
+/// `--live SECONDS`: the haptic loop on its own thread in wall-clock time, the device named by
+/// --device driving the stylus, the simulation pumped on another thread at loop.sim_rate, for
+/// SECONDS of wall time (Ctrl-C stops it early).
+LiveRun play_live(const HapticsArguments& args, const HapticRunFile& run,
+                  haptics::FrameSource& source, const haptics::ForceModel& model,
+                  const VolumeGeometry* patient_frame,
+                  std::vector<haptics::HapticSample>& samples) {
+  DeviceContext context;
+  context.trajectory = &run.trajectory;
+  std::unique_ptr<haptics::HapticDevice> device =
+      haptic_devices(context).create(haptics::parse_device_request(args.device));
+  const double seconds = *args.live;
+  haptics::HapticLoopOptions lo;
+  lo.rate_hz = run.playback.haptic_rate_hz;
+  lo.filter_window = run.playback.filter_window;
+  lo.max_force_un = run.playback.max_force_un;
+  lo.record_samples = true;
+  lo.max_ticks = static_cast<std::size_t>(std::ceil(seconds * lo.rate_hz)) + 1000;
+  if (patient_frame) lo.frame = haptics::DeviceFrame(*patient_frame);
+  lo.on_thread_start = request_haptic_thread_priority;
+  haptics::TripleBuffer<haptics::HapticFrame> frames;
+  haptics::HapticLoop loop(*device, model, frames, lo);
+  haptics::SimulationPump pump(source, frames, loop, run.playback.sim_rate_hz,
+                               [] { lower_thread_priority(); });
+  LiveRun r;
+  r.device = device->describe();
+  Progress progress("haptics live", 1000, !args.quiet && Progress::stderr_is_terminal());
+  InterruptScope interrupts;
+  Stopwatch clock;
+  loop.start();
+  pump.start();
+  while (clock.seconds() < seconds) {
+    if (interrupted()) {
+      r.interrupted = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    progress.set_fraction(std::min(1.0, clock.seconds() / seconds));
+  }
+  pump.stop();
+  loop.stop();
+  progress.finish();
+  r.loop = loop.statistics();
+  r.sim_steps = pump.steps();
+  r.sim_max_step_us = pump.max_step_us();
+  samples = loop.samples();
+  return r;
+}
 
 void run_haptics(const HapticsArguments& args) {
   Stopwatch clock;
@@ -375,6 +444,7 @@ void run_haptics(const HapticsArguments& args) {
   std::optional<VoxelVolume> rigid;
   std::optional<imt::SurfaceMesh> rigid_mesh;
   std::unique_ptr<haptics::FrameSource> source;
+  VolumeGeometry patient_frame;
   if (run.target) {
     if (kind == haptics::ForceModelKind::kLattice)
       throw Error(run.file + ": target: a rigid target has no lattice; use --model voxel or mesh");
@@ -385,13 +455,17 @@ void run_haptics(const HapticsArguments& args) {
   } else {
     TissueInstance built = build_tissue_instance(scene, 0);
     session_summary = built.summary;
+    patient_frame = built.patient_frame;
     tissue = std::move(built.model);
     source = std::make_unique<haptics::TissueFrameSource>(*tissue, capture);
   }
   const double setup_s = clock.seconds();
 
   std::vector<haptics::HapticSample> samples;
-  {
+  std::optional<LiveRun> live;
+  if (args.live) {
+    live = play_live(args, run, *source, *model, tissue ? &patient_frame : nullptr, samples);
+  } else {
     Progress progress("haptics " + std::string(haptics::to_string(kind)), 1000,
                       !args.quiet && Progress::stderr_is_terminal());
     samples = haptics::play_trajectory(run.trajectory, *source, *model, run.playback,
@@ -407,11 +481,11 @@ void run_haptics(const HapticsArguments& args) {
   const std::filesystem::path out = folder.path();
   const std::filesystem::path csv = out / "samples.csv";
   write_text_atomically(csv, samples_csv(samples));
-  const std::string title = (run.target ? "rigid " + run.target->shape : scene.name) + " · " +
-                            std::filesystem::path(args.trajectory).stem().string() + " · " +
-                            haptics::to_string(kind) + " model · " +
-                            fmt(run.playback.haptic_rate_hz) + " Hz, filter " +
-                            std::to_string(run.playback.filter_window);
+  const std::string title =
+      (run.target ? "rigid " + run.target->shape : scene.name) + " · " +
+      std::filesystem::path(args.trajectory).stem().string() + " · " + haptics::to_string(kind) +
+      " model · " + fmt(run.playback.haptic_rate_hz) + " Hz, filter " +
+      std::to_string(run.playback.filter_window) + (live ? " · live, wall clock" : "");
   bool any_direction = false;
   for (double a : angles_to_motion(samples)) any_direction = any_direction || std::isfinite(a);
   const double duration_ms =
@@ -446,15 +520,42 @@ void run_haptics(const HapticsArguments& args) {
         {"filter_window", run.playback.filter_window},
         {"max_force_un", run.playback.max_force_un}}},
       {"metrics", metrics_json(metrics)},
+      {"mode", live ? "live (wall clock)" : "playback (simulated time)"},
       {"timing", {{"setup_s", setup_s}, {"playback_s", play_s}}},
       {"outputs",
        {{"samples", csv.string()}, {"plot", args.no_plot ? "" : (out / "force.png").string()}}}};
   // The deforming tissue's verdict (a rigid target has none).
+  if (live) {
+    nlohmann::json l = loop_statistics_json(live->loop);
+    l["device"] = live->device;
+    l["requested_seconds"] = *args.live;
+    l["interrupted"] = live->interrupted;
+    l["simulation"] = {
+        {"steps", live->sim_steps},
+        {"rate_hz", live->loop.elapsed_s > 0 ? live->sim_steps / live->loop.elapsed_s : 0.0},
+        {"rate_hz_target", run.playback.sim_rate_hz},
+        {"max_step_us", live->sim_max_step_us}};
+    report["live"] = l;
+  }
   std::optional<crms::StabilitySummary> stability;
   if (tissue) stability = tissue->stability();
   report["stability"] = stability ? stability_json(*stability) : json(nullptr);
   write_text_atomically(out / "metrics.json", report.dump(2) + "\n");
   if (!args.quiet && stability) std::printf("%s\n", stability->headline().c_str());
+  if (!args.quiet && live) {
+    const haptics::LoopStatistics& st = live->loop;
+    std::printf(
+        "live: %lld ticks in %.2f s = %.1f Hz of %.0f Hz (%.1f%%), %lld missed, %lld late; tick "
+        "latency p50 %.0f µs, p99 %.0f µs, p99.9 %.0f µs, max %.0f µs; compute p50 %.1f µs; "
+        "simulation %lld steps (%.0f Hz of %.0f Hz); %s\n",
+        static_cast<long long>(st.ticks), st.elapsed_s, st.rate_hz, st.target_rate_hz,
+        st.target_rate_hz > 0 ? 100.0 * st.rate_hz / st.target_rate_hz : 0.0,
+        static_cast<long long>(st.missed_ticks), static_cast<long long>(st.late_ticks),
+        st.latency_p50_us, st.latency_p99_us, st.latency_p999_us, st.latency_max_us,
+        st.compute_p50_us, static_cast<long long>(live->sim_steps),
+        st.elapsed_s > 0 ? live->sim_steps / st.elapsed_s : 0.0, run.playback.sim_rate_hz,
+        st.scheduling.c_str());
+  }
   if (!args.quiet)
     std::printf(
         "%zu ticks · peak %.3g mN · jitter %.3g%% · kick %.3g%%/ms · pop-through %.3g%% · "
@@ -464,6 +565,7 @@ void run_haptics(const HapticsArguments& args) {
         metrics.bounce_prone ? " (bounce-prone)" : "", metrics.compute_p50_us,
         out.string().c_str());
   if (stability) require_stable_enough(*stability, scene.name);
+  if (live && live->interrupted) throw Error("interrupted: the live loop stopped early (Ctrl-C)");
 }
 
 }  // namespace
@@ -494,6 +596,14 @@ void add_haptics_command(CLI::App& app) {
       ->check(CLI::Range(1, 1000));
   sub->add_option("--rate", args->rate, "Override the haptic rate (Hz, up to 20000)")
       ->check(CLI::Range(1.0, 20000.0));
+  sub->add_option("--live", args->live,
+                  "Run the haptic loop live for SECONDS of wall time (its own thread, the "
+                  "simulation on another) instead of the reproducible playback; reports the "
+                  "achieved rate and tick latency")
+      ->check(CLI::Range(0.01, 3600.0));
+  sub->add_option("--device", args->device,
+                  "--live: the device driving the stylus, NAME[:KEY=VALUE,…] (default scripted: "
+                  "the trajectory in wall-clock time)");
   sub->add_flag("--no-plot", args->no_plot, "Skip the PNG plot (no gnuplot needed)");
   sub->add_flag("--force", args->force,
                 "Replace the files of an earlier tsf run in the --out folder");

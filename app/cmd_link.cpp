@@ -91,12 +91,14 @@ std::vector<EditRecord> drive_tools(LiveState& s, double t, std::size_t instance
   std::vector<EditRecord> edits;
   const std::vector<link::ToolBinding>& bindings = s.session->bindings();
   for (const link::LinkSession::Drive& d : s.drives) {
+    // Each tool acts in its own slot (the hand the scene's script gives it too).
     const SceneTool& tool = s.scene->tools.at(d.tool);
+    const int slot = scene_tool_slot(*s.scene, tool.name);
     if (d.held && d.mode != interaction::ToolMode::kIdle) {
-      interaction::EditReport e = model.apply_tool(tool.tool, d.pose, d.mode);
+      interaction::EditReport e = model.apply_tool(slot, tool.tool, d.pose, d.mode);
       if (e.edited) edits.push_back({t, bindings[d.binding].tool, e});
     } else if (s.was_held[d.binding]) {
-      model.release_tool();
+      model.release_tool(slot);
     }
   }
   if (instance + 1 == s.scene->instances.size())
@@ -126,7 +128,9 @@ void serve_frame(LiveState& s, std::size_t instance, const interaction::TissueMo
   }
   if (instance == 0) s.force_sum.assign(s.drives.size(), Vec3d{0, 0, 0});
   for (const link::LinkSession::Drive& d : s.drives)
-    if (d.held) s.force_sum[d.binding] += model.contact().force_un;
+    if (d.held)
+      s.force_sum[d.binding] +=
+          model.tool_contact(scene_tool_slot(*s.scene, s.scene->tools.at(d.tool).name)).force_un;
   if (instance + 1 == s.scene->instances.size())
     for (const link::LinkSession::Drive& d : s.drives)
       if (d.held && d.fresh) s.session->send_force(d.binding, s.force_sum[d.binding], frame);

@@ -19,6 +19,7 @@
 #include "commands.h"
 #include "output/output_folder.h"
 #include "scene/anatomy_placement.h"
+#include "scene/haptic_devices.h"
 #include "scene/interaction_run.h"
 #include "scene/scene.h"
 #include "scene/scene_outputs.h"
@@ -28,7 +29,9 @@
 #include "tsf/common/progress.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/crms/lattice_builders.h"
+#include "tsf/haptics/device_registry.h"
 #include "tsf/version.h"
+#include "tsf/viewer/live_haptics.h"
 #include "tsf/viewer/offscreen_render.h"
 #include "tsf/viewer/view_script.h"
 #include "tsf/viewer/viewer.h"
@@ -59,6 +62,12 @@ struct ViewArguments {
   bool force = false;
   bool no_slices = false;
   bool quiet = false;
+  std::string device;   ///< --device (window: mouse; offscreen: scripted)
+  std::string haptics;  ///< --haptics MODEL | off (default: lattice in a window, off offscreen)
+  double haptic_rate = 1000;
+  int haptic_filter = 1;
+  double seconds = 0;  ///< window: close after this many seconds
+  std::string report;  ///< window: JSON report
 #ifdef TSF_HAVE_LINK_CMD
   link::LinkOptions link;
 #endif
@@ -80,52 +89,67 @@ std::vector<viewer::NamedTool> default_tools() {
   return tools;
 }
 
-/// The scene's script as the view's hand (time = frame index, `frame_s` simulated seconds per
-/// frame): trajectory keyframes at their frames, lifted one frame after the last; an event is a
-/// stroke from → to over one frame, then a lift. Keyframes that fall on one frame move on by one.
+/// The scene's script as the view's hands (time = frame index, `frame_s` simulated seconds per
+/// frame), one hand per tool, so tools act at once as in `tsf simulate`: trajectory keyframes at
+/// their frames, lifted one frame after the last; an event is a stroke from → to over one frame,
+/// then a lift. Keyframes of one hand that fall on one frame move on by one.
 viewer::ViewScript hand_from_scene_script(const Scene& scene, const viewer::ViewOptions& options,
                                           double frame_s) {
   struct Key {
     double frame;
-    int tool;
     interaction::Keyframe k;
   };
-  std::vector<Key> keys;
+  std::vector<std::vector<Key>> by_tool(scene.tools.size());
+  std::vector<int> first_use;  // tools in the order they appear: their hands
   auto tool_index = [&](const std::string& name) {
-    for (std::size_t i = 0; i < scene.tools.size(); ++i)
-      if (scene.tools[i].name == name) return static_cast<int>(i);
-    return 0;
+    const int t = scene_tool_slot(scene, name);
+    if (std::find(first_use.begin(), first_use.end(), t) == first_use.end()) first_use.push_back(t);
+    return static_cast<std::size_t>(t);
   };
   auto frame_of = [&](double t) { return std::round(t / frame_s); };
   for (const SceneTrajectory& t : scene.script.trajectories) {
-    const int tool = tool_index(t.tool);
+    const std::size_t tool = tool_index(t.tool);
     for (const interaction::Keyframe& k : t.keyframes)
-      keys.push_back({frame_of(k.time_s), tool, k});
+      by_tool[tool].push_back({frame_of(k.time_s), k});
     interaction::Keyframe lift = t.keyframes.back();
     lift.mode = interaction::ToolMode::kIdle;
-    keys.push_back({frame_of(t.keyframes.back().time_s) + 1, tool, lift});
+    by_tool[tool].push_back({frame_of(t.keyframes.back().time_s) + 1, lift});
   }
   for (const SceneEvent& e : scene.script.events) {
-    const int tool = tool_index(e.tool);
+    const std::size_t tool = tool_index(e.tool);
     const double f = frame_of(e.time_s);
-    keys.push_back({f, tool, {0, e.from, e.mode}});
-    keys.push_back({f + 1, tool, {0, e.to, e.mode}});
-    keys.push_back({f + 2, tool, {0, e.to, interaction::ToolMode::kIdle}});
+    by_tool[tool].push_back({f, {0, e.from, e.mode}});
+    by_tool[tool].push_back({f + 1, {0, e.to, e.mode}});
+    by_tool[tool].push_back({f + 2, {0, e.to, interaction::ToolMode::kIdle}});
   }
-  std::stable_sort(keys.begin(), keys.end(),
-                   [](const Key& a, const Key& b) { return a.frame < b.frame; });
   viewer::ViewScript script;
   script.options = options;
-  std::vector<interaction::Keyframe> frames;
-  double last = -1;
-  for (Key& key : keys) {
-    key.k.time_s = std::max(key.frame, last + 1);
-    last = key.k.time_s;
-    frames.push_back(key.k);
-    script.keyframe_tools.push_back(key.tool);
+  for (const int t : first_use) {
+    std::vector<Key>& keys = by_tool[static_cast<std::size_t>(t)];
+    std::stable_sort(keys.begin(), keys.end(),
+                     [](const Key& a, const Key& b) { return a.frame < b.frame; });
+    viewer::ViewHand hand;
+    std::vector<interaction::Keyframe> frames;
+    double last = -1;
+    for (Key& key : keys) {
+      key.k.time_s = std::max(key.frame, last + 1);
+      last = key.k.time_s;
+      frames.push_back(key.k);
+      hand.keyframe_tools.push_back(t);
+    }
+    hand.path = interaction::Trajectory(frames);
+    script.hands.push_back(std::move(hand));
   }
-  if (!frames.empty()) script.hand = interaction::Trajectory(frames);
   return script;
+}
+
+/// Hand 0 of a view script as a path in seconds (frame f at f·frame_s): what a scripted device
+/// plays in a window.
+interaction::Trajectory hand_in_seconds(const viewer::ViewScript& script, double frame_s) {
+  if (script.hands.empty() || script.hands.front().path.empty()) return {};
+  std::vector<interaction::Keyframe> keys = script.hands.front().path.keyframes();
+  for (interaction::Keyframe& k : keys) k.time_s *= frame_s;
+  return interaction::Trajectory(std::move(keys));
 }
 
 #ifdef TSF_HAVE_IMPORT
@@ -230,8 +254,15 @@ struct ViewInputs {
   std::optional<Scene> scene;
   std::vector<viewer::NamedTool> tools;
   viewer::ViewScript script;
-  bool scene_script = false;  ///< the scene's script is the hand (offscreen, no --script)
+  bool scene_script = false;     ///< the scene's script is the hands (no --script)
+  bool scripted_window = false;  ///< a window whose hands play the script (--device scripted)
 };
+
+/// The haptic device's name: --device, else `scripted` offscreen and `mouse` in a window.
+std::string device_name(const ViewArguments& args) {
+  if (!args.device.empty()) return haptics::parse_device_request(args.device).name;
+  return args.offscreen ? "scripted" : "mouse";
+}
 
 ViewInputs read_view_inputs(const ViewArguments& args) {
   const std::filesystem::path input = args.input;
@@ -254,9 +285,11 @@ ViewInputs read_view_inputs(const ViewArguments& args) {
   viewer::ViewOptions defaults;
   defaults.offscreen = args.offscreen;
   // The scene's script plays offscreen unless --script replaces it (a view script: camera,
-  // slices and the hand); in the live window the mouse is the tool.
+  // slices and the hands); in the live window the mouse is the tool, unless the device is
+  // `scripted` (the script's hands then play in wall-clock time).
   const bool has_script = in.scene && in.scene->script_given;
-  in.scene_script = has_script && args.script.empty() && args.offscreen;
+  in.scripted_window = !args.offscreen && device_name(args) == "scripted";
+  in.scene_script = has_script && args.script.empty() && (args.offscreen || in.scripted_window);
   if (has_script && args.script.empty()) defaults.frame_s = 1.0 / in.scene->script.frame_rate_hz;
   in.script.options = defaults;
   if (!args.script.empty())
@@ -274,10 +307,10 @@ ViewInputs read_view_inputs(const ViewArguments& args) {
     std::printf("tsf view: %s\n",
                 !args.script.empty()
                     ? "script: the view script given with --script replaces the scene's script"
-                : args.offscreen
-                    ? "script: playing the scene's script (trajectories and events as the hand)"
+                : args.offscreen || in.scripted_window
+                    ? "script: playing the scene's script (trajectories and events as the hands)"
                     : "script: not played in the live window (the mouse is the tool; "
-                      "--offscreen plays it)");
+                      "--offscreen or --device scripted plays it)");
   return in;
 }
 
@@ -357,9 +390,67 @@ int offscreen_frame_count(const ViewArguments& args, const ViewInputs& in) {
   const viewer::ViewOptions& o = in.script.options;
   if (in.scene_script)
     return std::max(1, static_cast<int>(std::ceil(in.scene->script.played_s() / o.frame_s - 1e-9)));
-  return in.script.hand.empty() ? 60
-                                : static_cast<int>(in.script.hand.end_time()) + 1 +
-                                      static_cast<int>(std::ceil(0.05 / o.frame_s));
+  return in.script.last_keyframe() < 0 ? 60
+                                       : static_cast<int>(in.script.last_keyframe()) + 1 +
+                                             static_cast<int>(std::ceil(0.05 / o.frame_s));
+}
+
+/// The live haptic loop of the view: the device named by --device drives the first hand's tool,
+/// the model of --haptics computes the force. Null when --haptics off, or offscreen with no hand
+/// to drive.
+std::unique_ptr<viewer::LiveHaptics> build_live_haptics(const ViewArguments& args,
+                                                        const ViewInputs& in,
+                                                        const VolumeGeometry& patient_frame) {
+  const std::string model = !args.haptics.empty() ? args.haptics
+                            : args.offscreen      ? "off"
+                                                  : "lattice";
+  if (model == "off") return nullptr;
+  const viewer::ViewOptions& o = in.script.options;
+  const haptics::DeviceRequest request =
+      haptics::parse_device_request(args.device.empty() ? device_name(args) : args.device);
+  if (args.offscreen && request.name != "scripted")
+    throw Error("--device " + request.text +
+                ": offscreen frames are played by the script: the device is `scripted`");
+  if (args.offscreen && (in.script.hands.empty() || in.script.hands.front().path.empty()))
+    return nullptr;  // nothing in hand to drive
+  // Offscreen the device follows the frame clock (frame index); in a window, wall-clock seconds.
+  const interaction::Trajectory path =
+      args.offscreen
+          ? (in.script.hands.empty() ? interaction::Trajectory{} : in.script.hands.front().path)
+          : hand_in_seconds(in.script, o.frame_s);
+  DeviceContext context;
+  context.trajectory = &path;
+  context.window = !args.offscreen;
+  std::unique_ptr<haptics::HapticDevice> device = haptic_devices(context).create(request);
+  viewer::LiveHapticsOptions ho;
+  ho.model = haptics::force_model_from_string(model);
+  // The stylus of the voxel and mesh models: the size of the first hand's first tool.
+  int tool = 0;
+  if (!in.script.hands.empty() && !in.script.hands.front().keyframe_tools.empty())
+    tool = in.script.hands.front().keyframe_tools.front();
+  ho.force.stylus_radius_mm = stylus_radius_of(in.tools.at(static_cast<std::size_t>(tool)).tool);
+  ho.loop.rate_hz = args.haptic_rate;
+  ho.loop.filter_window = args.haptic_filter;
+  ho.loop.frame = haptics::DeviceFrame(patient_frame);
+  ho.loop.on_thread_start = request_haptic_thread_priority;
+  return std::make_unique<viewer::LiveHaptics>(std::move(device), ho);
+}
+
+/// The loop's statistics for a report.
+nlohmann::json haptics_json(viewer::LiveHaptics* h, bool live) {
+  if (h == nullptr) return nullptr;
+  nlohmann::json j = {{"model", haptics::to_string(h->options().model)},
+                      {"device", h->device().describe()},
+                      {"rate_hz_target", h->options().loop.rate_hz},
+                      {"filter_window", h->options().loop.filter_window},
+                      {"max_force_un", h->max_force_seen_un()},
+                      {"live", live}};
+  if (!live) {
+    j["ticks"] = h->ticks();
+    return j;
+  }
+  j.update(loop_statistics_json(h->statistics()));
+  return j;
 }
 
 void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
@@ -396,6 +487,8 @@ void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
       {"removed_mm3", r.last.removed_mm3},
       {"mean_render_s", r.mean_render_s},
       {"mean_simulate_s", r.mean_simulate_s},
+      {"max_force_un", r.max_force_un},
+      {"haptics", haptics_json(session.haptics(), false)},
   };
   write_text_atomically(folder.file("view-report.json"), report.dump(2) + "\n");
   outputs.finish(session.model().deformed_mesh(), r.frames * o.frame_s);
@@ -460,6 +553,8 @@ void run_view(const ViewArguments& args) {
   }
   SceneOutputWriter outputs(files, vm.patient_frame, *vm.model);
   viewer::SimulationSession session(std::move(vm.model), in.tools);
+  const std::unique_ptr<viewer::LiveHaptics> live = build_live_haptics(args, in, vm.patient_frame);
+  session.attach_haptics(live.get());
   const std::optional<viewer::SliceVolume> slice_volume = view_slices(args, in, session.model());
   const viewer::SliceVolume* slices = slice_volume ? &*slice_volume : nullptr;
 #ifdef TSF_HAVE_LINK_CMD
@@ -477,9 +572,39 @@ void run_view(const ViewArguments& args) {
                                  vm.session);
   viewer::ViewOptions o = in.script.options;
   o.close_after_frames = args.frames;
+  o.close_after_s = args.seconds;
+  if (live) o.on_haptics_started = lower_other_threads_priority;
   if (!args.quiet) std::printf("%s\n", viewer::kViewerKeyHelp);
   viewer::Viewer v(session, slices, o);
-  const int frames = v.run_window();
+  Stopwatch window_clock;
+  const int frames = v.run_window(in.scripted_window ? &in.script : nullptr);
+  const double window_s = window_clock.seconds();
+  if (live && !args.quiet) {
+    const haptics::LoopStatistics st = live->statistics();
+    std::printf(
+        "tsf view: haptics %s at %.0f Hz: %lld ticks in %.2f s = %.1f Hz (%lld missed), tick "
+        "latency p50 %.0f µs, p99 %.0f µs, max %.0f µs; %s\n",
+        haptics::to_string(live->options().model), st.target_rate_hz,
+        static_cast<long long>(st.ticks), st.elapsed_s, st.rate_hz,
+        static_cast<long long>(st.missed_ticks), st.latency_p50_us, st.latency_p99_us,
+        st.latency_max_us, st.scheduling.c_str());
+  }
+  if (!args.report.empty())
+    write_text_atomically(args.report,
+                          nlohmann::json{{"tsf_version", TSF_VERSION_STRING},
+                                         {"input", absolute_path(args.input).string()},
+                                         {"frame", "patient (LPS), mm"},
+                                         {"window", true},
+                                         {"frames", frames},
+                                         {"seconds", window_s},
+                                         {"render_fps", window_s > 0 ? frames / window_s : 0.0},
+                                         {"simulated_s", session.model().totals().simulated_s},
+                                         {"steps", session.model().totals().steps},
+                                         {"session", vm.session},
+                                         {"stability", stability_json(session.model().stability())},
+                                         {"haptics", haptics_json(live.get(), true)}}
+                                  .dump(2) +
+                              "\n");
   if (!args.quiet) std::printf("tsf view: closed after %d frames\n", frames);
   // The window played `frames` frames: its last state is the final one.
   outputs.frame(session.model(), frames, frames * o.frame_s, true);
@@ -534,6 +659,25 @@ void add_view_command(CLI::App& app) {
                   "(default: the CT named by PREFIX-report.json beside the density volume; "
                   "'none': the tissue density)");
   sub->add_flag("--no-slices", args->no_slices, "Hide the slice planes");
+  sub->add_option("--device", args->device,
+                  "Haptic device driving the first hand: mouse (window default: the mouse and "
+                  "keys), scripted (the view script's or scene script's first hand; offscreen "
+                  "always), or a driver's NAME[:KEY=VALUE,…] (docs/haptics.md)");
+  sub->add_option("--haptics", args->haptics,
+                  "Haptic force model of the live loop: lattice (the tool's contact reaction; "
+                  "the window's default), voxel, mesh, or off (the offscreen default; offscreen "
+                  "a model takes one haptic tick per frame)")
+      ->check(CLI::IsMember({"lattice", "voxel", "mesh", "off"}));
+  sub->add_option("--haptic-rate", args->haptic_rate, "Haptic loop rate, Hz (default 1000)")
+      ->check(CLI::Range(1.0, 20000.0));
+  sub->add_option("--haptic-filter", args->haptic_filter,
+                  "Moving-average window of the haptic force, ticks (default 1)")
+      ->check(CLI::Range(1, 1000));
+  sub->add_option("--seconds", args->seconds, "Window: close after this many seconds of wall time")
+      ->check(CLI::Range(0.001, 1e6));
+  sub->add_option("--report", args->report,
+                  "Window: write a JSON report at close (frames, simulation, the haptic loop's "
+                  "rate and tick latency)");
   sub->add_flag("--force", args->force,
                 "Replace the files of an earlier tsf run in the --out folder");
   sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");

@@ -18,6 +18,7 @@
 
 #include "link/igtl_codec.h"
 #include "link/link_server.h"
+#include "tsf/haptics/device_registry.h"
 #include "tsf/haptics/haptic_device.h"
 
 namespace tsf::link {
@@ -41,7 +42,9 @@ class IgtlDevice final : public haptics::HapticDevice {
   /// `force_un` (patient LPS, µN) → SENSOR (wire frame, N) to the peer of the newest pose.
   void apply_force(const Vec3d& force_un) override;
   double max_force_un() const override { return options_.max_force_n * 1e6; }
-  std::string describe_link() const;
+  haptics::PoseFrame frame() const override { return haptics::PoseFrame::kPatient; }
+  /// "OpenIGTLink TRANSFORM 'Tracker' on 127.0.0.1:18944 (RAS)".
+  std::string describe() const override;
 
   LinkServer& server() { return *server_; }
   std::uint64_t poses_read() const { return poses_; }
@@ -51,5 +54,10 @@ class IgtlDevice final : public haptics::HapticDevice {
   std::unique_ptr<LinkServer> server_;
   std::uint64_t seen_ = 0, stamp_ = 0, poses_ = 0;
 };
+
+/// Offers the device as `igtl` in `registry` (`--device igtl[:KEY=VALUE,…]`): port=N (default
+/// 18944; -1: do not listen), bind=ADDR, connect=HOST:PORT, transform=NAME (default Tracker),
+/// frame=ras|lps, registration=FILE, max_force=N (newtons, default 10).
+void add_igtl_device(haptics::DeviceRegistry& registry);
 
 }  // namespace tsf::link

@@ -116,6 +116,8 @@ double tool_reach_mm(const interaction::Tool& t) {
       return t.radius_mm;
     case collision::ToolShape::kCapsule:
       return t.radius_mm + t.half_length_mm;
+    case collision::ToolShape::kMesh:
+      return std::max(length(t.mesh->grid.lo()), length(t.mesh->grid.hi()));
     default:
       return length(t.half_extents_mm);
   }

@@ -105,7 +105,8 @@ void record_edit(InstanceResult& r, double t, const std::string& tool,
   r.edits.push_back({t, tool, e});
 }
 
-/// Events due at `t` (the first frame at or after their time): a stroke from → to, then lift.
+/// Events due at `t` (the first frame at or after their time): a stroke from → to, then lift,
+/// in the hand of the event's tool (scene_tool_slot); the other hands keep what they do.
 void apply_due_events(const Scene& scene, double t, std::vector<bool>& done,
                       std::vector<InstanceRun>& runs) {
   for (std::size_t e = 0; e < scene.script.events.size(); ++e) {
@@ -113,39 +114,52 @@ void apply_due_events(const Scene& scene, double t, std::vector<bool>& done,
     if (done[e] || ev.time_s > t + 1e-12) continue;
     done[e] = true;
     const interaction::Tool& tool = scene.find_tool(ev.tool)->tool;
+    const int slot = scene_tool_slot(scene, ev.tool);
     for (InstanceRun& r : runs) {
       interaction::TissueModel& m = *r.built.model;
-      m.release_tool();
-      m.apply_tool(tool, ev.from, ev.mode);
-      record_edit(r.result, t, ev.tool, m.apply_tool(tool, ev.to, ev.mode));
-      m.release_tool();
+      m.release_tool(slot);
+      m.apply_tool(slot, tool, ev.from, ev.mode);
+      record_edit(r.result, t, ev.tool, m.apply_tool(slot, tool, ev.to, ev.mode));
+      m.release_tool(slot);
     }
   }
 }
 
-/// Trajectories active at `t` move their tool (one frame past the last keyframe: it lifts).
+/// Trajectories active at `t` move their tool, each in its own hand (several at once); one
+/// frame past its last keyframe a trajectory lifts its tool.
 void apply_trajectories(const Scene& scene, const std::vector<interaction::Trajectory>& paths,
-                        double t, double frame_s, std::vector<InstanceRun>& runs) {
+                        double t, double frame_s, std::vector<bool>& lifted,
+                        std::vector<InstanceRun>& runs) {
   for (std::size_t i = 0; i < paths.size(); ++i) {
     const interaction::TrajectorySample s = paths[i].sample(t);
-    if (!s.started || t > paths[i].end_time() + frame_s) continue;
+    if (!s.started || lifted[i]) continue;
     const std::string& name = scene.script.trajectories[i].tool;
+    const int slot = scene_tool_slot(scene, name);
+    if (t > paths[i].end_time() + frame_s + 1e-12) {
+      lifted[i] = true;
+      for (InstanceRun& r : runs) r.built.model->release_tool(slot);
+      continue;
+    }
     const interaction::Tool& tool = scene.find_tool(name)->tool;
     for (InstanceRun& r : runs)
-      record_edit(r.result, t, name, r.built.model->apply_tool(tool, s.pose, s.mode));
+      record_edit(r.result, t, name, r.built.model->apply_tool(slot, tool, s.pose, s.mode));
   }
 }
 
 // ---- pass 3: advance every instance one frame -----------------------------------------------
 
-/// Advances each instance by a frame; returns the summed contact at the frame's end. The first
-/// instability stops the script (result.instability).
-ContactSample advance_instances(const InteractionRunOptions& options, double t_end, double frame_s,
+/// Advances each instance by a frame, pushing bodies first (each pushed instance then sees its
+/// pushers where they are at the frame's end); returns the summed tool contact at the frame's
+/// end. The first instability stops the script (result.instability).
+ContactSample advance_instances(const Scene& scene, const InteractionRunOptions& options,
+                                double t_end, double frame_s, const InstanceContacts& contacts,
                                 std::vector<InstanceRun>& runs, InteractionResult& result) {
-  ContactSample sum{t_end, {0, 0, 0}, {0, 0, 0}, 0};
-  for (std::size_t i = 0; i < runs.size(); ++i) {
+  ContactSample sum{t_end, {0, 0, 0}, {0, 0, 0}, 0, {}};
+  for (const std::size_t i : contacts.order) {
     InstanceResult& r = runs[i].result;
     interaction::TissueModel& model = *runs[i].built.model;
+    for (const InstanceContacts::Pusher& p : contacts.pushers[i])
+      p.field->follow(*runs[p.instance].built.model);
     const interaction::AdvanceReport a = model.advance(frame_s);
     r.steps += a.steps;
     r.stepping_s += a.step_us * 1e-6;
@@ -158,13 +172,35 @@ ContactSample advance_instances(const InteractionRunOptions& options, double t_e
     if (a.tear.any()) r.tears.push_back({t_end, a.tear});
     if (options.on_frame) options.on_frame(t_end, i, model);
     const collision::ContactForce& c = model.contact();
+    if (!contacts.pushers[i].empty()) {
+      const collision::ToolReaction& b = model.pusher_contact();
+      r.body_contact.push_back(
+          {t_end, b.force_un, b.torque_un_mm, static_cast<std::int64_t>(b.nodes_held), {}});
+    }
     r.max_tool_force_un = std::max(r.max_tool_force_un, length(c.force_un));
+    std::vector<ToolShare> shares;
+    for (std::size_t t = 0; t < scene.tools.size(); ++t) {
+      const collision::ToolReaction share = model.tool_contact(static_cast<int>(t));
+      if (share.nodes_held > 0)
+        shares.push_back(
+            {scene.tools[t].name, share.force_un, static_cast<std::int64_t>(share.nodes_held)});
+    }
     if (c.nodes_held > 0 || !r.contact.empty())
       r.contact.push_back(
-          {t_end, c.force_un, c.torque_un_mm, static_cast<std::int64_t>(c.nodes_held)});
+          {t_end, c.force_un, c.torque_un_mm, static_cast<std::int64_t>(c.nodes_held), shares});
     sum.force_un = sum.force_un + c.force_un;
     sum.torque_un_mm = sum.torque_un_mm + c.torque_un_mm;
     sum.nodes_held += static_cast<std::int64_t>(c.nodes_held);
+    for (const ToolShare& share : shares) {
+      auto it = std::find_if(sum.tools.begin(), sum.tools.end(),
+                             [&](const ToolShare& o) { return o.tool == share.tool; });
+      if (it == sum.tools.end()) {
+        sum.tools.push_back(share);
+      } else {
+        it->force_un = it->force_un + share.force_un;
+        it->nodes_held += share.nodes_held;
+      }
+    }
   }
   return sum;
 }
@@ -237,11 +273,17 @@ void print_instance_summary(const Scene& scene, const InteractionResult& result,
 
 json contact_json(const std::vector<ContactSample>& samples) {
   json a = json::array();
-  for (const ContactSample& c : samples)
+  for (const ContactSample& c : samples) {
+    json tools = json::array();
+    for (const ToolShare& t : c.tools)
+      tools.push_back(
+          {{"tool", t.tool}, {"force_un", vec(t.force_un)}, {"nodes_held", t.nodes_held}});
     a.push_back({{"time_s", c.time_s},
                  {"force_un", vec(c.force_un)},
                  {"torque_un_mm", vec(c.torque_un_mm)},
-                 {"nodes_held", c.nodes_held}});
+                 {"nodes_held", c.nodes_held},
+                 {"tools", tools}});
+  }
   return a;
 }
 
@@ -345,10 +387,18 @@ InteractionResult run_interaction_scene(const Scene& scene, const InteractionRun
   for (std::size_t i = 0; i < scene.instances.size(); ++i)
     runs.push_back(build_instance_run(scene, i, options.outputs));
 
+  std::vector<interaction::TissueModel*> models;
+  for (InstanceRun& r : runs) models.push_back(r.built.model.get());
+  const InstanceContacts contacts = build_instance_contacts(scene, models);
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    for (const InstanceContacts::Pusher& p : contacts.pushers[i])
+      runs[i].result.nodes_overlapping_pushers_at_rest += p.field->nodes_overlapping_at_rest();
+
   const ScriptClock clock = script_clock(scene.script, options.duration_s);
   std::vector<interaction::Trajectory> paths;
   for (const SceneTrajectory& t : scene.script.trajectories) paths.emplace_back(t.keyframes);
   std::vector<bool> event_done(scene.script.events.size(), false);
+  std::vector<bool> lifted(paths.size(), false);
 
   InteractionResult result;
   result.frame_rate_hz = scene.script.frame_rate_hz;
@@ -364,14 +414,14 @@ InteractionResult run_interaction_scene(const Scene& scene, const InteractionRun
     }
     const double t = static_cast<double>(f) * clock.frame_s;
     apply_due_events(scene, t, event_done, runs);
-    apply_trajectories(scene, paths, t, clock.frame_s, runs);
+    apply_trajectories(scene, paths, t, clock.frame_s, lifted, runs);
     if (options.before_advance)
       for (std::size_t i = 0; i < runs.size(); ++i)
         for (const EditRecord& e :
              options.before_advance(t, i, *runs[i].built.model, runs[i].result.patient_frame))
           record_edit(runs[i].result, e.time_s, e.tool, e.report);
     const ContactSample sum =
-        advance_instances(options, t + clock.frame_s, clock.frame_s, runs, result);
+        advance_instances(scene, options, t + clock.frame_s, clock.frame_s, contacts, runs, result);
     result.frames = f + 1;
     result.max_tool_force_un = std::max(result.max_tool_force_un, length(sum.force_un));
     if (sum.nodes_held > 0 || !result.contact.empty()) result.contact.push_back(sum);
@@ -493,6 +543,10 @@ json instance_report_json(const Scene& scene, const InteractionResult& result,
       {"exposures", json::array()},
       {"contact", contact_json(r.contact)},
   };
+  if (!inst.pushed_by.empty())
+    report["body_contact"] = {{"pushed_by", inst.pushed_by},
+                              {"nodes_overlapping_at_rest", r.nodes_overlapping_pushers_at_rest},
+                              {"samples", contact_json(r.body_contact)}};
   for (const EditRecord& e : r.edits) report["edits"].push_back(edit_json(e));
   for (const TearRecord& t : r.tears) report["tears"].push_back(tear_json(t));
   for (const ExposureRecord& e : r.exposures)

@@ -62,6 +62,13 @@ struct InteractionRunOptions {
 std::filesystem::path instance_output_path(const std::filesystem::path& path, const Scene& scene,
                                            std::size_t instance);
 
+/// One tool's share of a frame's contact (several tools press at once).
+struct ToolShare {
+  std::string tool;
+  Vec3d force_un{0, 0, 0};
+  std::int64_t nodes_held = 0;
+};
+
 /// An exposure event (interaction/exposure.h) with the tool whose edit raised it.
 struct ExposureRecord {
   double time_s = 0;
@@ -79,6 +86,7 @@ struct ContactSample {
   double time_s = 0;
   Vec3d force_un, torque_un_mm;
   std::int64_t nodes_held = 0;
+  std::vector<ToolShare> tools;  ///< each pressing tool's share (empty: none pressed)
 };
 
 /// What one instance did during the script.
@@ -104,6 +112,9 @@ struct InstanceResult {
   std::vector<TearRecord> tears;
   std::vector<ExposureRecord> exposures;
   std::vector<ContactSample> contact;
+  /// What the pushing instances exert on this one (tissues[i].contact), per frame.
+  std::vector<ContactSample> body_contact;
+  std::size_t nodes_overlapping_pushers_at_rest = 0;
   std::vector<double> edit_latencies_us;
   double max_tool_force_un = 0;
   double setup_s = 0, stepping_s = 0, contacts_s = 0, coupling_s = 0;

@@ -135,7 +135,7 @@ struct SceneTissue {
 
 struct SceneTool {
   std::string name;
-  interaction::Tool tool;
+  interaction::Tool tool;  ///< a mesh tool holds its surface and grid (tool.mesh)
 };
 
 /// A tool's keyframed motion (interaction/trajectory.h).
@@ -231,6 +231,11 @@ struct SceneInstance {
   SceneTissue tissue;
   crms::EffectsConfig effects;
   SceneIntegration integration;
+  /// `contact: {pushed_by: [bone], grid_mm: 0.5}`: the instances whose surfaces push this one, one
+  /// way (interaction/body_field.h), and the spacing of their distance grids (0: each pusher's
+  /// finest voxel spacing).
+  std::vector<std::string> pushed_by;
+  double contact_grid_mm = 0.0;
 };
 
 /// A scene: settings every instance shares, and the list of instances. A one-tissue scene (the

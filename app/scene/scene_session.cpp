@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -250,6 +251,74 @@ void check_scene_for_command(const Scene& scene, SceneCommand command) {
       refuse(scene, command, "outputs",
              "writes samples.csv, metrics.json and force.png to --out, not the scene's outputs");
   }
+}
+
+int scene_tool_slot(const Scene& scene, const std::string& name) {
+  for (std::size_t i = 0; i < scene.tools.size(); ++i)
+    if (scene.tools[i].name == name) {
+      if (i >= static_cast<std::size_t>(interaction::TissueModel::kMaxToolSlots))
+        throw Error(scene.file.string() + ": tools: at most " +
+                    std::to_string(interaction::TissueModel::kMaxToolSlots) +
+                    " tools act at once; '" + name + "' is tool " + std::to_string(i + 1));
+      return static_cast<int>(i);
+    }
+  throw Error(scene.file.string() + ": no tool named '" + name + "' in tools");
+}
+
+std::vector<std::size_t> instance_push_order(const Scene& scene) {
+  const std::size_t n = scene.instances.size();
+  auto index_of = [&](const std::string& name) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (scene.instances[i].name == name) return i;
+    throw Error(scene.file.string() + ": contact.pushed_by: no instance named '" + name + "'");
+  };
+  std::vector<std::size_t> order;
+  std::vector<int> state(n, 0);  // 0 new, 1 on the path, 2 placed
+  std::function<void(std::size_t)> visit = [&](std::size_t i) {
+    if (state[i] == 2) return;
+    if (state[i] == 1)
+      throw Error(scene.file.string() + ": tissues[" + std::to_string(i) + "] (" +
+                  scene.instances[i].name +
+                  "): contact.pushed_by: pushing goes round in a circle; contact is one way (the "
+                  "stiffer body pushes)");
+    state[i] = 1;
+    for (const std::string& by : scene.instances[i].pushed_by) visit(index_of(by));
+    state[i] = 2;
+    order.push_back(i);
+  };
+  for (std::size_t i = 0; i < n; ++i) visit(i);
+  return order;
+}
+
+InstanceContacts build_instance_contacts(const Scene& scene,
+                                         const std::vector<interaction::TissueModel*>& models) {
+  InstanceContacts c;
+  c.order = instance_push_order(scene);
+  c.pushers.resize(scene.instances.size());
+  for (std::size_t i = 0; i < scene.instances.size(); ++i) {
+    const SceneInstance& inst = scene.instances[i];
+    if (inst.pushed_by.empty()) continue;
+    std::vector<std::shared_ptr<const collision::DistanceField>> fields;
+    for (const std::string& by : inst.pushed_by) {
+      std::size_t j = 0;
+      while (scene.instances[j].name != by) ++j;
+      const interaction::TissueModel& body = *models.at(j);
+      const Vec3d& v = body.volume().geometry().spacing;
+      const double grid =
+          inst.contact_grid_mm > 0 ? inst.contact_grid_mm : std::min({v.x, v.y, v.z});
+      std::shared_ptr<interaction::BodyField> field;
+      try {
+        field = std::make_shared<interaction::BodyField>(body, grid);
+      } catch (const Error& e) {
+        throw Error(scene.instance_prefix(i) + "contact.pushed_by: '" + by + "': " + e.what());
+      }
+      field->set_rest_allowance(*models.at(i));
+      c.pushers[i].push_back({j, field});
+      fields.push_back(field);
+    }
+    models.at(i)->set_pushers(std::move(fields));
+  }
+  return c;
 }
 
 crms::Backend parse_backend(const std::string& text, const std::string& option) {

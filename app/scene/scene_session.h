@@ -18,6 +18,7 @@
 #include "tsf/crms/solver.h"
 #include "tsf/crms/stability_monitor.h"
 #include "tsf/crms/time_step_choice.h"
+#include "tsf/interaction/body_field.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/volume/voxel_volume.h"
 
@@ -79,6 +80,30 @@ struct TissueInstance {
 
 /// Builds instance `index` of an interactive scene. Errors name the instance.
 TissueInstance build_tissue_instance(const Scene& scene, std::size_t index);
+
+/// The tool slot (hand) of scene tool `name` in every TissueModel: its index in scene.tools, so
+/// tools act at once, each in its own hand (TissueModel::apply_tool(slot, …)). Throws for an
+/// unknown name or more tools than TissueModel::kMaxToolSlots.
+int scene_tool_slot(const Scene& scene, const std::string& name);
+
+/// Which instances push which (`tissues[i].contact.pushed_by`), built on the instances' models.
+struct InstanceContacts {
+  struct Pusher {
+    std::size_t instance = 0;  ///< the pushing instance
+    std::shared_ptr<interaction::BodyField> field;
+  };
+  /// Per instance, the bodies pushing it (their fields are set as its pushers).
+  std::vector<std::vector<Pusher>> pushers;
+  /// The order to advance the instances in: every pusher before what it pushes.
+  std::vector<std::size_t> order;
+};
+/// The advance order of `scene`'s instances (pushers first); throws naming the instances when
+/// pushing goes round in a circle.
+std::vector<std::size_t> instance_push_order(const Scene& scene);
+/// Builds the pushing bodies' distance grids on the built models (one per instance, in scene
+/// order), records each pushed lattice's rest overlap and sets them as its pushers.
+InstanceContacts build_instance_contacts(const Scene& scene,
+                                         const std::vector<interaction::TissueModel*>& models);
 
 /// A lattice-only scene (no tissue, tools or script), built: the lattice with its anchors, a
 /// solver with the effects' regions, loads and initial state, and the time step.

@@ -12,6 +12,7 @@
 
 #include "run/material_library.h"
 #include "scene/anatomy_placement.h"
+#include "scene/mesh_file.h"
 #include "scene/scene.h"
 #include "scene/scene_session.h"
 #include "tsf/common/error.h"
@@ -501,23 +502,67 @@ interaction::ToolMode read_mode(const Field& f) {
                                                   {"idle", interaction::ToolMode::kIdle}});
 }
 
-void read_tools(const Field& f, std::vector<SceneTool>& tools) {
+/// A tool made from a mesh file: `{shape: mesh, file: endoscope.stl, scale: 1, grid: 0.25}` (the
+/// file relative to the scene's folder; its coordinates are the tool's own frame, mm × scale).
+std::shared_ptr<const interaction::ToolMesh> read_tool_mesh(const Field& t,
+                                                            const std::filesystem::path& folder) {
+  if (!t["file"].defined()) t["file"].fail("is required for a mesh tool (an OBJ, STL or PLY file)");
+  std::filesystem::path file = t["file"].text();
+  if (file.is_relative()) file = folder / file;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) t["file"].fail("no such file: " + file.string());
+  const double scale = t["scale"].number(1.0, 0.0, 1e4, true);
+  MeshFile mesh;
+  try {
+    mesh = read_mesh_file(file, scale);
+  } catch (const Error& e) {
+    t["file"].fail(e.what());
+  }
+  Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const Vec3f& v : mesh.vertices)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(v[a]));
+      hi[a] = std::max(hi[a], double(v[a]));
+    }
+  // Default grid: 1/24 of the tool's smallest extent, within [0.05, 1] mm.
+  const double smallest = std::min({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  const double grid = t["grid"].defined() ? t["grid"].number(0.25, 0.01, 10.0)
+                                          : std::clamp(smallest / 24.0, 0.05, 1.0);
+  try {
+    return interaction::ToolMesh::from_closed_mesh(file.string(), std::move(mesh.vertices),
+                                                   std::move(mesh.triangles), grid);
+  } catch (const Error& e) {
+    t["file"].fail(e.what());
+  }
+}
+
+void read_tools(const Field& f, const std::filesystem::path& folder,
+                std::vector<SceneTool>& tools) {
   if (!f.defined()) return;
   for (std::size_t i = 0; i < f.size(); ++i) {
     const Field t = f.at(i);
-    t.expect_keys({"name", "shape", "radius", "length", "size"});
+    t.expect_keys({"name", "shape", "radius", "length", "size", "file", "scale", "grid"});
     SceneTool tool;
     if (!t["name"].defined()) t["name"].fail("is required");
     tool.name = t["name"].text();
     for (const SceneTool& other : tools)
       if (other.name == tool.name) t["name"].fail("'" + tool.name + "' is used twice");
     using collision::ToolShape;
-    if (!t["shape"].defined()) t["shape"].fail("is required (sphere, capsule or blade)");
+    if (!t["shape"].defined()) t["shape"].fail("is required (sphere, capsule, blade or mesh)");
     tool.tool.shape = t["shape"].choice(ToolShape::kSphere, {{"sphere", ToolShape::kSphere},
                                                              {"capsule", ToolShape::kCapsule},
-                                                             {"blade", ToolShape::kBlade}});
-    const bool round = tool.tool.shape != ToolShape::kBlade;
-    if (round) {
+                                                             {"blade", ToolShape::kBlade},
+                                                             {"mesh", ToolShape::kMesh}});
+    const bool mesh = tool.tool.shape == ToolShape::kMesh;
+    for (const char* k : {"file", "scale", "grid"})
+      if (!mesh && t[k].defined()) t[k].fail("only for a mesh tool");
+    const bool round =
+        tool.tool.shape == ToolShape::kSphere || tool.tool.shape == ToolShape::kCapsule;
+    if (mesh) {
+      for (const char* k : {"radius", "size"})
+        if (t[k].defined()) t[k].fail("not for a mesh tool (its file gives its shape)");
+      tool.tool.mesh = read_tool_mesh(t, folder);
+    } else if (round) {
       if (!t["radius"].defined()) t["radius"].fail("is required for a sphere or capsule (mm)");
       if (t["size"].defined()) t["size"].fail("only for a blade");
       tool.tool.radius_mm = t["radius"].number(1.0, 0.0, 1e3, true);
@@ -581,16 +626,19 @@ void read_script(const Field& f, const std::vector<SceneTool>& tools, SceneScrip
           key["mode"].fail(std::string("tool '") + tool.name + "' (a " +
                            interaction::to_string(tool.tool.shape) + ") cannot " +
                            interaction::to_string(kf.mode) +
-                           " (ablate: sphere or capsule; cut: blade)");
+                           " (ablate: sphere or capsule; cut: blade; press: any)");
         out.keyframes.push_back(kf);
       }
-      // One tool at a time: trajectories may not overlap in time.
+      // Tools act at once, each in its own hand; one tool is in one place at a time, so two
+      // trajectories of the same tool may not overlap in time (their lift frame included).
       for (std::size_t j = 0; j < s.trajectories.size(); ++j) {
         const auto& o = s.trajectories[j].keyframes;
-        if (out.keyframes.front().time_s <= o.back().time_s &&
-            o.front().time_s <= out.keyframes.back().time_s)
-          tr.fail("overlaps trajectories[" + std::to_string(j) +
-                  "] in time: one tool moves at a time");
+        if (s.trajectories[j].tool == out.tool &&
+            out.keyframes.front().time_s <= o.back().time_s + 1.0 / s.frame_rate_hz &&
+            o.front().time_s <= out.keyframes.back().time_s + 1.0 / s.frame_rate_hz)
+          tr.fail("overlaps trajectories[" + std::to_string(j) + "] of the same tool '" + out.tool +
+                  "' in time: a tool is in one place at a time (give another tool "
+                  "for a second hand)");
       }
       s.trajectories.push_back(out);
     }
@@ -694,7 +742,8 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
                             bool volume_from_pipeline, const Scene& s,
                             const SceneIntegration& integration, const crms::EffectsConfig& effects,
                             LibraryRef& library) {
-  f.expect_keys({"name", "lattice", "material", "anchors", "tissue", "effects", "solver"});
+  f.expect_keys(
+      {"name", "lattice", "material", "anchors", "tissue", "effects", "solver", "contact"});
   SceneInstance inst;
   inst.integration = integration;
   if (const Field solver = f["solver"]; solver.defined()) {
@@ -719,6 +768,20 @@ SceneInstance read_instance(const Field& f, const std::filesystem::path& folder,
     inst.effects = crms::EffectsConfig{};
     read_effects(f["effects"], inst.effects);
     inst.effects.animation = effects.animation;  // scene-wide (scene_effects.h)
+  }
+  if (const Field c = f["contact"]; c.defined()) {
+    c.expect_keys({"pushed_by", "grid_mm"});
+    const Field by = c["pushed_by"];
+    if (!by.defined() || !by.node().IsSequence() || by.size() == 0)
+      by.fail("expected a non-empty list of instance names (the bodies that push this one)");
+    for (std::size_t k = 0; k < by.size(); ++k) {
+      const std::string name = by.at(k).text();
+      if (name == inst.name) by.at(k).fail("an instance does not push itself");
+      if (std::find(inst.pushed_by.begin(), inst.pushed_by.end(), name) != inst.pushed_by.end())
+        by.at(k).fail("'" + name + "' is listed twice");
+      inst.pushed_by.push_back(name);
+    }
+    inst.contact_grid_mm = c["grid_mm"].number(0.0, 0.0, 10.0);
   }
   return inst;
 }
@@ -828,6 +891,20 @@ Scene read_scene(const std::filesystem::path& file) {
           tissues.at(i)["name"].fail("'" + inst.name + "' is used twice");
       s.instances.push_back(std::move(inst));
     }
+    // Who pushes whom: names that exist, one way (no instance pushed by one it pushes).
+    for (std::size_t i = 0; i < s.instances.size(); ++i)
+      for (std::size_t k = 0; k < s.instances[i].pushed_by.size(); ++k) {
+        const std::string& by = s.instances[i].pushed_by[k];
+        const Field key = tissues.at(i)["contact"]["pushed_by"].at(k);
+        const auto it = std::find_if(s.instances.begin(), s.instances.end(),
+                                     [&](const SceneInstance& o) { return o.name == by; });
+        if (it == s.instances.end()) key.fail("no instance named '" + by + "' in tissues");
+        if (std::find(it->pushed_by.begin(), it->pushed_by.end(), s.instances[i].name) !=
+            it->pushed_by.end())
+          key.fail("'" + by + "' is itself pushed by '" + s.instances[i].name +
+                   "': contact is one way (the stiffer body pushes)");
+      }
+    instance_push_order(s);  // longer circles
   } else {
     SceneInstance single;
     single.name = s.name;
@@ -855,13 +932,15 @@ Scene read_scene(const std::filesystem::path& file) {
       if (inst.lattice.source != SceneLattice::Source::kVolume)
         top["effects"]["palette"]["channels"].fail(
             "needs lattice.source: volume (the channels are segment's material weights)");
-  read_tools(top["tools"], s.tools);
+  read_tools(top["tools"], file.parent_path(), s.tools);
   s.script_given = top["script"].defined();
   read_script(top["script"], s.tools, s.script);
   s.outputs_given = top["outputs"].defined();
   read_outputs(top["outputs"], s.outputs);
   s.interactive = !s.tools.empty() || s.script_given || s.multi_instance || top["tissue"].defined();
-  if (s.script_given && s.tools.empty()) top["script"].fail("needs tools");
+  if (s.script_given && s.tools.empty() &&
+      (!s.script.trajectories.empty() || !s.script.events.empty()))
+    top["script"].fail("needs tools (its trajectories and events name them)");
   if (s.interactive && s.steps_given)
     top["solver"][top["solver"]["steps"].defined() ? "steps" : "report_every"].fail(
         "only for a lattice-only scene: a scene with tissue, tools or a script runs for "

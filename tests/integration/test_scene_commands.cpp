@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cube_mesh.h"
 #include "support/test_data.h"
 #include "support/tsf_process.h"
 
@@ -305,6 +306,49 @@ TEST(SceneKeysByCommand, KeysACommandCannotHonourAreRefusedByName) {
     EXPECT_NE(o.process.status, 0) << name(c);
     EXPECT_NE(o.process.output.find(expect), std::string::npos)
         << "expected '" << expect << "' in: " << o.process.output;
+  }
+}
+
+TEST(SceneKeysByCommand, AMeshToolPressesInEveryCommandThatPlaysTools) {
+  TSF_NEED_EXE();
+  // The ball of kTools as a closed mesh file (a 4 mm cube in its own frame, OBJ).
+  const fs::path dir = test::scratch_dir("mesh-tool-file");
+  std::ofstream(dir / "cube.obj") << test::cube_obj();
+  std::string tools = kTools;
+  const std::string sphere = "{name: ball, shape: sphere, radius: 2}";
+  tools.replace(tools.find(sphere), sphere.size(),
+                "{name: ball, shape: mesh, file: " + (dir / "cube.obj").string() + "}");
+  for (Cmd c : commands()) {
+    if (c == Cmd::kHaptics) continue;  // it drives --trajectory's stylus, not scene tools
+    const Outcome o = run_scene(c, std::string(kBase) + tools, "mesh-tool");
+    ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
+    if (c == Cmd::kView) {
+      EXPECT_GT(o.report["max_force_un"].get<double>(), 0.0) << "the pressed box pushes back";
+      continue;
+    }
+    int held = 0;
+    for (const json& sample : o.report["contact"]) held += sample["nodes_held"].get<int>() > 0;
+    EXPECT_GT(held, 0) << name(c) << ": the mesh tool held nodes";
+  }
+}
+
+TEST(SceneKeysByCommand, InstanceContactIsHonouredWhereSeveralInstancesRun) {
+  TSF_NEED_EXE();
+  const std::string scene = std::string(R"(name: keys
+solver: {integrator: symplectic-euler, backend: cpu, dt: auto}
+gravity: [0, 0, -9810]
+tissues:
+  - {name: a, lattice: {source: box, size: [6, 6, 6], spacing: 2, origin: [0, 0, 8]}, material: {youngs_modulus: 3e4, viscosity: 2, density: 0.001}, contact: {pushed_by: [b]}}
+  - {name: b, lattice: {source: box, size: [12, 12, 6], spacing: 2, origin: [-3, -3, 0]}, material: {youngs_modulus: 3e5, viscosity: 2, density: 0.001}, anchors: [{box: {min: [-9, -9, -9], max: [20, 20, 20]}}]}
+)") + kTools;
+  for (Cmd c : {Cmd::kSimulate, Cmd::kRun}) {
+    const Outcome o = run_scene(c, scene, "contact");
+    ASSERT_EQ(o.process.status, 0) << name(c) << ": " << o.process.output;
+    const json& a = o.report["instances"][0];
+    ASSERT_TRUE(a["body_contact"].is_object()) << name(c) << ": " << a.dump().substr(0, 300);
+    EXPECT_EQ(a["body_contact"]["pushed_by"], json::array({"b"})) << name(c);
+    EXPECT_FALSE(a["body_contact"]["samples"].empty()) << name(c);
+    EXPECT_FALSE(o.report["instances"][1].contains("body_contact")) << "b is pushed by nothing";
   }
 }
 

@@ -62,6 +62,31 @@ TEST(ViewScript, ReadsOptionsAndInterpolatesTheHand) {
   EXPECT_EQ(s.command_at(9).mode, interaction::ToolMode::kCut);
 }
 
+TEST(ViewScript, HandsMoveTheirOwnToolsAtOnce) {
+  const auto p = write("hands.yaml",
+                       "keyframes:\n"
+                       "  - {frame: 2, tool: ball, position: [0, 0, 10], mode: press}\n"
+                       "  - {frame: 1, hand: 1, tool: scalpel, position: [5, 0, 0], mode: cut}\n"
+                       "  - {frame: 6, tool: ball, position: [4, 0, 10], mode: idle}\n"
+                       "  - {frame: 9, hand: 1, tool: scalpel, position: [5, 8, 0], mode: cut}\n");
+  const ViewScript s = read_view_script(p, tools(), {});
+  ASSERT_EQ(s.hands.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.last_keyframe(), 9.0);
+  const std::vector<ToolCommand> at1 = s.commands_at(1);
+  ASSERT_EQ(at1.size(), 2u);
+  EXPECT_EQ(at1[0].tool, -1) << "hand 0 is empty before its first keyframe";
+  EXPECT_EQ(at1[1].tool, 1);
+  const std::vector<ToolCommand> at4 = s.commands_at(4);
+  EXPECT_EQ(at4[0].tool, 0);
+  EXPECT_EQ(at4[0].mode, interaction::ToolMode::kPress);
+  EXPECT_EQ(at4[1].tool, 1);
+  EXPECT_EQ(at4[1].mode, interaction::ToolMode::kCut);
+  EXPECT_NEAR(at4[1].pose.position.y, 3.0, 1e-12) << "each hand interpolates its own keyframes";
+  EXPECT_NE(error_of("keyframes:\n  - {frame: 0, hand: 9, tool: ball, position: [0, 0, 0]}\n")
+                .find("keyframes[0].hand: expected a number in [0, 7]"),
+            std::string::npos);
+}
+
 TEST(ViewScript, ErrorsNameTheFileAndKeyPath) {
   EXPECT_NE(error_of("camera: {zoomm: 2}\n").find("camera.zoomm: unknown key"), std::string::npos);
   EXPECT_NE(error_of("camera: {zoom: -1}\n").find("camera.zoom: expected a number in (0"),

@@ -1,10 +1,13 @@
 #include "tsf/viewer/offscreen_render.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
 #include "tsf/common/atomic_file.h"
 #include "tsf/common/error.h"
+#include "tsf/haptics/scripted_device.h"
+#include "tsf/viewer/live_haptics.h"
 
 namespace tsf::viewer {
 
@@ -24,14 +27,20 @@ OffscreenResult render_offscreen(SimulationSession& session, const SliceVolume* 
   OffscreenResult r;
   double simulate_s = 0, render_s = 0;
   using Clock = std::chrono::steady_clock;
+  LiveHaptics* haptics = session.haptics();
+  auto* scripted =
+      haptics != nullptr ? dynamic_cast<haptics::ScriptedDevice*>(&haptics->device()) : nullptr;
   for (int f = 0; f < frames; ++f) {
-    const ToolCommand command = script.command_at(f);
+    const std::vector<ToolCommand> hands = script.commands_at(f);  // empty hands: tool −1
     const Clock::time_point t0 = Clock::now();
-    session.step(options.frame_s, command);
+    session.step_hands(options.frame_s, hands);
+    // Offscreen the haptic loop takes one tick per frame, on this thread: reproducible frames.
+    if (haptics != nullptr) {
+      if (scripted != nullptr) scripted->set_time(f);
+      haptics->tick_now();
+    }
     const Clock::time_point t1 = Clock::now();
-    ToolCommand shown = command;
-    if (!script.holds_tool_at(f)) shown.tool = -1;  // nothing in hand: draw no tool
-    viewer.render(shown);
+    viewer.render_hands(hands);
     const Clock::time_point t2 = Clock::now();
     simulate_s += std::chrono::duration<double>(t1 - t0).count();
     render_s += std::chrono::duration<double>(t2 - t1).count();
@@ -39,6 +48,7 @@ OffscreenResult render_offscreen(SimulationSession& session, const SliceVolume* 
     std::snprintf(name, sizeof name, "frame-%04d.png", f);
     viewer.write_png(out_dir / name);
     r.frames = f + 1;
+    r.max_force_un = std::max(r.max_force_un, viewer.shown_force_un());
     if (on_frame) on_frame(f);
     if (!session.stats().error.empty()) break;
   }

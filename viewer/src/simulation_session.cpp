@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "tsf/common/error.h"
+#include "tsf/viewer/live_haptics.h"
 
 namespace tsf::viewer {
 namespace {
@@ -21,6 +22,10 @@ SimulationSession::SimulationSession(std::unique_ptr<interaction::TissueModel> m
   require(model_ != nullptr, "viewer: no tissue model");
   require(!tools_.empty(), "viewer: the scene has no tools (add a `tools` section)");
   for (const NamedTool& t : tools_) t.tool.validate();
+  require(tools_.size() <= static_cast<std::size_t>(interaction::TissueModel::kMaxToolSlots),
+          "viewer: at most " + std::to_string(interaction::TissueModel::kMaxToolSlots) +
+              " tools act at once; the scene has " + std::to_string(tools_.size()));
+  holding_.assign(tools_.size(), false);
   const crms::Solver& solver = model_->solver();
   stats_.backend = solver.backend_name();
   stats_.lattice_dims = solver.lattice().geometry().dims;
@@ -36,31 +41,40 @@ void SimulationSession::publish_initial() {
   edited_since_publish_ = false;
 }
 
-void SimulationSession::step(double dt_display, const ToolCommand& command) {
+void SimulationSession::step_hands(double dt_display, const std::vector<ToolCommand>& hands) {
   if (!stats_.error.empty()) return;
   const double now = wall_seconds();
   if (wall_start_ < 0) wall_start_ = now;
   try {
-    if (command.tool < 0 || command.tool >= static_cast<int>(tools_.size()))
-      throw Error("viewer: tool index " + std::to_string(command.tool) +
-                  " out of range (the "
-                  "scene has " +
-                  std::to_string(tools_.size()) + " tools)");
-    if (command.mode == interaction::ToolMode::kIdle) {
-      if (holding_) model_->release_tool();
-      holding_ = false;
-    } else {
-      const interaction::EditReport r = model_->apply_tool(
-          tools_[static_cast<std::size_t>(command.tool)].tool, command.pose, command.mode);
-      holding_ = true;
+    std::vector<const ToolCommand*> by_tool(tools_.size(), nullptr);
+    for (const ToolCommand& c : hands) {
+      if (c.tool == -1) continue;
+      if (c.tool < 0 || c.tool >= static_cast<int>(tools_.size()))
+        throw Error("viewer: tool index " + std::to_string(c.tool) +
+                    " out of range (the scene has " + std::to_string(tools_.size()) + " tools)");
+      if (c.mode != interaction::ToolMode::kIdle) by_tool[static_cast<std::size_t>(c.tool)] = &c;
+    }
+    for (std::size_t t = 0; t < tools_.size(); ++t) {
+      const int slot = static_cast<int>(t);
+      if (by_tool[t] == nullptr) {
+        if (holding_[t]) model_->release_tool(slot);
+        holding_[t] = false;
+        continue;
+      }
+      const interaction::EditReport r =
+          model_->apply_tool(slot, tools_[t].tool, by_tool[t]->pose, by_tool[t]->mode);
+      holding_[t] = true;
       if (r.edited) edited_since_publish_ = true;
       for (const interaction::ExposureEvent& e : r.exposures)
-        stats_.warning = interaction::describe_exposure(
-            e.hit, tools_[static_cast<std::size_t>(command.tool)].name, e.time_s);
+        stats_.warning = interaction::describe_exposure(e.hit, tools_[t].name, e.time_s);
     }
     const interaction::AdvanceReport a = model_->advance(dt_display);
     if (a.tear.layers.edited) edited_since_publish_ = true;  // a tear re-meshed the surface
     if (a.instability) stats_.error = "unstable: " + a.instability->describe();
+    if (haptics_ != nullptr && !hands.empty()) {
+      const ToolCommand& h = hands.front();
+      haptics_->publish(*model_, h.pose, h.tool < 0 ? 0 : h.tool);
+    }
   } catch (const std::exception& e) {
     stats_.error = e.what();
   }
@@ -87,8 +101,9 @@ void SimulationSession::step(double dt_display, const ToolCommand& command) {
   if (on_published_) on_published_(*model_);
 }
 
-SimulationThread::SimulationThread(SimulationSession& session, double frame_s)
-    : session_(session), frame_s_(frame_s) {
+SimulationThread::SimulationThread(SimulationSession& session, double frame_s,
+                                   std::function<void()> on_start)
+    : session_(session), frame_s_(frame_s), on_start_(std::move(on_start)) {
   require(frame_s > 0, "viewer: simulation frame must be > 0 s");
   thread_ = std::thread([this] { run(); });
 }
@@ -97,9 +112,14 @@ SimulationThread::~SimulationThread() {
   stop();
 }
 
-void SimulationThread::set_tool(const ToolCommand& command) {
+void SimulationThread::set_hands(const std::vector<ToolCommand>& hands) {
   std::lock_guard<std::mutex> lock(mutex_);
-  command_ = command;
+  hands_ = hands;
+}
+
+std::vector<ToolCommand> SimulationThread::applied_hands() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return applied_;
 }
 
 void SimulationThread::stop() {
@@ -108,15 +128,26 @@ void SimulationThread::stop() {
 }
 
 void SimulationThread::run() {
+  if (on_start_) on_start_();
   const double start = wall_seconds();
   double simulated = 0;
   while (!stop_) {
-    ToolCommand c;
+    std::vector<ToolCommand> hands;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      c = command_;
+      hands = hands_;
     }
-    session_.step(frame_s_, c);
+    // The device holds the first hand: its pose (and button) as of the loop's latest tick.
+    if (LiveHaptics* h = session_.haptics(); h != nullptr && !hands.empty() && h->ticks() > 0) {
+      const haptics::DeviceState d = h->device_state();
+      hands.front().pose = d.pose;
+      if (!d.pressing) hands.front().mode = interaction::ToolMode::kIdle;
+    }
+    session_.step_hands(frame_s_, hands);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      applied_ = hands;
+    }
     simulated += frame_s_;
     if (!session_.stats().error.empty()) {
       // Stopped: keep the window alive, idle.

@@ -1,5 +1,6 @@
 #include "tsf/viewer/view_script.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -130,19 +131,25 @@ ViewScript read_view_script(const std::filesystem::path& file, const std::vector
   if (top["plot"].defined()) o.show_plot = top["plot"].boolean();
   if (top["tool"].defined()) o.show_tool = top["tool"].boolean();
 
-  std::vector<interaction::Keyframe> keys;
+  std::vector<std::vector<interaction::Keyframe>> keys(kMaxHands);
+  std::vector<std::vector<int>> tools_of(kMaxHands);
   if (const Node k = top["keyframes"]; k.defined()) {
-    Rotation rotation;
+    std::vector<Rotation> rotations(kMaxHands);
     for (std::size_t i = 0; i < k.size(); ++i) {
       const Node kf = k.at(i);
-      kf.keys({"frame", "tool", "position", "rotation", "mode"});
+      kf.keys({"frame", "hand", "tool", "position", "rotation", "mode"});
       if (!kf["frame"].defined()) kf.fail("needs `frame`");
       if (!kf["tool"].defined()) kf.fail("needs `tool`");
       if (!kf["position"].defined()) kf.fail("needs `position`");
+      const int hand =
+          kf["hand"].defined() ? static_cast<int>(kf["hand"].number_in(0, kMaxHands - 1)) : 0;
+      if (kf["hand"].defined() && kf["hand"].number() != hand)
+        kf["hand"].fail("expected a whole number in [0, " + std::to_string(kMaxHands - 1) + "]");
+      Rotation& rotation = rotations[static_cast<std::size_t>(hand)];
       interaction::Keyframe key;
       key.time_s = kf["frame"].number_in(0, 1e7);
-      if (!keys.empty() && key.time_s <= keys.back().time_s)
-        kf["frame"].fail("frames must increase from keyframe to keyframe");
+      if (!keys[hand].empty() && key.time_s <= keys[hand].back().time_s)
+        kf["frame"].fail("frames must increase from keyframe to keyframe of one hand");
       const std::string tool = kf["tool"].text();
       int index = -1;
       std::string names;
@@ -175,26 +182,59 @@ ViewScript read_view_script(const std::filesystem::path& file, const std::vector
                         interaction::to_string(tools[static_cast<std::size_t>(index)].tool.shape) +
                         ") cannot " + interaction::to_string(key.mode) +
                         " (ablate: sphere or capsule; cut: blade)");
-      keys.push_back(key);
-      s.keyframe_tools.push_back(index);
+      keys[hand].push_back(key);
+      tools_of[hand].push_back(index);
     }
   }
-  if (!keys.empty()) s.hand = interaction::Trajectory(keys);
+  // Hands in order, up to the last one that has keyframes (an empty hand before it stays empty).
+  int last = -1;
+  for (int h = 0; h < kMaxHands; ++h)
+    if (!keys[h].empty()) last = h;
+  for (int h = 0; h <= last; ++h) {
+    ViewHand hand;
+    if (!keys[h].empty()) hand.path = interaction::Trajectory(keys[h]);
+    hand.keyframe_tools = tools_of[h];
+    s.hands.push_back(std::move(hand));
+  }
   o.validate();
   return s;
 }
 
 bool ViewScript::holds_tool_at(int frame) const {
-  return !hand.empty() && static_cast<double>(frame) >= hand.start_time();
+  return !hands.empty() && hands.front().holds_tool_at(frame);
 }
 
 ToolCommand ViewScript::command_at(int frame) const {
+  return hands.empty() ? ToolCommand{} : hands.front().command_at(frame);
+}
+
+std::vector<ToolCommand> ViewScript::commands_at(int frame) const {
+  std::vector<ToolCommand> c;
+  for (const ViewHand& h : hands) {
+    c.push_back(h.command_at(frame));
+    if (!h.holds_tool_at(frame)) c.back().tool = -1;
+  }
+  return c;
+}
+
+double ViewScript::last_keyframe() const {
+  double last = -1;
+  for (const ViewHand& h : hands)
+    if (!h.path.empty()) last = std::max(last, h.path.end_time());
+  return last;
+}
+
+bool ViewHand::holds_tool_at(int frame) const {
+  return !path.empty() && static_cast<double>(frame) >= path.start_time();
+}
+
+ToolCommand ViewHand::command_at(int frame) const {
   ToolCommand c;
   if (!holds_tool_at(frame)) return c;
-  const interaction::TrajectorySample s = hand.sample(static_cast<double>(frame));
+  const interaction::TrajectorySample s = path.sample(static_cast<double>(frame));
   c.pose = s.pose;
   c.mode = s.mode;
-  const auto& keys = hand.keyframes();
+  const auto& keys = path.keyframes();
   for (std::size_t i = 0; i < keys.size(); ++i)
     if (keys[i].time_s <= frame) c.tool = keyframe_tools[i];
   // A switch of tool lifts the previous one: the pose jumps, so the mode of the earlier keyframe

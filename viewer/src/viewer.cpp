@@ -46,7 +46,9 @@
 #include <vtkWindowToImageFilter.h>
 
 #include "tsf/common/error.h"
+#include "tsf/haptics/input_device.h"
 #include "tsf/viewer/label_colours.h"
+#include "tsf/viewer/live_haptics.h"
 #include "tsf/viewer/surface_uploader.h"
 #include "tsf/volume/tissue_labels.h"
 
@@ -54,7 +56,7 @@ namespace tsf::viewer {
 
 const char* const kViewerKeyHelp =
     "mouse: move tool (no button), rotate (left drag), pan (middle), zoom (right drag, wheel) | "
-    "up/down, PgUp/PgDn: tool depth | space: engage/lift tool | p/a/c: press/ablate/cut | "
+    "up/down, PgUp/PgDn (held): tool depth | space: engage/lift tool | p/a/c: press/ablate/cut | "
     "t: next tool | x/y/z: slices | l: labels | h: HUD | r: reset camera | q, Esc: quit";
 
 DisplayStatus x_display_status() {
@@ -148,6 +150,19 @@ vtkSmartPointer<vtkPolyData> tool_geometry(const interaction::Tool& t) {
         pts->SetPoint(i, p);
       }
       out->GetPointData()->SetNormals(nullptr);
+      return out;
+    }
+    case collision::ToolShape::kMesh: {
+      vtkNew<vtkPoints> points;
+      for (const Vec3f& v : t.mesh->vertices) points->InsertNextPoint(v.x, v.y, v.z);
+      vtkNew<vtkCellArray> cells;
+      for (const auto& tri : t.mesh->triangles) {
+        const vtkIdType ids[3] = {tri[0], tri[1], tri[2]};
+        cells->InsertNextCell(3, ids);
+      }
+      vtkSmartPointer<vtkPolyData> out = vtkSmartPointer<vtkPolyData>::New();
+      out->SetPoints(points);
+      out->SetPolys(cells);
       return out;
     }
     case collision::ToolShape::kBlade:
@@ -249,8 +264,11 @@ class LivePlot {
       while (s.size() > kSamples) s.pop_front();
   }
 
+  /// The first series' name: the tool's contact force, or the haptic device's force.
+  void set_force_name(const char* name) { force_name_ = name; }
+
   void update() {
-    static const char* const names[2] = {"|tool force|", "sim rate   "};
+    const char* const names[2] = {force_name_, "sim rate   "};
     static const char* const units[2] = {"uN", "steps/s"};
     for (int s = 0; s < 2; ++s) {
       const auto& v = samples_[s];
@@ -284,6 +302,7 @@ class LivePlot {
 
  private:
   static constexpr double kX0 = 0.62, kX1 = 0.985, kY0 = 0.03, kY1 = 0.22;
+  const char* force_name_ = "|tool force|";
   std::deque<double> samples_[2];
   vtkSmartPointer<vtkPolyData> lines_[2];
   vtkSmartPointer<vtkActor2D> actors_[2];
@@ -303,6 +322,7 @@ class ToolInteractorStyle : public vtkInteractorStyleTrackballCamera {
   void OnMouseMove() override;
   void OnChar() override;
   void OnKeyPress() override;
+  void OnKeyRelease() override;
 };
 vtkStandardNewMacro(ToolInteractorStyle);
 
@@ -329,6 +349,11 @@ struct Viewer::Impl {
   interaction::ToolMode armed_mode = interaction::ToolMode::kPress;  // mode when engaged
   bool engaged = false;
   SimulationThread* thread = nullptr;
+  LiveHaptics* haptics = nullptr;         // the session's live haptics (null: none)
+  haptics::InputDevice* input = nullptr;  // its device, when the mouse and keys are the device
+  const ViewScript* script = nullptr;     // window: hands played in wall-clock time
+  Clock::time_point window_start;
+  Vec3d shown_force{0, 0, 0};       // the force in the HUD and plot this frame
   std::deque<double> render_times;  // seconds, recent renders
   std::deque<Clock::time_point> render_stamps;
   int frames_rendered = 0;
@@ -338,14 +363,24 @@ struct Viewer::Impl {
   void refresh_slice_colours();
   void place_slices(const Vec3d& mm);
   void reset_camera();
-  void update_frame(const ToolCommand& shown);
-  void update_hud(const ToolCommand& shown);
+  void update_frame(const std::vector<ToolCommand>& shown);
+  void update_hud(const std::vector<ToolCommand>& shown);
+  /// Where the first hand's tool is now: the device's pose with live haptics, else the mouse's.
+  Vec3d hand_position() const {
+    return haptics != nullptr ? haptics->device_state().pose.position : command.pose.position;
+  }
   void build_orientation_cube();
   void sync_orientation_cube();
   void push_command() {
     ToolCommand c = command;
     c.mode = engaged ? armed_mode : interaction::ToolMode::kIdle;
-    if (thread != nullptr) thread->set_tool(c);
+    if (input != nullptr) input->set_pressing(engaged);
+    if (thread != nullptr && script == nullptr) thread->set_tool(c);
+  }
+  /// The hands of the window's view script at the wall time now (played in real time).
+  std::vector<ToolCommand> scripted_hands() const {
+    const double t = std::chrono::duration<double>(Clock::now() - window_start).count();
+    return script->commands_at(static_cast<int>(std::floor(t / options.frame_s)));
   }
 };
 
@@ -358,7 +393,7 @@ void ToolInteractorStyle::OnMouseMove() {
   }
   // Move the tool in the screen-parallel plane through its current position.
   vtkRenderer* r = impl->renderer;
-  const Vec3d& p = impl->command.pose.position;
+  const Vec3d p = impl->hand_position();
   r->SetWorldPoint(p.x, p.y, p.z, 1.0);
   r->WorldToDisplay();
   const double depth = r->GetDisplayPoint()[2];
@@ -366,7 +401,13 @@ void ToolInteractorStyle::OnMouseMove() {
   r->SetDisplayPoint(pos[0], pos[1], depth);
   r->DisplayToWorld();
   const double* w = r->GetWorldPoint();
-  if (w[3] != 0.0) impl->command.pose.position = {w[0] / w[3], w[1] / w[3], w[2] / w[3]};
+  if (w[3] != 0.0) {
+    const Vec3d target{w[0] / w[3], w[1] / w[3], w[2] / w[3]};
+    if (impl->input != nullptr)
+      impl->input->move_by(target - p);  // the device moves; the loop reads it at 1 kHz
+    else
+      impl->command.pose.position = target;
+  }
   impl->push_command();
 }
 
@@ -375,7 +416,10 @@ void ToolInteractorStyle::OnKeyPress() {
   const std::string key = GetInteractor()->GetKeySym() ? GetInteractor()->GetKeySym() : "";
   const bool shift = GetInteractor()->GetShiftKey() != 0;
   double step = shift ? 2.0 : 0.5;  // mm
-  if (key == "Up" || key == "Prior" || key == "Down" || key == "Next") {
+  if ((key == "Up" || key == "Prior" || key == "Down" || key == "Next") && impl->input != nullptr) {
+    // The device: the tool moves along the view direction while the key is held.
+    impl->input->key(2, key == "Down" || key == "Next" ? -1 : 1, true);
+  } else if (key == "Up" || key == "Prior" || key == "Down" || key == "Next") {
     if (key == "Down" || key == "Next") step = -step;
     // Along the view direction: away from the camera for "Up" (deeper).
     double dir[3];
@@ -386,6 +430,13 @@ void ToolInteractorStyle::OnKeyPress() {
   } else if (key == "Escape") {
     GetInteractor()->TerminateApp();
   }
+}
+
+void ToolInteractorStyle::OnKeyRelease() {
+  if (impl == nullptr || impl->input == nullptr) return;
+  const std::string key = GetInteractor()->GetKeySym() ? GetInteractor()->GetKeySym() : "";
+  if (key == "Up" || key == "Prior" || key == "Down" || key == "Next")
+    impl->input->key(2, 0, false);
 }
 
 void ToolInteractorStyle::OnChar() {
@@ -556,22 +607,27 @@ void Viewer::Impl::reset_camera() {
 
 // ---- frames -----------------------------------------------------------------------------------
 
-void Viewer::Impl::update_frame(const ToolCommand& shown) {
+void Viewer::Impl::update_frame(const std::vector<ToolCommand>& shown) {
   const Clock::time_point start = Clock::now();
   stats = session->exchange().consume(
       [&](const SurfaceBuffers& b, const SurfaceDelta& d) { uploader.apply(b, d); });
   for (std::size_t i = 0; i < tool_actors.size(); ++i) {
     vtkActor* a = tool_actors[i];
-    const bool visible = options.show_tool && static_cast<int>(i) == shown.tool;
+    const ToolCommand* hand = nullptr;
+    for (const ToolCommand& c : shown)
+      if (c.tool == static_cast<int>(i)) hand = &c;
+    const bool visible = options.show_tool && hand != nullptr;
     a->SetVisibility(visible);
     if (!visible) continue;
-    set_pose(a, shown.pose);
-    const auto col = mode_colour(shown.mode);
+    set_pose(a, hand->pose);
+    const auto col = mode_colour(hand->mode);
     a->GetProperty()->SetColor(col[0], col[1], col[2]);
-    a->GetProperty()->SetOpacity(shown.mode == interaction::ToolMode::kIdle ? 0.55 : 0.9);
+    a->GetProperty()->SetOpacity(hand->mode == interaction::ToolMode::kIdle ? 0.55 : 0.9);
   }
+  shown_force = haptics != nullptr ? haptics->force_un() : stats.tool_force_un;
+  if (haptics != nullptr) haptics->note_force(length(shown_force));
   if (options.show_plot) {
-    plot->add(length(stats.tool_force_un), stats.steps_per_s);
+    plot->add(length(shown_force), stats.steps_per_s);
     plot->update();
   }
   update_hud(shown);
@@ -639,8 +695,10 @@ void Viewer::Impl::sync_orientation_cube() {
   marker_renderer->ResetCameraClippingRange();
 }
 
-void Viewer::Impl::update_hud(const ToolCommand& shown) {
+void Viewer::Impl::update_hud(const std::vector<ToolCommand>& hands) {
   if (!options.show_hud) return;
+  const ToolCommand shown =
+      hands.empty() ? ToolCommand{-1, {}, interaction::ToolMode::kIdle} : hands.front();
   double fps = 0;
   if (render_stamps.size() >= 2)
     fps = static_cast<double>(render_stamps.size() - 1) /
@@ -670,6 +728,26 @@ void Viewer::Impl::update_hud(const ToolCommand& shown) {
                 thousands(length(stats.tool_force_un)).c_str(), stats.removed_mm3,
                 stats.error.empty() ? "" : "\nSTOPPED  ", stats.error.c_str());
   std::string text = buf;
+  for (std::size_t h = 1; h < hands.size(); ++h) {
+    if (hands[h].tool < 0 || hands[h].tool >= static_cast<int>(session->tools().size())) continue;
+    const NamedTool& other = session->tools()[static_cast<std::size_t>(hands[h].tool)];
+    std::snprintf(buf, sizeof buf, "\nhand %zu   %s (%s)  [%s]", h + 1, other.name.c_str(),
+                  interaction::to_string(other.tool.shape), mode_name(hands[h].mode));
+    text += buf;
+  }
+  if (haptics != nullptr) {
+    const LiveHapticsOptions& ho = haptics->options();
+    if (haptics->running())
+      std::snprintf(
+          buf, sizeof buf, "\nhaptics  %s model, %s at %.0f Hz (%.0f achieved)   |F| = %s uN",
+          haptics::to_string(ho.model), haptics->device().describe().c_str(), ho.loop.rate_hz,
+          haptics->recent_rate_hz(), thousands(length(shown_force)).c_str());
+    else
+      std::snprintf(buf, sizeof buf, "\nhaptics  %s model, %s, one tick per frame   |F| = %s uN",
+                    haptics::to_string(ho.model), haptics->device().describe().c_str(),
+                    thousands(length(shown_force)).c_str());
+    text += buf;
+  }
   if (options.slices.show && !slice_description.empty())
     text += "\nslices   " + slice_description + (options.slices.labels ? " + tissue labels" : "");
   if (!options.patient.description.empty()) text += "\npatient  " + options.patient.description;
@@ -757,6 +835,11 @@ Viewer::Viewer(SimulationSession& session, const SliceVolume* slices, const View
   // Start the hand above the tissue's centre.
   v.command.pose.position = {(v.bounds[0] + v.bounds[1]) / 2, (v.bounds[2] + v.bounds[3]) / 2,
                              v.bounds[5] + 5.0};
+  v.haptics = session.haptics();
+  if (v.haptics != nullptr) {
+    v.input = dynamic_cast<haptics::InputDevice*>(&v.haptics->device());
+    if (v.input != nullptr) v.input->set_home(v.command.pose.position);
+  }
 
   // Overlays.
   v.hud = vtkSmartPointer<vtkTextActor>::New();
@@ -779,6 +862,7 @@ Viewer::Viewer(SimulationSession& session, const SliceVolume* slices, const View
   v.help->SetVisibility(options.show_hud && !options.offscreen);
   v.renderer->AddActor2D(v.help);
   v.plot = std::make_unique<LivePlot>(v.renderer);
+  if (v.haptics != nullptr) v.plot->set_force_name("|haptic F| ");
   v.plot->set_visible(options.show_hud && options.show_plot);
 
   // Light from the camera plus a fill from above.
@@ -788,7 +872,7 @@ Viewer::Viewer(SimulationSession& session, const SliceVolume* slices, const View
 
 Viewer::~Viewer() = default;
 
-int Viewer::run_window() {
+int Viewer::run_window(const ViewScript* script) {
   Impl& v = *impl_;
   require(!options_.offscreen, "tsf view: run_window() needs a window (not --offscreen)");
   v.interactor = vtkSmartPointer<vtkRenderWindowInteractor>::New();
@@ -797,18 +881,45 @@ int Viewer::run_window() {
   style->impl = &v;
   v.interactor->SetInteractorStyle(style);
   v.interactor->Initialize();
+  v.script = script != nullptr && !script->hands.empty() ? script : nullptr;
+  v.window_start = Clock::now();
+  if (v.input != nullptr) v.input->set_pressing(false);  // lifted until space engages it
+  if (v.haptics != nullptr) {
+    v.haptics->start();
+    if (options_.on_haptics_started) options_.on_haptics_started();
+  }
   SimulationThread thread(*v.session, options_.frame_s);
   v.thread = &thread;
   v.push_command();
+  if (v.script != nullptr) thread.set_hands(v.scripted_hands());
   vtkNew<vtkCallbackCommand> tick;
   tick->SetClientData(&v);
   tick->SetCallback([](vtkObject* caller, unsigned long, void* client, void*) {
     auto* impl = static_cast<Viewer::Impl*>(client);
-    ToolCommand shown = impl->command;
-    shown.mode = impl->engaged ? impl->armed_mode : interaction::ToolMode::kIdle;
+    if (impl->script != nullptr) impl->thread->set_hands(impl->scripted_hands());
+    if (impl->input != nullptr) {
+      // The keys move the device along the view's axes.
+      double dop[3], up[3];
+      vtkCamera* cam = impl->renderer->GetActiveCamera();
+      cam->GetDirectionOfProjection(dop);
+      cam->GetViewUp(up);
+      const Vec3d f{dop[0], dop[1], dop[2]}, u{up[0], up[1], up[2]};
+      impl->input->set_view_axes(cross(f, u), u, f);
+    }
+    std::vector<ToolCommand> shown = impl->thread->applied_hands();
+    if (shown.empty()) {
+      ToolCommand c = impl->command;
+      c.mode = impl->engaged ? impl->armed_mode : interaction::ToolMode::kIdle;
+      if (impl->haptics != nullptr) c.pose = impl->haptics->device_state().pose;
+      shown.push_back(c);
+    }
     impl->update_frame(shown);
     if (impl->options.close_after_frames >= 0 &&
         impl->frames_rendered >= impl->options.close_after_frames)
+      static_cast<vtkRenderWindowInteractor*>(caller)->TerminateApp();
+    if (impl->options.close_after_s > 0 &&
+        std::chrono::duration<double>(Clock::now() - impl->window_start).count() >=
+            impl->options.close_after_s)
       static_cast<vtkRenderWindowInteractor*>(caller)->TerminateApp();
   });
   v.interactor->AddObserver(vtkCommand::TimerEvent, tick);
@@ -816,6 +927,7 @@ int Viewer::run_window() {
   v.window->Render();
   v.interactor->Start();
   thread.stop();
+  if (v.haptics != nullptr) v.haptics->stop();
   v.thread = nullptr;
   v.interactor->RemoveAllObservers();
   style->impl = nullptr;
@@ -830,7 +942,15 @@ void Viewer::step_and_render(const ToolCommand& command) {
 }
 
 void Viewer::render(const ToolCommand& command) {
-  impl_->update_frame(command);
+  impl_->update_frame({command});
+}
+
+void Viewer::render_hands(const std::vector<ToolCommand>& hands) {
+  impl_->update_frame(hands);
+}
+
+double Viewer::shown_force_un() const {
+  return length(impl_->shown_force);
 }
 
 Frame Viewer::capture() const {

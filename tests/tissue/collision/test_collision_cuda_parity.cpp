@@ -7,8 +7,10 @@
 #include <cmath>
 
 #include "../interaction/interaction_test_helpers.h"
+#include "collision_test_meshes.h"
 #include "tsf/collision/node_gatherer.h"
 #include "tsf/common/cuda_support.h"
+#include "tsf/interaction/body_field.h"
 
 namespace tsf::collision {
 namespace {
@@ -94,6 +96,51 @@ TEST(CollisionCudaParity, APressHoldsTheSameNodesWithTheSameForce) {
   cpu->advance(5e-4);
   gpu->advance(5e-4);
   EXPECT_EQ(cpu->contact().nodes_held, gpu->contact().nodes_held);
+  EXPECT_LT(length(cpu->contact().force_un - gpu->contact().force_un),
+            1e-2 * (1.0 + length(cpu->contact().force_un)));
+}
+
+TEST(CollisionCudaParity, MeshToolsTwoHandsAndABodyHoldTheSameNodesOnBothBackends) {
+  if (!cuda_status().available) GTEST_SKIP() << "CUDA parity not run: " << cuda_status().reason;
+  // Host-tested tools on CUDA: the gather kernel takes a mesh tool's (and a body's) box, the host
+  // tests the nodes; the result must be the CPU's. A mesh ball in hand 0, a capsule in hand 1,
+  // and a slab under the block pushing it (the block's bottom overlaps it by 1 mm at rest).
+  auto cpu = make_model(crms::Backend::kCpu);
+  auto gpu = make_model(crms::Backend::kCuda);
+  ASSERT_TRUE(gpu->solver().on_cuda());
+  const test::Mesh m = test::sphere_mesh(4.0, 3);
+  interaction::Tool mesh_ball;
+  mesh_ball.shape = ToolShape::kMesh;
+  mesh_ball.mesh = interaction::ToolMesh::from_closed_mesh("sphere", m.vertices, m.triangles, 0.25);
+  interaction::Tool wand;
+  wand.shape = ToolShape::kCapsule;
+  wand.radius_mm = 2.0;
+  wand.half_length_mm = 2.0;
+  auto slab_options = interaction::test::block_options(-1, 0.0);
+  slab_options.anchor = [](crms::Lattice& l) {
+    crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 1e9});
+  };
+  const TissueModel slab(interaction::test::block_volume({24, 24, 8}, {0, 0, 0}, {24, 24, 3}),
+                         slab_options);
+  for (TissueModel* model : {cpu.get(), gpu.get()}) {
+    auto field = std::make_shared<interaction::BodyField>(slab, 0.5);
+    field->set_rest_allowance(*model);
+    model->set_pushers({field});
+    model->apply_tool(0, mesh_ball, {{8.5, 12.5, 17.2}, {}}, interaction::ToolMode::kPress);
+    model->apply_tool(1, wand, {{17.0, 12.5, 16.0}, Rotation::about_axis({1, 0, 0}, 1.0)},
+                      interaction::ToolMode::kPress);
+  }
+  for (int h = 0; h < 2; ++h) {
+    EXPECT_EQ(cpu->tool_contact(h).nodes_held, gpu->tool_contact(h).nodes_held) << "hand " << h;
+    EXPECT_GT(cpu->tool_contact(h).nodes_held, 0u) << "hand " << h;
+    EXPECT_LT(length(cpu->tool_contact(h).force_un - gpu->tool_contact(h).force_un),
+              1e-4 * (1.0 + length(cpu->tool_contact(h).force_un)))
+        << "hand " << h;
+  }
+  cpu->advance(5e-4);
+  gpu->advance(5e-4);
+  EXPECT_EQ(cpu->contact().nodes_held, gpu->contact().nodes_held);
+  EXPECT_EQ(cpu->pusher_contact().nodes_held, gpu->pusher_contact().nodes_held);
   EXPECT_LT(length(cpu->contact().force_un - gpu->contact().force_un),
             1e-2 * (1.0 + length(cpu->contact().force_un)));
 }

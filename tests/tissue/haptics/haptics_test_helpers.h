@@ -2,7 +2,15 @@
 // evaluated frame by frame as the playback does.
 #pragma once
 
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "tsf/haptics/force_models.h"
@@ -13,6 +21,21 @@
 #include "tsf/volume/tool_shapes.h"
 
 namespace tsf::haptics::test {
+
+/// What tsf does for a live loop (app/scene/haptic_devices.h), for the loop tests: the haptic
+/// thread asks for SCHED_FIFO (unless TSF_TEST_NO_REALTIME is set), the simulation and renderer
+/// threads step down to nice +5.
+inline std::string request_realtime() {
+  if (std::getenv("TSF_TEST_NO_REALTIME") == nullptr) {
+    sched_param p{};
+    p.sched_priority = 10;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0) return "SCHED_FIFO";
+  }
+  return "normal scheduling";
+}
+inline void lower_priority() {
+  (void)setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), 5);
+}
 
 /// A sphere of `radius` mm centred in a cube of `extent` mm of `voxel` mm voxels; the density
 /// ramps over ±ramp mm (0: binary voxels).

@@ -21,8 +21,18 @@ void NodeGatherer::gather(const crms::Solver& solver, const Vec3f& lo, const Vec
   out.hi = hi;
   if (solver.on_cuda()) {
     if (!device_) device_ = make_collision_device();
-    device_->gather(view, lo, hi, tool ? &*tool : nullptr, out);
+    // Mesh and field tools live on the host: the kernel takes the box, the host tests them.
+    const bool on_host = tool && host_only(tool->shape);
+    device_->gather(view, lo, hi, tool && !on_host ? &*tool : nullptr, out);
     out.build_index(geometry_.dims);
+    if (on_host)
+      for (std::size_t i = 0; i < out.nodes.size(); ++i) {
+        const Int3 c = geometry_.coordinates(out.nodes[i]);
+        out.inside[i] = node_in_tool(*tool, view.rest(c.x, c.y, c.z) + out.displacement[i],
+                                     out.target[i], out.normal[i])
+                            ? 1
+                            : 0;
+      }
     return;
   }
   if (!blocks_current_) {

@@ -11,13 +11,42 @@ namespace tsf::collision {
 
 namespace {
 
-/// What the steps of one resolve() read: the lattice, the nodes gathered near the tool and the
-/// tool itself.
+/// Whether the narrow phase keeps the render vertices out of `t` (every tool but a large body).
+bool keeps_vertices_out(const WorldTool& t) {
+  return t.shape != ToolShape::kField || t.field->keeps_vertices_out();
+}
+
+/// Signed distance of p from the union of `tools` (negative inside any of them), mm, the outward
+/// normal of the tool it is deepest in (or nearest to) and that tool's index (−1: none). A field
+/// tool's surface for lattice node `node` lies at its allowance (DistanceField::allowance_mm);
+/// `vertices`: only the tools that keep render vertices out, and no allowance.
+double union_distance(const std::vector<WorldTool>& tools, const Vec3d& p, std::int64_t node,
+                      bool vertices, Vec3d& normal, int& which) {
+  double best = 1e300;
+  which = -1;
+  normal = Vec3d{0, 0, 1};
+  for (std::size_t i = 0; i < tools.size(); ++i) {
+    const WorldTool& t = tools[i];
+    if (vertices && !keeps_vertices_out(t)) continue;
+    Vec3d n;
+    double d = tool_distance(t, p, n);
+    if (!vertices && t.shape == ToolShape::kField && node >= 0) d -= t.field->allowance_mm(node);
+    if (d < best) {
+      best = d;
+      normal = n;
+      which = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+/// What the steps of one resolve() read: the lattice, the nodes gathered near the tools and the
+/// tools themselves.
 struct ContactScene {
   const crms::LatticeGeometry& g;
   const std::vector<std::uint8_t>& anchored;  // per lattice node
   const NodeNeighbourhood& nb;
-  const WorldTool& tool;
+  const std::vector<WorldTool>& tools;
 
   /// Rest position of gathered node i, mm.
   Vec3d rest(std::size_t i) const { return g.rest_position(nb.nodes[i]); }
@@ -33,7 +62,42 @@ struct ContactScene {
     return nb.find(cc.x + coupler::corner_bit(c, 0), cc.y + coupler::corner_bit(c, 1),
                    cc.z + coupler::corner_bit(c, 2), g.dims);
   }
+  /// Signed distance of lattice node `node` at p from the tools, with its normal and tool.
+  double node_distance(std::int64_t node, const Vec3d& p, Vec3d& n, int& which) const {
+    return union_distance(tools, p, node, false, n, which);
+  }
+  /// Signed distance of a render vertex at p from the tools that keep vertices out.
+  double vertex_distance(const Vec3d& p, Vec3d& n) const {
+    int which;
+    return union_distance(tools, p, -1, true, n, which);
+  }
 };
+
+/// Step 1 with other tools about (or a mesh or field tool): the nodes in the own tool's box with
+/// the margin, tested against the union of every tool on the host. A node inside is sent to the
+/// nearest surface of the tool it is deepest in; when that lands it inside another tool, on again
+/// (a few rounds: two tools squeezing the tissue between them).
+void gather_union(const crms::Solver& solver, NodeGatherer& gatherer,
+                  const std::vector<WorldTool>& tools, std::size_t own, double margin_mm,
+                  const crms::LatticeGeometry& g, NodeNeighbourhood& out) {
+  Vec3d lo, hi;
+  tool_bounds(tools[own], lo, hi);
+  const Vec3d m{margin_mm, margin_mm, margin_mm};
+  gatherer.gather(solver, to_float(lo - m), to_float(hi + m), std::nullopt, out);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    Vec3d p = g.rest_position(out.nodes[i]) + to_double(out.displacement[i]), normal;
+    int which;
+    double d = union_distance(tools, p, out.nodes[i], false, normal, which);
+    if (!(d < 0.0)) continue;
+    out.inside[i] = 1;
+    out.normal[i] = to_float(normal);
+    for (int round = 0; round < 4 && d < 0.0; ++round) {
+      p = p - normal * (d - kContactSkinMm);
+      d = union_distance(tools, p, out.nodes[i], false, normal, which);
+    }
+    out.target[i] = to_float(p);
+  }
+}
 
 /// Step 2. Reads the held nodes, the spring forces at them and the gathered displacements;
 /// writes the held nodes the tool still presses to `keep` and the others to `release` (both
@@ -49,7 +113,8 @@ void split_held_nodes(const ContactScene& scene, const std::vector<std::int64_t>
     }
     const Vec3d p = scene.deformed(static_cast<std::size_t>(at), scene.nb.displacement);
     Vec3d n;
-    const double d = tool_distance(scene.tool, p, n);
+    int which;
+    const double d = scene.node_distance(held[i], p, n, which);
     if (d > 10.0 * kContactSkinMm || dot(to_double(forces[i]), n) > 0.0)
       release.push_back(held[i]);
     else
@@ -76,18 +141,39 @@ struct NarrowCubes {
   std::vector<std::size_t> cube_begin;
 };
 
+/// Axis-aligned bounds of the tools that keep render vertices out.
+struct ToolBoxes {
+  std::vector<Vec3d> lo, hi;
+  explicit ToolBoxes(const std::vector<WorldTool>& tools) {
+    for (const WorldTool& t : tools) {
+      if (!keeps_vertices_out(t)) continue;
+      Vec3d l, h;
+      tool_bounds(t, l, h);
+      lo.push_back(l);
+      hi.push_back(h);
+    }
+  }
+  bool empty() const { return lo.empty(); }
+  /// Whether the box [a, b] grown by `reach` meets any tool box.
+  bool near(const Vec3d& a, const Vec3d& b, double reach) const {
+    for (std::size_t k = 0; k < lo.size(); ++k)
+      if (!(b.x + reach < lo[k].x || b.y + reach < lo[k].y || b.z + reach < lo[k].z ||
+            a.x - reach > hi[k].x || a.y - reach > hi[k].y || a.z - reach > hi[k].z))
+        return true;
+    return false;
+  }
+};
+
 /// Step 4, first half. Reads the gathered nodes' positions and the coupler's cube lists; returns
-/// the cubes around every node within a lattice diagonal of the tool's bounds [lo, hi].
+/// the cubes around every node within a lattice diagonal of a tool's bounds.
 NarrowCubes cubes_near_tool(const ContactScene& scene, const coupler::Coupler& coupler,
-                            const Vec3d& lo, const Vec3d& hi) {
+                            const ToolBoxes& boxes) {
   const crms::LatticeGeometry& g = scene.g;
   const double reach = length(g.spacing);
   NarrowCubes cubes;
   for (std::size_t i = 0; i < scene.nb.size(); ++i) {
     const Vec3d p = scene.deformed(i, scene.nb.displacement);
-    if (p.x < lo.x - reach || p.y < lo.y - reach || p.z < lo.z - reach || p.x > hi.x + reach ||
-        p.y > hi.y + reach || p.z > hi.z + reach)
-      continue;
+    if (!boxes.near(p, p, reach)) continue;
     const Int3 m = g.coordinates(scene.nb.nodes[i]);
     for (int o = 0; o < 8; ++o) {
       const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
@@ -125,8 +211,9 @@ coupler::DeformedLatticeView lattice_geometry_view(const crms::LatticeGeometry& 
 class NarrowPhase {
  public:
   NarrowPhase(const ContactScene& scene, const NarrowCubes& cubes, const coupler::Coupler& coupler,
-              const ContactOptions& options, std::vector<Vec3f>& overrides)
+              const ContactOptions& options, const ToolBoxes& boxes, std::vector<Vec3f>& overrides)
       : scene_(scene),
+        boxes_(boxes),
         cubes_(cubes),
         bindings_(coupler.bindings()),
         sources_(coupler.sources()),
@@ -138,9 +225,7 @@ class NarrowPhase {
         overrides_(overrides),
         correction_(scene.nb.size()),
         correction_len_(scene.nb.size()),
-        pushed_(cubes.slots.size(), 0) {
-    tool_bounds(scene.tool, lo_, hi_);
-  }
+        pushed_(cubes.slots.size(), 0) {}
 
   /// Reads and writes overrides; marks the nodes it moves in `moved`; writes out's
   /// narrow_iterations, max_vertex_depth_mm and vertices_pushed.
@@ -183,9 +268,7 @@ class NarrowPhase {
       clo = {std::min(clo.x, p.x), std::min(clo.y, p.y), std::min(clo.z, p.z)};
       chi = {std::max(chi.x, p.x), std::max(chi.y, p.y), std::max(chi.z, p.z)};
     }
-    return chi.x >= clo.x &&
-           (chi.x + h_max_ < lo_.x || chi.y + h_max_ < lo_.y || chi.z + h_max_ < lo_.z ||
-            clo.x - h_max_ > hi_.x || clo.y - h_max_ > hi_.y || clo.z - h_max_ > hi_.z);
+    return chi.x >= clo.x && !boxes_.near(clo, chi, h_max_);
   }
 
   /// Tests the vertices of one cube (lower corner cc) and asks for corrections for those inside;
@@ -211,7 +294,7 @@ class NarrowPhase {
       Vec3f axes[3];
       const Vec3f position = base + coupler::map_cube_point(q, b.w, mode_, axes);
       Vec3d n;
-      const double d = tool_distance(scene_.tool, to_double(position), n);
+      const double d = scene_.vertex_distance(to_double(position), n);
       if (!(d < -tolerance_)) continue;
       deepest = std::max(deepest, -d);
       pushed_[v] = 1;
@@ -270,6 +353,7 @@ class NarrowPhase {
 
   static constexpr double kMaxCornerStepRatio = 4.0;  // a corner moves at most 4|δ|
   const ContactScene& scene_;
+  const ToolBoxes& boxes_;
   const NarrowCubes& cubes_;
   const std::vector<coupler::VertexBinding>& bindings_;
   const std::vector<std::uint32_t>& sources_;
@@ -277,7 +361,6 @@ class NarrowPhase {
   const coupler::DeformedLatticeView view_;
   const NeighbourhoodReader reader_;
   const double tolerance_, h_max_;
-  Vec3d lo_, hi_;  // the tool's bounds
   std::vector<Vec3f>& overrides_;
   std::vector<Vec3f> correction_;
   std::vector<float> correction_len_;
@@ -287,13 +370,11 @@ class NarrowPhase {
 /// Step 5. Constrains the moved nodes where `overrides` puts them (zero velocity) and releases the
 /// let-go ones that did not move again; writes out.nodes_released and returns the nodes held now
 /// (keep ∪ moved, ascending).
-std::vector<std::int64_t> hold_moved_nodes(crms::Solver& solver, NodeGatherer& gatherer,
-                                           const ContactScene& scene,
-                                           const std::vector<Vec3f>& overrides,
-                                           const std::vector<std::uint8_t>& moved,
-                                           const std::vector<std::int64_t>& keep,
-                                           const std::vector<std::int64_t>& release,
-                                           ContactForce& out) {
+std::vector<std::int64_t> hold_moved_nodes(
+    crms::Solver& solver, NodeGatherer& gatherer, const ContactScene& scene,
+    const std::vector<Vec3f>& overrides, const std::vector<std::uint8_t>& moved,
+    const std::vector<std::int64_t>& keep, const std::vector<std::int64_t>& release,
+    const std::vector<std::int64_t>& held_elsewhere, ContactForce& out) {
   std::vector<std::int64_t> hold;
   std::vector<Vec3d> targets;
   for (std::size_t i = 0; i < scene.nb.size(); ++i)
@@ -301,8 +382,11 @@ std::vector<std::int64_t> hold_moved_nodes(crms::Solver& solver, NodeGatherer& g
       hold.push_back(scene.nb.nodes[i]);
       targets.push_back(scene.deformed(i, overrides));
     }
-  std::vector<std::int64_t> really_released;
+  std::vector<std::int64_t> let_go, really_released;
   std::set_difference(release.begin(), release.end(), hold.begin(), hold.end(),
+                      std::back_inserter(let_go));
+  // A node another contact holds stays held: it is that contact's to let go.
+  std::set_difference(let_go.begin(), let_go.end(), held_elsewhere.begin(), held_elsewhere.end(),
                       std::back_inserter(really_released));
   if (!really_released.empty()) solver.release_nodes(really_released);
   if (!hold.empty()) solver.constrain_nodes(hold, targets);
@@ -314,11 +398,11 @@ std::vector<std::int64_t> hold_moved_nodes(crms::Solver& solver, NodeGatherer& g
 }
 
 /// Step 6. Reads the spring forces at the held nodes and their positions (`overrides` for the
-/// gathered ones); writes out's force and torque about the tool's reference point.
-void tool_feedback(const ContactScene& scene, const std::vector<std::int64_t>& held,
-                   const std::vector<Vec3f>& forces, const std::vector<Vec3f>& overrides,
-                   ContactForce& out) {
-  const Vec3d ref = scene.tool.reference_point();
+/// gathered ones); writes the force and torque about the own tool's reference point.
+void tool_feedback(const ContactScene& scene, const WorldTool& own,
+                   const std::vector<std::int64_t>& held, const std::vector<Vec3f>& forces,
+                   const std::vector<Vec3f>& overrides, ContactForce& out) {
+  const Vec3d ref = own.reference_point();
   for (std::size_t i = 0; i < held.size(); ++i) {
     const Vec3d f = to_double(forces[i]);
     const std::ptrdiff_t at = scene.nb.find(held[i]);
@@ -338,8 +422,12 @@ ToolContact::ToolContact(const crms::LatticeGeometry& geometry, std::vector<std:
           "tool contact: the anchored flags must have one entry per lattice node");
 }
 
-void ToolContact::release_all(crms::Solver& solver) {
-  if (!held_.empty()) solver.release_nodes(held_);
+void ToolContact::release_all(crms::Solver& solver,
+                              const std::vector<std::int64_t>& held_elsewhere) {
+  std::vector<std::int64_t> mine;
+  std::set_difference(held_.begin(), held_.end(), held_elsewhere.begin(), held_elsewhere.end(),
+                      std::back_inserter(mine));
+  if (!mine.empty()) solver.release_nodes(mine);
   held_.clear();
 }
 
@@ -354,15 +442,29 @@ void ToolContact::forget(const std::vector<std::int64_t>& deleted) {
 
 ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
                                   const coupler::Coupler& coupler, const WorldTool& tool) {
+  return resolve(solver, gatherer, coupler, std::vector<WorldTool>{tool}, 0, {});
+}
+
+ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
+                                  const coupler::Coupler& coupler,
+                                  const std::vector<WorldTool>& tools, std::size_t own,
+                                  const std::vector<std::int64_t>& held_elsewhere) {
+  require(own < tools.size(), "tool contact: resolve() needs its own tool among the tools");
   ContactForce out;
   const crms::LatticeGeometry& g = geometry_;
-  // 1: gather.
+  // 1: gather. One ordinary tool alone: the gather's own exact test (the kernel's on CUDA); with
+  // other tools about, or a mesh or field tool: the own tool's box, tested against every tool on
+  // the host.
   const double h_max = std::max(g.spacing.x, std::max(g.spacing.y, g.spacing.z));
-  gatherer.gather_around_tool(solver, tool, options_.margin_spacings * h_max, nb_);
+  const double margin = options_.margin_spacings * h_max;
+  if (tools.size() == 1 && !host_only(tools[0].shape))
+    gatherer.gather_around_tool(solver, tools[0], margin, nb_);
+  else
+    gather_union(solver, gatherer, tools, own, margin, g, nb_);
   out.nodes_gathered = nb_.size();
-  const ContactScene scene{g, anchored_, nb_, tool};
+  const ContactScene scene{g, anchored_, nb_, tools};
 
-  // 2: release held nodes the tool no longer presses.
+  // 2: release held nodes the tools no longer press.
   std::vector<std::int64_t> keep, release;
   if (!held_.empty()) {
     std::vector<Vec3f> forces;
@@ -370,28 +472,31 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
     split_held_nodes(scene, held_, forces, keep, release);
   }
 
-  // 3: nodes inside the tool go to its surface.
+  // 3: nodes inside a tool go to its surface.
   std::vector<Vec3f> overrides(nb_.displacement);
   std::vector<std::uint8_t> moved(nb_.size(), 0);
   move_nodes_to_tool_surface(scene, overrides, moved);
 
-  // 4: narrow phase on coupled vertices of the cubes around the nodes near the tool.
-  Vec3d lo, hi;
-  tool_bounds(tool, lo, hi);
-  const NarrowCubes cubes = cubes_near_tool(scene, coupler, lo, hi);
-  out.vertices_tested = cubes.slots.size();
-  NarrowPhase(scene, cubes, coupler, options_, overrides)
-      .run(options_.max_narrow_iterations, moved, out);
+  // 4: narrow phase on coupled vertices of the cubes around the nodes near the tools (not for a
+  // body that keeps only the nodes out).
+  const ToolBoxes boxes(tools);
+  if (keeps_vertices_out(tools[own]) && !boxes.empty()) {
+    const NarrowCubes cubes = cubes_near_tool(scene, coupler, boxes);
+    out.vertices_tested = cubes.slots.size();
+    NarrowPhase(scene, cubes, coupler, options_, boxes, overrides)
+        .run(options_.max_narrow_iterations, moved, out);
+  }
 
   // 5: hold the moved nodes where they now are, release the rest of the let-go ones.
-  held_ = hold_moved_nodes(solver, gatherer, scene, overrides, moved, keep, release, out);
+  held_ = hold_moved_nodes(solver, gatherer, scene, overrides, moved, keep, release, held_elsewhere,
+                           out);
 
   // 6: what the tool feels.
   out.nodes_held = held_.size();
   if (!held_.empty()) {
     std::vector<Vec3f> forces;
     gatherer.spring_forces_at(solver, held_, forces);
-    tool_feedback(scene, held_, forces, overrides, out);
+    tool_feedback(scene, tools[own], held_, forces, overrides, out);
   }
   return out;
 }

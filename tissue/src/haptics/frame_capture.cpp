@@ -192,12 +192,59 @@ void StaticFrameSource::step(double dt_s, const StylusPose& pose, bool, HapticFr
   out.sequence = ++sequence_;
 }
 
+TissueFrameCapture::TissueFrameCapture(const CaptureOptions& options) : options_(options) {
+  require(options.reach_mm > 0 && options.margin_mm >= 0,
+          "frame capture: expected reach > 0 and margin ≥ 0 mm");
+}
+
+void TissueFrameCapture::capture(interaction::TissueModel& model, const StylusPose& pose,
+                                 const Vec3d& contact_force_un, std::int64_t contact_nodes,
+                                 double time_s, HapticFrame& out) {
+  const double extent = options_.reach_mm + options_.margin_mm;
+  crms::Solver& solver = model.solver();
+  solver.request_snapshot();
+  solver.poll_snapshot();
+  solver.snapshots().copy_latest(snapshot_);
+  const crms::Lattice& lattice = solver.lattice();
+  if (snapshot_.size() == static_cast<std::size_t>(lattice.node_count()) * 3) {
+    // The window is centred on the rest point of the stylus centre (through the lattice as it is
+    // now), so a tissue displaced by more than the margin is still found.
+    const interaction::RestPoint rest = model.map_to_rest(pose.position, extent);
+    const Vec3d rest_centre = rest.found ? rest.rest : pose.position;
+    capture_lattice(lattice, snapshot_.data(), rest_centre, extent + lattice.geometry().spacing.x,
+                    out);
+    const LocalWarp warp = inverse_warp(out.view().lattice, pose.position);
+    // A stretched neighbourhood needs a larger rest window: scale by the largest |F⁻¹| row sum.
+    double stretch = 1.0;
+    for (int r = 0; r < 3; ++r)
+      stretch = std::max(stretch, std::fabs(warp.F_inv[3 * r]) + std::fabs(warp.F_inv[3 * r + 1]) +
+                                      std::fabs(warp.F_inv[3 * r + 2]));
+    capture_density(model.volume(), warp.rest_centre, extent * std::min(stretch, 3.0), out);
+  } else {
+    out.displacement.clear();
+    out.alive.clear();
+    out.lattice_dims = {0, 0, 0};
+    capture_density(model.volume(), pose.position, extent, out);
+  }
+  const imt::ImtSurface& surface = model.surface();
+  const std::uint32_t tri_slots = surface.triangle_slot_count();
+  triangle_live_.resize(surface.triangles().size());
+  for (std::size_t t = 0; t < triangle_live_.size(); ++t)
+    triangle_live_[t] =
+        t < tri_slots && surface.triangle_live(static_cast<std::uint32_t>(t)) ? 1 : 0;
+  capture_triangles(model.coupler().positions(), model.coupler().normals(), surface.triangles(),
+                    &triangle_live_, pose.position, extent, out);
+  out.contact_force_un = contact_force_un;
+  out.contact_nodes = contact_nodes;
+  out.time_s = time_s;
+  out.sequence = ++sequence_;
+  out.published_ns = 0;
+}
+
 // ---- tissue --------------------------------------------------------------------------------
 
 TissueFrameSource::TissueFrameSource(interaction::TissueModel& model, const CaptureOptions& options)
-    : model_(model), options_(options) {
-  require(options.reach_mm > 0 && options.margin_mm >= 0,
-          "frame capture: expected reach > 0 and margin ≥ 0 mm");
+    : model_(model), capture_(options) {
   tool_.shape = collision::ToolShape::kSphere;
   tool_.radius_mm = options.reach_mm;
 }
@@ -216,46 +263,9 @@ void TissueFrameSource::step(double dt_s, const StylusPose& pose, bool press, Ha
   }
   if (dt_s > 0) model_.advance(dt_s);
   time_s_ += dt_s;
-  const double extent = options_.reach_mm + options_.margin_mm;
-
-  crms::Solver& solver = model_.solver();
-  solver.request_snapshot();
-  solver.poll_snapshot();
-  solver.snapshots().copy_latest(snapshot_);
-  const crms::Lattice& lattice = solver.lattice();
-  if (snapshot_.size() == static_cast<std::size_t>(lattice.node_count()) * 3) {
-    // The window is centred on the rest point of the stylus centre (through the lattice as it is
-    // now), so a tissue displaced by more than the margin is still found.
-    const interaction::RestPoint rest = model_.map_to_rest(pose.position, extent);
-    const Vec3d rest_centre = rest.found ? rest.rest : pose.position;
-    capture_lattice(lattice, snapshot_.data(), rest_centre, extent + lattice.geometry().spacing.x,
-                    out);
-    const LocalWarp warp = inverse_warp(out.view().lattice, pose.position);
-    // A stretched neighbourhood needs a larger rest window: scale by the largest |F⁻¹| row sum.
-    double stretch = 1.0;
-    for (int r = 0; r < 3; ++r)
-      stretch = std::max(stretch, std::fabs(warp.F_inv[3 * r]) + std::fabs(warp.F_inv[3 * r + 1]) +
-                                      std::fabs(warp.F_inv[3 * r + 2]));
-    capture_density(model_.volume(), warp.rest_centre, extent * std::min(stretch, 3.0), out);
-  } else {
-    out.displacement.clear();
-    out.alive.clear();
-    out.lattice_dims = {0, 0, 0};
-    capture_density(model_.volume(), pose.position, extent, out);
-  }
-  const imt::ImtSurface& surface = model_.surface();
-  const std::uint32_t tri_slots = surface.triangle_slot_count();
-  triangle_live_.resize(surface.triangles().size());
-  for (std::size_t t = 0; t < triangle_live_.size(); ++t)
-    triangle_live_[t] =
-        t < tri_slots && surface.triangle_live(static_cast<std::uint32_t>(t)) ? 1 : 0;
-  capture_triangles(model_.coupler().positions(), model_.coupler().normals(), surface.triangles(),
-                    &triangle_live_, pose.position, extent, out);
   const collision::ContactForce& contact = model_.contact();
-  out.contact_force_un = pressing_ ? contact.force_un : Vec3d{0, 0, 0};
-  out.contact_nodes = pressing_ ? static_cast<std::int64_t>(contact.nodes_held) : 0;
-  out.time_s = time_s_;
-  out.sequence = ++sequence_;
+  capture_.capture(model_, pose, pressing_ ? contact.force_un : Vec3d{0, 0, 0},
+                   pressing_ ? static_cast<std::int64_t>(contact.nodes_held) : 0, time_s_, out);
 }
 
 }  // namespace tsf::haptics

@@ -35,6 +35,12 @@ void InputDevice::drag(double dx_pixels, double dy_pixels) {
   shared_.store(input_);
 }
 
+void InputDevice::move_by(const Vec3d& delta_mm) {
+  if (!all_finite(delta_mm)) return;
+  input_.drag_offset_mm += delta_mm;
+  shared_.store(input_);
+}
+
 void InputDevice::set_pressing(bool pressing) {
   input_.pressing = pressing;
   shared_.store(input_);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -29,8 +30,7 @@ void grow(Vec3d& lo, Vec3d& hi, const Vec3d& a, const Vec3d& b) {
 }
 
 bool same_tool(const Tool& a, const Tool& b) {
-  return a.shape == b.shape && a.radius_mm == b.radius_mm && a.half_length_mm == b.half_length_mm &&
-         a.half_extents_mm == b.half_extents_mm;
+  return a.same_as(b);
 }
 
 }  // namespace
@@ -104,8 +104,6 @@ TissueModel::TissueModel(VoxelVolume volume, TissueModelOptions options)
   coupler_->bind_all(surface_, solver_->lattice());
   coupler_->couple(*solver_);
   gatherer_ = std::make_unique<collision::NodeGatherer>(geometry);
-  contact_resolver_ =
-      std::make_unique<collision::ToolContact>(geometry, anchored_, options_.contact);
 }
 
 TissueModel::~TissueModel() = default;
@@ -121,16 +119,165 @@ collision::ContactForce TissueModel::latest_contact() const {
   return shared_contact_;
 }
 
-void TissueModel::release_tool() {
-  stroke_.end();
-  contact_resolver_->release_all(*solver_);  // released nodes keep their positions
-  last_tool_.reset();
-  last_mode_ = ToolMode::kIdle;
-  publish_contact({});
+TissueModel::ToolSlot& TissueModel::slot_at(int slot) {
+  require(slot >= 0 && slot < kMaxToolSlots, "tissue model: tool slot " + std::to_string(slot) +
+                                                 " out of range (0 … " +
+                                                 std::to_string(kMaxToolSlots - 1) + ")");
+  while (static_cast<std::size_t>(slot) >= slots_.size()) slots_.emplace_back();
+  ToolSlot& s = slots_[static_cast<std::size_t>(slot)];
+  s.ablation_presses = ablation_presses();
+  if (!s.contact)
+    s.contact = std::make_unique<collision::ToolContact>(solver_->lattice().geometry(), anchored_,
+                                                         options_.contact);
+  return s;
 }
 
-EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolMode mode) {
+bool TissueModel::slot_active(int slot) const {
+  return slot >= 0 && static_cast<std::size_t>(slot) < slots_.size() &&
+         slots_[static_cast<std::size_t>(slot)].mode != ToolMode::kIdle;
+}
+
+collision::ToolReaction TissueModel::tool_contact(int slot) const {
+  if (slot < 0 || static_cast<std::size_t>(slot) >= slots_.size()) return {};
+  const ToolSlot& s = slots_[static_cast<std::size_t>(slot)];
+  if (!s.pressing()) return {};
+  return {s.last_contact.force_un, s.last_contact.torque_un_mm, s.last_contact.nodes_held};
+}
+
+void TissueModel::set_pushers(std::vector<std::shared_ptr<const collision::DistanceField>> bodies) {
+  for (const auto& b : bodies) require(b != nullptr, "tissue model: a pushing body is null");
+  for (Pusher& p : pushers_) p.contact->release_all(*solver_, held_by_others(p.contact.get()));
+  pushers_.clear();
+  for (auto& b : bodies) {
+    Pusher p;
+    p.body = std::move(b);
+    p.contact = std::make_unique<collision::ToolContact>(solver_->lattice().geometry(), anchored_,
+                                                         options_.contact);
+    pushers_.push_back(std::move(p));
+  }
+  pusher_contact_ = {};
+}
+
+bool TissueModel::contact_active() const {
+  if (!pushers_.empty()) return true;
+  for (const ToolSlot& s : slots_)
+    if (s.pressing()) return true;
+  return false;
+}
+
+std::vector<std::int64_t> TissueModel::held_by_others(const collision::ToolContact* self) const {
+  std::vector<std::int64_t> all;
+  auto add = [&](const collision::ToolContact* c) {
+    if (c == nullptr || c == self || c->held().empty()) return;
+    std::vector<std::int64_t> merged;
+    std::set_union(all.begin(), all.end(), c->held().begin(), c->held().end(),
+                   std::back_inserter(merged));
+    all.swap(merged);
+  };
+  for (const ToolSlot& s : slots_) add(s.contact.get());
+  for (const Pusher& p : pushers_) add(p.contact.get());
+  return all;
+}
+
+std::vector<collision::WorldTool> TissueModel::contact_tools(std::vector<int>& owner) const {
+  std::vector<collision::WorldTool> tools;
+  owner.clear();
+  for (std::size_t i = 0; i < slots_.size(); ++i)
+    if (slots_[i].pressing()) {
+      tools.push_back(*slots_[i].last);
+      owner.push_back(static_cast<int>(i));
+    }
+  for (std::size_t i = 0; i < pushers_.size(); ++i) {
+    collision::WorldTool w;
+    w.shape = collision::ToolShape::kField;
+    w.field = pushers_[i].body.get();
+    Vec3d lo, hi;
+    w.field->bounds(lo, hi);
+    w.pose.position = (lo + hi) * 0.5;
+    tools.push_back(w);
+    owner.push_back(-1 - static_cast<int>(i));
+  }
+  return tools;
+}
+
+void TissueModel::resolve_contact(int owner) {
+  std::vector<int> owners;
+  const std::vector<collision::WorldTool> tools = contact_tools(owners);
+  const auto at = std::find(owners.begin(), owners.end(), owner);
+  if (at == owners.end()) return;
+  const std::size_t own = static_cast<std::size_t>(at - owners.begin());
+  collision::ToolContact& c = owner >= 0 ? *slots_[static_cast<std::size_t>(owner)].contact
+                                         : *pushers_[static_cast<std::size_t>(-1 - owner)].contact;
+  const collision::ContactForce r =
+      c.resolve(*solver_, *gatherer_, *coupler_, tools, own, held_by_others(&c));
+  if (owner >= 0)
+    slots_[static_cast<std::size_t>(owner)].last_contact = r;
+  else
+    pushers_[static_cast<std::size_t>(-1 - owner)].last_contact = r;
+}
+
+collision::ContactForce TissueModel::publish_contacts() {
+  collision::ContactForce sum;
+  for (const ToolSlot& s : slots_) {
+    if (!s.pressing()) continue;
+    const collision::ContactForce& c = s.last_contact;
+    sum.force_un += c.force_un;
+    sum.torque_un_mm += c.torque_un_mm;  // each about its own tool's reference point
+    sum.nodes_held += c.nodes_held;
+    sum.nodes_released += c.nodes_released;
+    sum.vertices_tested += c.vertices_tested;
+    sum.vertices_pushed += c.vertices_pushed;
+    sum.narrow_iterations = std::max(sum.narrow_iterations, c.narrow_iterations);
+    sum.max_vertex_depth_mm = std::max(sum.max_vertex_depth_mm, c.max_vertex_depth_mm);
+    sum.nodes_gathered += c.nodes_gathered;
+  }
+  pusher_contact_ = {};
+  for (const Pusher& p : pushers_) {
+    // What the body exerts on the tissue: minus what the tissue exerts on it.
+    pusher_contact_.force_un -= p.last_contact.force_un;
+    pusher_contact_.torque_un_mm -= p.last_contact.torque_un_mm;
+    pusher_contact_.nodes_held += p.last_contact.nodes_held;
+  }
+  publish_contact(sum);
+  return sum;
+}
+
+collision::ContactForce TissueModel::resolve_contacts() {
+  for (std::size_t i = 0; i < slots_.size(); ++i)
+    if (slots_[i].pressing()) resolve_contact(static_cast<int>(i));
+  for (std::size_t i = 0; i < pushers_.size(); ++i) resolve_contact(-1 - static_cast<int>(i));
+  return publish_contacts();
+}
+
+void TissueModel::stop_pressing(ToolSlot& slot) {
+  if (slot.pressing()) slot.contact->release_all(*solver_, held_by_others(slot.contact.get()));
+  slot.last_contact = {};
+}
+
+void TissueModel::release_tool(int slot) {
+  ToolSlot& s = slot_at(slot);
+  s.stroke.end();
+  const bool was_pressing = s.pressing();
+  stop_pressing(s);  // released nodes keep their positions
+  s.last.reset();
+  s.mode = ToolMode::kIdle;
+  if (was_pressing) publish_contacts();
+}
+
+void TissueModel::release_tool() {
+  for (ToolSlot& s : slots_) {
+    s.stroke.end();
+    stop_pressing(s);  // released nodes keep their positions
+    s.last.reset();
+    s.mode = ToolMode::kIdle;
+  }
+  publish_contacts();
+}
+
+EditReport TissueModel::apply_tool(int slot_index, const Tool& tool, const ToolPose& pose,
+                                   ToolMode mode) {
   tool.validate();
+  ToolSlot& slot = slot_at(slot_index);
   if (!tool.supports(mode))
     throw Error(std::string("apply_tool: a ") + to_string(tool.shape) + " cannot " +
                 to_string(mode) + " (ablate: sphere or capsule; cut: blade)");
@@ -138,55 +285,65 @@ EditReport TissueModel::apply_tool(const Tool& tool, const ToolPose& pose, ToolM
   EditReport report;
   report.mode = mode;
   if (mode == ToolMode::kIdle) {
-    release_tool();
+    release_tool(slot_index);
     return report;
   }
   const collision::WorldTool world = place_tool(tool, pose);
   if (mode == ToolMode::kPress) {
-    stroke_.end();
+    slot.stroke.end();
     Stopwatch total;
-    if (last_mode_ != ToolMode::kIdle && last_tool_ && !same_tool(tool, last_tool_spec_))
-      contact_resolver_->release_all(*solver_);
-    const collision::ContactForce c =
-        contact_resolver_->resolve(*solver_, *gatherer_, *coupler_, world);
-    publish_contact(c);
+    // A pressing tool that has not moved keeps its contact as the last pass left it (advance()
+    // re-resolves it between steps): resolving again at once would let go of the nodes the
+    // narrow phase holds off the tool's surface, for nothing.
+    if (slot.pressing() && slot.mode == ToolMode::kPress && same_tool(tool, slot.spec) &&
+        length(pose.position - slot.last->pose.position) == 0.0 &&
+        pose.orientation.normalized().angle_to(slot.last->pose.orientation) < 1e-7) {
+      report.contact = contact_;
+      report.tissue_near = contact_.nodes_gathered > 0;
+      report.total_us = micros(total);
+      return report;
+    }
+    // The hand took another tool: what the old one held is let go first.
+    if (slot.pressing() && !same_tool(tool, slot.spec)) stop_pressing(slot);
+    slot.last = world;
+    slot.spec = tool;
+    slot.mode = mode;
+    resolve_contact(slot_index);
+    const collision::ContactForce c = publish_contacts();
     report.contact = c;
-    report.tissue_near = c.nodes_gathered > 0;
-    last_tool_ = world;
-    last_tool_spec_ = tool;
-    last_mode_ = mode;
+    report.tissue_near = slot.last_contact.nodes_gathered > 0;
     report.total_us = micros(total);
     return report;
   }
-  // Force-dependent ablation presses as it ablates: the tool keeps what it holds (unless it is
-  // another tool) and the force before the move sets the rate. Otherwise editing lets go.
+  // Force-dependent ablation presses as it ablates: the hand keeps what it holds (unless it took
+  // another tool) and its force before the move sets the rate. Otherwise editing lets go (this
+  // hand only: the others and the bodies keep theirs).
   const bool presses = mode == ToolMode::kAblate && ablation_presses();
-  const bool held = last_mode_ == ToolMode::kPress || (last_mode_ == ToolMode::kAblate && presses);
-  if (held && (!presses || !last_tool_ || !same_tool(tool, last_tool_spec_))) {
-    contact_resolver_->release_all(*solver_);
-    publish_contact({});
+  if (slot.pressing() && (!presses || !same_tool(tool, slot.spec))) {
+    stop_pressing(slot);
+    slot.mode = ToolMode::kIdle;
+    publish_contacts();
   }
-  const bool sweep = last_tool_ && last_mode_ == mode && same_tool(tool, last_tool_spec_);
-  if (!sweep) stroke_.end();
+  const bool sweep = slot.last && slot.mode == mode && same_tool(tool, slot.spec);
+  if (!sweep) slot.stroke.end();
   const double scale =
-      presses ? -std::expm1(-length(contact_.force_un) / options_.feather_force_un) : 1.0;
-  report = edit(tool, sweep ? *last_tool_ : world, world, mode, scale);
+      presses ? -std::expm1(-length(slot.last_contact.force_un) / options_.feather_force_un) : 1.0;
+  report = edit(slot, tool, sweep ? *slot.last : world, world, mode, scale);
+  slot.last = world;
+  slot.spec = tool;
+  slot.mode = mode;
   if (presses) {
     Stopwatch clock;
-    const collision::ContactForce c =
-        contact_resolver_->resolve(*solver_, *gatherer_, *coupler_, world);
-    publish_contact(c);
+    resolve_contact(slot_index);
+    const collision::ContactForce c = publish_contacts();
     report.contact = c;
-    report.tissue_near = report.tissue_near || c.nodes_gathered > 0;
+    report.tissue_near = report.tissue_near || slot.last_contact.nodes_gathered > 0;
     report.total_us += micros(clock);
   }
-  last_tool_ = world;
-  last_tool_spec_ = tool;
-  last_mode_ = mode;
   return report;
 }
 
-EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
+EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::WorldTool& from,
                              const collision::WorldTool& to, ToolMode mode, double rate_scale) {
   EditReport r;
   r.mode = mode;
@@ -258,17 +415,17 @@ EditReport TissueModel::edit(const Tool& tool, const collision::WorldTool& from,
   removal.strength = static_cast<float>(static_cast<double>(removal.strength) * rate_scale);
   if (tool.shape == collision::ToolShape::kBlade) {
     removal.rates = options_.cut_rates;
-    changed = stroke_.cut_blade(volume_, blade, pose_from, pose_to, removal);
+    changed = slot.stroke.cut_blade(volume_, blade, pose_from, pose_to, removal);
   } else if (tool.shape == collision::ToolShape::kSphere) {
-    changed = stroke_.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, removal);
+    changed = slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, removal);
   } else {
-    changed = stroke_.ablate_wand(volume_, cap_from, cap_to, removal);
+    changed = slot.stroke.ablate_wand(volume_, cap_from, cap_to, removal);
   }
   r.edit_us = micros(clock);
   r.changed_voxels = changed;
   const double voxel_mm3 = vg.spacing.x * vg.spacing.y * vg.spacing.z;
   for (int l = 0; l < 256; ++l) {
-    const double reached = stroke_.last_reached()[static_cast<std::size_t>(l)] * voxel_mm3;
+    const double reached = slot.stroke.last_reached()[static_cast<std::size_t>(l)] * voxel_mm3;
     if (reached > 0.0) {
       r.reached_by_label.emplace_back(static_cast<std::uint8_t>(l), reached);
       totals_.reached_by_label_mm3[static_cast<std::size_t>(l)] += reached;
@@ -313,7 +470,9 @@ void TissueModel::propagate_voxel_change(const DensitySnapshot& before, const Vo
   if (!topo.broken_springs.empty()) solver_->break_springs(topo.broken_springs);
   if (!topo.deleted_nodes.empty()) {
     solver_->delete_nodes(topo.deleted_nodes);
-    contact_resolver_->forget(topo.deleted_nodes);
+    for (ToolSlot& s : slots_)
+      if (s.contact) s.contact->forget(topo.deleted_nodes);
+    for (Pusher& p : pushers_) p.contact->forget(topo.deleted_nodes);
   }
   // Deleting nodes and breaking springs moves nothing: the broad phase's boxes stay valid (a
   // deleted node is skipped by the query), so no refit is needed.
@@ -404,9 +563,7 @@ AdvanceReport TissueModel::advance(double dt_display) {
           "advance: the frame time must be in (0, 10] s, got " + std::to_string(dt_display));
   AdvanceReport r;
   const std::int64_t steps = std::max<std::int64_t>(1, std::llround(dt_display / dt_));
-  const bool pressing =
-      (last_mode_ == ToolMode::kPress || (last_mode_ == ToolMode::kAblate && ablation_presses())) &&
-      last_tool_.has_value();
+  const bool pressing = contact_active();
   const std::int64_t passes =
       pressing ? std::min<std::int64_t>(options_.contact_passes_per_advance, steps) : 1;
   for (std::int64_t p = 0; p < passes; ++p) {
@@ -422,7 +579,7 @@ AdvanceReport TissueModel::advance(double dt_display) {
     }
     if (pressing) {
       clock.restart();
-      publish_contact(contact_resolver_->resolve(*solver_, *gatherer_, *coupler_, *last_tool_));
+      resolve_contacts();
       r.contact_us += micros(clock);
     }
   }

@@ -34,6 +34,10 @@ const char* to_string(collision::ToolShape shape) {
       return "capsule";
     case collision::ToolShape::kBlade:
       return "blade";
+    case collision::ToolShape::kMesh:
+      return "mesh";
+    case collision::ToolShape::kField:
+      return "body";
   }
   return "unknown";
 }
@@ -49,6 +53,8 @@ void Tool::validate() const {
     if (!(std::isfinite(half_length_mm) && half_length_mm >= 0 && half_length_mm <= 1e3))
       throw Error("tool.half_length: expected [0, 1000] mm, got " + std::to_string(half_length_mm));
   }
+  if (shape == ToolShape::kMesh && !mesh) throw Error("tool.mesh: a mesh tool needs its mesh");
+  if (shape == ToolShape::kField) throw Error("tool.shape: a body is not a tool a hand holds");
   if (shape == ToolShape::kBlade) {
     for (int a = 0; a < 3; ++a)
       if (!(std::isfinite(half_extents_mm[a]) && half_extents_mm[a] > 0 &&
@@ -72,6 +78,27 @@ bool Tool::supports(ToolMode mode) const {
   return false;
 }
 
+bool Tool::same_as(const Tool& o) const {
+  return shape == o.shape && radius_mm == o.radius_mm && half_length_mm == o.half_length_mm &&
+         half_extents_mm == o.half_extents_mm && mesh == o.mesh;
+}
+
+std::shared_ptr<const ToolMesh> ToolMesh::from_closed_mesh(
+    std::string source, std::vector<Vec3f> vertices,
+    std::vector<std::array<std::uint32_t, 3>> triangles, double spacing_mm) {
+  auto m = std::make_shared<ToolMesh>();
+  try {
+    m->grid = collision::SignedDistanceGrid::from_closed_mesh(vertices, triangles, spacing_mm,
+                                                              3.0 * spacing_mm);
+  } catch (const Error& e) {
+    throw Error(source + ": " + e.what());
+  }
+  m->source = std::move(source);
+  m->vertices = std::move(vertices);
+  m->triangles = std::move(triangles);
+  return m;
+}
+
 collision::WorldTool place_tool(const Tool& tool, const ToolPose& pose) {
   collision::WorldTool w;
   w.shape = tool.shape;
@@ -84,6 +111,7 @@ collision::WorldTool place_tool(const Tool& tool, const ToolPose& pose) {
     w.b = pose.position + axis;
   }
   w.half_extents = tool.half_extents_mm;
+  if (tool.shape == collision::ToolShape::kMesh) w.grid = &tool.mesh->grid;
   return w;
 }
 

@@ -16,6 +16,13 @@
 //   6 force    F_tool = Σ spring force at the held nodes (each is minus the reaction the
 //              constraint supplies), torque about the tool's reference point.
 // Anchored nodes (fixed by the scene) are never moved or released by the tool.
+//
+// Several tools at once (two hands; a tool and another tissue instance pushing this one): each
+// tool has its own ToolContact and its own held nodes, so moving one hand leaves what the other
+// holds alone. A contact keeps the nodes near its tool out of every tool (a node pushed out of
+// one into another is pushed on, a few rounds: two tools squeezing the tissue between them), and
+// never lets go of a node another contact holds (held_elsewhere). One tool alone, not a mesh or a
+// field, takes the gather kernel's exact test as it always did.
 #pragma once
 
 #include <cstdint>
@@ -41,6 +48,13 @@ struct ContactForce {
   std::size_t nodes_gathered = 0;  ///< nodes near the tool (collision cost)
 };
 
+/// One tool's share of a contact with several tools: the force on it from its held nodes.
+struct ToolReaction {
+  Vec3d force_un{0, 0, 0};      ///< on the tool, µN
+  Vec3d torque_un_mm{0, 0, 0};  ///< about the tool's reference point, µN·mm
+  std::size_t nodes_held = 0;
+};
+
 struct ContactOptions {
   /// Gather margin around the tool's bounds, in lattice spacings: covers the corners of every
   /// cube whose vertices can touch the tool.
@@ -58,8 +72,14 @@ class ToolContact {
 
   ContactForce resolve(crms::Solver& solver, NodeGatherer& gatherer,
                        const coupler::Coupler& coupler, const WorldTool& tool);
-  /// Lets go of every node the tool holds.
-  void release_all(crms::Solver& solver);
+  /// `tools[own]` is this contact's tool; the nodes near it are kept out of every tool of
+  /// `tools`, and the nodes another contact holds (`held_elsewhere`, ascending) are never let go
+  /// by this one. The force and torque are on the own tool (its held nodes).
+  ContactForce resolve(crms::Solver& solver, NodeGatherer& gatherer,
+                       const coupler::Coupler& coupler, const std::vector<WorldTool>& tools,
+                       std::size_t own, const std::vector<std::int64_t>& held_elsewhere);
+  /// Lets go of every node the tool holds (but those another contact holds).
+  void release_all(crms::Solver& solver, const std::vector<std::int64_t>& held_elsewhere = {});
   /// Forgets nodes deleted by an edit (they are no longer held).
   void forget(const std::vector<std::int64_t>& deleted_nodes);
   /// Nodes held on the tool surface now, ascending.

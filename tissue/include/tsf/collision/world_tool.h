@@ -6,7 +6,15 @@
 //   sphere   centre a, radius
 //   capsule  segment a–b, radius (the ablation wand)
 //   blade    box of ±half_extents in the pose's frame (length x, depth y, thickness z)
+//   mesh     a closed mesh read from a file, as a signed-distance grid in the pose's frame
+//            (distance_grid.h): an endoscope, a retractor
+//   field    any closed body given by a host-side DistanceField: another tissue instance's
+//            deforming surface (interaction/body_field.h)
+// Mesh and field tools are evaluated on the host only: the gather takes their box (the CUDA
+// kernel too) and the host tests the nodes (tool_contact.h).
 #pragma once
+
+#include <cstdint>
 
 #include "tsf/common/hd.h"
 #include "tsf/common/vec3.h"
@@ -14,27 +22,74 @@
 
 namespace tsf::collision {
 
-enum class ToolShape : int { kSphere = 0, kCapsule = 1, kBlade = 2 };
+enum class ToolShape : int { kSphere = 0, kCapsule = 1, kBlade = 2, kMesh = 3, kField = 4 };
+
+/// Mesh and field tools are tested on the host only.
+TSF_HD_INLINE bool host_only(ToolShape s) {
+  return s == ToolShape::kMesh || s == ToolShape::kField;
+}
+
+class SignedDistanceGrid;
+
+/// A closed body as a signed distance (host only): what a `field` tool is.
+class DistanceField {
+ public:
+  virtual ~DistanceField() = default;
+  /// Signed distance of the world point p from the body's surface (negative inside), mm, and the
+  /// outward unit normal there.
+  virtual double distance(const Vec3d& p, Vec3d& normal) const = 0;
+  /// Axis-aligned bounds of the body in the world, mm.
+  virtual void bounds(Vec3d& lo, Vec3d& hi) const = 0;
+  /// Where the surface lies for lattice node `node` of the pushed tissue: the signed distance,
+  /// mm, the node keeps from the body (0 for tools). A body keeps the outer node layer about half a
+  /// spacing off its surface, where the pushed tissue's own surface is, and lets a node that
+  /// overlapped it at rest keep that overlap.
+  virtual double allowance_mm(std::int64_t node) const {
+    (void)node;
+    return 0.0;
+  }
+  /// Whether the contact's narrow phase keeps the coupled render vertices out of the body too
+  /// (tools: yes; a large body such as another tissue instance: its nodes only).
+  virtual bool keeps_vertices_out() const { return true; }
+};
 
 struct WorldTool {
   ToolShape shape = ToolShape::kSphere;
-  Vec3d a{0, 0, 0};             ///< sphere centre, or capsule end, mm
-  Vec3d b{0, 0, 0};             ///< capsule end, mm
-  double radius = 0;            ///< sphere, capsule, mm
-  ToolPose pose;                ///< blade centre and orientation
-  Vec3d half_extents{0, 0, 0};  ///< blade, mm
+  Vec3d a{0, 0, 0};                          ///< sphere centre, or capsule end, mm
+  Vec3d b{0, 0, 0};                          ///< capsule end, mm
+  double radius = 0;                         ///< sphere, capsule, mm
+  ToolPose pose;                             ///< blade (and field tool) centre and orientation
+  Vec3d half_extents{0, 0, 0};               ///< blade, mm
+  const SignedDistanceGrid* grid = nullptr;  ///< mesh: its grid (owned by the tool), host only
+  const DistanceField* field = nullptr;      ///< field: the body (owned elsewhere), host only
 
-  /// A point the torque is taken about: the sphere centre, the capsule's midpoint, the blade's
-  /// centre.
+  /// A point the torque is taken about: the sphere centre, the capsule's midpoint, the pose
+  /// position of the others.
   TSF_HD_INLINE Vec3d reference_point() const {
     return shape == ToolShape::kCapsule ? (a + b) * 0.5
                                         : (shape == ToolShape::kSphere ? a : pose.position);
   }
 };
 
+/// A mesh tool's signed distance (distance_grid.cpp): the grid read in the pose's frame.
+double posed_grid_distance(const SignedDistanceGrid& grid, const ToolPose& pose, const Vec3d& p,
+                           Vec3d& normal);
+/// A mesh tool's world bounds (distance_grid.cpp).
+void posed_grid_bounds(const SignedDistanceGrid& grid, const ToolPose& pose, Vec3d& lo, Vec3d& hi);
+
 /// Signed distance of p from the tool surface (negative inside), mm, and the outward unit normal
 /// of the nearest surface point (the direction that leaves the tool fastest).
 TSF_HD_INLINE double tool_distance(const WorldTool& t, const Vec3d& p, Vec3d& normal) {
+  if (host_only(t.shape)) {
+#ifdef __CUDA_ARCH__
+    // Never reached: mesh and field tools are tested on the host (tool_contact.h).
+    normal = Vec3d{0, 0, 1};
+    return 1e30;
+#else
+    return t.shape == ToolShape::kMesh ? posed_grid_distance(*t.grid, t.pose, p, normal)
+                                       : t.field->distance(p, normal);
+#endif
+  }
   if (t.shape == ToolShape::kBlade) {
     const Vec3d q = t.pose.orientation.apply_inverse(p - t.pose.position);
     const Vec3d e = t.half_extents;
@@ -85,6 +140,17 @@ TSF_HD_INLINE double tool_distance(const WorldTool& t, const Vec3d& p, Vec3d& no
 
 /// Axis-aligned bounds of the tool, mm.
 TSF_HD_INLINE void tool_bounds(const WorldTool& t, Vec3d& lo, Vec3d& hi) {
+  if (host_only(t.shape)) {
+#ifdef __CUDA_ARCH__
+    lo = hi = t.pose.position;
+#else
+    if (t.shape == ToolShape::kMesh)
+      posed_grid_bounds(*t.grid, t.pose, lo, hi);
+    else
+      t.field->bounds(lo, hi);
+#endif
+    return;
+  }
   if (t.shape == ToolShape::kBlade) {
     // |R|·e per axis: the box's extent along each world axis.
     Vec3d ext{0, 0, 0};

@@ -44,6 +44,28 @@ void capture_triangles(const std::vector<Vec3f>& positions, const std::vector<Ve
                        const std::vector<std::uint8_t>* triangle_live, const Vec3d& centre,
                        double reach_mm, HapticFrame& frame);
 
+/// What the haptic thread sees of a TissueModel around the stylus, captured by the model's owner
+/// thread after it stepped (TissueFrameSource below, and a viewer's simulation thread): the
+/// lattice window from the solver's latest snapshot centred on the stylus's rest point, the
+/// density window through the local warp, the coupled triangles near it, and the reaction of the
+/// nodes the stylus holds (given: the owner knows which tool slot is the stylus).
+class TissueFrameCapture {
+ public:
+  explicit TissueFrameCapture(const CaptureOptions& options);
+  /// Fills `out` around `pose` (deformed world) from `model` as it is now; `contact_force_un` and
+  /// `contact_nodes` are the stylus's share of the contact (zero when it does not press).
+  void capture(interaction::TissueModel& model, const StylusPose& pose,
+               const Vec3d& contact_force_un, std::int64_t contact_nodes, double time_s,
+               HapticFrame& out);
+  const CaptureOptions& options() const { return options_; }
+
+ private:
+  CaptureOptions options_;
+  std::uint64_t sequence_ = 0;
+  std::vector<float> snapshot_;
+  std::vector<std::uint8_t> triangle_live_;
+};
+
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
@@ -78,14 +100,11 @@ class TissueFrameSource final : public FrameSource {
 
  private:
   interaction::TissueModel& model_;
-  CaptureOptions options_;
+  TissueFrameCapture capture_;
   interaction::Tool tool_;
   bool pressing_ = false;
   StylusPose last_pose_;
   double time_s_ = 0;
-  std::uint64_t sequence_ = 0;
-  std::vector<float> snapshot_;
-  std::vector<std::uint8_t> triangle_live_;
 };
 
 }  // namespace tsf::haptics

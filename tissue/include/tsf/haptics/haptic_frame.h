@@ -22,6 +22,7 @@
 
 #include "tsf/common/hd.h"
 #include "tsf/common/vec3.h"
+#include "tsf/coupler/local_warp.h"
 
 namespace tsf::haptics {
 
@@ -36,16 +37,8 @@ struct DensityWindowView {
   TSF_HD_INLINE bool empty() const { return density == nullptr || dims.x <= 0; }
 };
 
-struct LatticeWindowView {
-  const Vec3f* displacement = nullptr;  ///< #nodes, mm
-  const std::uint8_t* alive = nullptr;  ///< #nodes, 1 = node alive
-  Int3 dims{0, 0, 0};
-  Vec3d origin{0, 0, 0};   ///< mm, rest position of window node (0,0,0)
-  Vec3d spacing{1, 1, 1};  ///< mm
-  TSF_HD_INLINE bool empty() const {
-    return displacement == nullptr || dims.x < 2 || dims.y < 2 || dims.z < 2;
-  }
-};
+/// The lattice window: coupler/local_warp.h (the inverse warp reads it).
+using LatticeWindowView = coupler::LatticeWindowView;
 
 struct TrianglePatchView {
   const Vec3f* corners = nullptr;  ///< #triangles×3, mm, deformed world
@@ -62,6 +55,7 @@ struct HapticFrameView {
   std::int64_t contact_nodes = 0;   ///< nodes the stylus holds
   double time_s = 0;                ///< simulation time the frame shows, s
   std::uint64_t sequence = 0;       ///< 0 = nothing captured yet
+  std::int64_t published_ns = 0;    ///< steady-clock time it was published (live loops), 0: none
 };
 
 /// The owning frame. Capture reuses the vectors' capacity: after warm-up, publishing a frame
@@ -83,6 +77,10 @@ struct HapticFrame {
   std::int64_t contact_nodes = 0;
   double time_s = 0;
   std::uint64_t sequence = 0;
+  std::int64_t published_ns = 0;  ///< steady-clock ns when published (stamp_now), 0: not stamped
+
+  /// Stamps the frame with the steady clock now (a live publisher, before publish()).
+  void stamp_now();
 
   HapticFrameView view() const {
     HapticFrameView v;
@@ -98,6 +96,7 @@ struct HapticFrame {
     v.contact_nodes = contact_nodes;
     v.time_s = time_s;
     v.sequence = sequence;
+    v.published_ns = published_ns;
     return v;
   }
 };

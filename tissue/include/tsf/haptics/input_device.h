@@ -4,7 +4,7 @@
 //   viewer thread                         haptic thread
 //   set_view_axes(right, up, forward)     read():  pose = home + ∫ key velocity dt + drag offset
 //   key(axis, direction, down)            apply_force(F)
-//   drag(dx_px, dy_px)                    viewer:  last_force() to draw
+//   drag(dx_px, dy_px), move_by(mm)       viewer:  last_force() to draw
 //   set_pressing(on), reset()
 // Keys move the stylus at `speed_mm_s` along the view axes while held; a mouse drag moves it in
 // the view plane by `mm_per_pixel`. Everything crosses threads through seqlocks: neither side
@@ -29,6 +29,8 @@ class InputDevice final : public HapticDevice {
   explicit InputDevice(const InputDeviceOptions& options = {});
 
   // ---- viewer thread ----
+  /// Where the stylus starts (tissue space): before the loop starts only.
+  void set_home(const Vec3d& home_mm) { options_.home_mm = home_mm; }
   /// Unit vectors of the view (screen right, screen up, into the screen), tissue space.
   void set_view_axes(const Vec3d& right, const Vec3d& up, const Vec3d& forward);
   /// axis 0 = right, 1 = up, 2 = forward; direction ±1; down = held.
@@ -42,6 +44,11 @@ class InputDevice final : public HapticDevice {
   // ---- haptic thread ----
   DeviceState read() override;
   void apply_force(const Vec3d& force_un) override { force_.store(force_un); }
+  PoseFrame frame() const override { return PoseFrame::kTissue; }
+  std::string describe() const override { return "mouse and keyboard"; }
+  /// Moves the stylus by `delta_mm` (tissue space) at once (viewer thread): the mouse pointing
+  /// at a new place in the view plane.
+  void move_by(const Vec3d& delta_mm);
 
  private:
   struct Input {

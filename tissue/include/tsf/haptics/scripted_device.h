@@ -17,18 +17,23 @@ class ScriptedDevice final : public HapticDevice {
   explicit ScriptedDevice(interaction::Trajectory trajectory);
   /// Follows the wall clock from now.
   void start_clock();
-  /// Follows simulated time instead (playback): the next read() samples at `time_s`.
+  /// Follows simulated time instead (playback, offscreen frames): the next read() samples at
+  /// `time_s` (any thread).
   void set_time(double time_s);
   DeviceState read() override;
   void apply_force(const Vec3d& force_un) override { last_force_.store(force_un); }
+  PoseFrame frame() const override { return PoseFrame::kTissue; }
+  std::string describe() const override { return "scripted"; }
+  /// A live loop plays the path in wall-clock time from its start.
+  void on_loop_start() override { start_clock(); }
   Vec3d last_force() const { return last_force_.load(); }
   const interaction::Trajectory& trajectory() const { return trajectory_; }
 
  private:
   interaction::Trajectory trajectory_;
-  bool wall_clock_ = false;
+  std::atomic<bool> wall_clock_{false};
   std::chrono::steady_clock::time_point start_;
-  double time_s_ = 0;
+  std::atomic<double> time_s_{0};  ///< set_time() may come from another thread than read()
   Seqlock<Vec3d> last_force_;
 };
 

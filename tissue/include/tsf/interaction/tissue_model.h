@@ -20,6 +20,12 @@
 // whose nodes changed, and couples them, so the render buffer is current when apply_tool returns.
 // Pieces that no longer connect to an anchor fall under gravity.
 //
+// Several tools act at once, each in its own slot (one hand, one instrument: an endoscope pushing
+// the mucosa aside in slot 0 while a wand ablates in slot 1): every pressing slot is resolved in
+// one contact pass (collision/tool_contact.h), each ablating or cutting slot sweeps its own path.
+// Bodies that push the tissue (another instance's surface, set_pushers) take part in every
+// contact pass, whether a tool presses or not.
+//
 // Tearing (crms effects) runs through the same layers: after each advance() the springs the solver
 // tore come back to the host (Solver::take_torn_springs), the voxels between their nodes are
 // cleared (tear_separation.h), and the surface, lattice topology and coupler follow as for an
@@ -196,12 +202,30 @@ class TissueModel {
   /// Per lattice node: 1 when anchored by the scene (labels, shapes).
   const std::vector<std::uint8_t>& anchored() const { return anchored_; }
 
-  /// Moves `tool` to `pose` (deformed world) in `mode`. Ablate and cut sweep from the tool's
-  /// previous pose when the previous call used the same mode, else act at `pose` alone; press
-  /// resolves contacts at once. Throws tsf::Error when the tool cannot run the mode.
-  EditReport apply_tool(const Tool& tool, const ToolPose& pose, ToolMode mode);
-  /// Lifts the tool: releases what it holds and forgets its previous pose.
+  /// The most tool slots (hands) acting at once.
+  static constexpr int kMaxToolSlots = 8;
+
+  /// Moves `tool` to `pose` (deformed world) in `mode`, in slot 0.
+  EditReport apply_tool(const Tool& tool, const ToolPose& pose, ToolMode mode) {
+    return apply_tool(0, tool, pose, mode);
+  }
+  /// Moves `tool` in `slot` (0 … kMaxToolSlots − 1) to `pose` in `mode`. Ablate and cut sweep
+  /// from the slot's previous pose when its previous call used the same mode and tool, else act
+  /// at `pose` alone; press resolves the contacts of every pressing slot at once. Throws
+  /// tsf::Error when the tool cannot run the mode or the slot is out of range.
+  EditReport apply_tool(int slot, const Tool& tool, const ToolPose& pose, ToolMode mode);
+  /// Lifts the tool of `slot`: releases what it alone holds and forgets its previous pose.
+  void release_tool(int slot);
+  /// Lifts every tool.
   void release_tool();
+  /// Whether `slot` holds a tool in a mode other than idle.
+  bool slot_active(int slot) const;
+
+  /// Bodies that push this tissue, one way (another tissue instance's surface,
+  /// interaction/body_field.h): they take part in every contact pass; their reaction is not the
+  /// tools' (contact() leaves it out, pusher_contact() has it). The fields must outlive their use
+  /// and may change between advance() calls (the pushing body moved).
+  void set_pushers(std::vector<std::shared_ptr<const collision::DistanceField>> bodies);
 
   /// Simulates `dt_display` seconds (whole solver steps, at least one), resolving contacts of a
   /// pressing tool between step batches, then couples the render buffer.
@@ -209,8 +233,13 @@ class TissueModel {
   /// Couples every vertex from the current lattice state (advance() does it).
   void couple();
 
-  /// The contact of the pressing tool after the last apply_tool/advance (zero when none).
+  /// The contact of the pressing tools after the last apply_tool/advance (zero when none): their
+  /// summed force, the nodes they hold and the pass's costs.
   const collision::ContactForce& contact() const { return contact_; }
+  /// One slot's share of contact() (zero when the slot does not press).
+  collision::ToolReaction tool_contact(int slot) const;
+  /// What the pushing bodies exert on the tissue's held nodes (the support of a resting tissue).
+  const collision::ToolReaction& pusher_contact() const { return pusher_contact_; }
   /// Copy of the latest contact, safe from any thread.
   collision::ContactForce latest_contact() const;
 
@@ -227,7 +256,30 @@ class TissueModel {
   std::int64_t alive_nodes() const { return solver_->lattice().alive_count(); }
 
  private:
-  EditReport edit(const Tool& tool, const collision::WorldTool& from,
+  /// One hand: the tool it holds, its last pose and mode, its stroke, its contact (held nodes).
+  struct ToolSlot {
+    std::optional<collision::WorldTool> last;
+    ToolMode mode = ToolMode::kIdle;
+    Tool spec;
+    ToolStroke stroke;
+    std::unique_ptr<collision::ToolContact> contact;
+    collision::ContactForce last_contact;  ///< its last contact pass
+    /// Force-dependent ablation (TissueModelOptions::feather_force_un > 0): ablate holds tissue.
+    bool ablation_presses = false;
+    /// Whether the slot holds tissue: it presses, or ablates pressing.
+    bool pressing() const {
+      return (mode == ToolMode::kPress || (mode == ToolMode::kAblate && ablation_presses)) &&
+             last.has_value();
+    }
+  };
+  /// A body pushing the tissue, with its own contact.
+  struct Pusher {
+    std::shared_ptr<const collision::DistanceField> body;
+    std::unique_ptr<collision::ToolContact> contact;
+    collision::ContactForce last_contact;
+  };
+  ToolSlot& slot_at(int slot);
+  EditReport edit(ToolSlot& slot, const Tool& tool, const collision::WorldTool& from,
                   const collision::WorldTool& to, ToolMode mode, double rate_scale);
   /// After voxels changed (`before` holds their old densities): re-mesh, lattice topology,
   /// re-bind (also the cubes of `torn` springs, already gone from the lattice) and couple the
@@ -241,6 +293,20 @@ class TissueModel {
   /// Whether an ablating tool presses (force-dependent ablation).
   bool ablation_presses() const { return options_.feather_force_un > 0.0; }
   void publish_contact(const collision::ContactForce& c);
+  /// Whether a contact pass has work: a pressing slot or a pushing body.
+  bool contact_active() const;
+  /// Every pressing slot's tool and every body (owner: the slot, or −1 − the body's index).
+  std::vector<collision::WorldTool> contact_tools(std::vector<int>& owner) const;
+  /// Nodes held by every contact but `self`, ascending.
+  std::vector<std::int64_t> held_by_others(const collision::ToolContact* self) const;
+  /// One contact pass of one slot (owner ≥ 0) or body (−1 − index), against every tool.
+  void resolve_contact(int owner);
+  /// Sums the slots' last passes into contact() (and the bodies' into pusher_contact()).
+  collision::ContactForce publish_contacts();
+  /// A contact pass of every pressing slot and every body, then publish_contacts().
+  collision::ContactForce resolve_contacts();
+  /// The slot lets go of what it holds (not what others hold).
+  void stop_pressing(ToolSlot& slot);
 
   TissueModelOptions options_;
   VoxelVolume volume_;
@@ -248,16 +314,13 @@ class TissueModel {
   std::unique_ptr<crms::Solver> solver_;
   std::unique_ptr<coupler::Coupler> coupler_;
   std::unique_ptr<collision::NodeGatherer> gatherer_;
-  std::unique_ptr<collision::ToolContact> contact_resolver_;
   std::vector<std::uint8_t> anchored_;
   double dt_ = 0;
   crms::TimeStepChoice dt_choice_;
   crms::StabilityMonitor monitor_;
-  // The tool in use: its pose and mode of the last apply_tool.
-  std::optional<collision::WorldTool> last_tool_;
-  ToolMode last_mode_ = ToolMode::kIdle;
-  Tool last_tool_spec_;
-  ToolStroke stroke_;
+  std::vector<ToolSlot> slots_;  // grown on demand up to kMaxToolSlots
+  std::vector<Pusher> pushers_;
+  collision::ToolReaction pusher_contact_;
   collision::ContactForce contact_;
   mutable std::mutex contact_mutex_;
   collision::ContactForce shared_contact_;

@@ -5,6 +5,12 @@
 // (SimulationThread, paced to real time where the solver is fast enough), the offscreen renderer
 // calls it in line so frames are reproducible. The model runs on CUDA when the solver was built
 // with it and a device is present, else on the CPU (crms::SolverConfig backend "auto").
+//
+// Several hands act at once (two-handed work: an endoscope pushing the mucosa aside while a wand
+// ablates): step() takes one ToolCommand per hand, and each tool acts in its own slot of the
+// model (its index in the session's tools). With live haptics attached (live_haptics.h), the
+// first hand's pose comes from the haptic device and a frame for the haptic loop is captured
+// around it after every step.
 #pragma once
 
 #include <atomic>
@@ -28,22 +34,33 @@ struct NamedTool {
   interaction::Tool tool;
 };
 
-/// What the hand holds: which tool, where (deformed world, mm) and in which mode.
+/// What a hand holds: which tool, where (deformed world, mm) and in which mode.
 struct ToolCommand {
-  int tool = 0;  ///< index into the session's tools
+  int tool = 0;  ///< index into the session's tools (−1: an empty hand)
   ToolPose pose;
   interaction::ToolMode mode = interaction::ToolMode::kIdle;
 };
+
+class LiveHaptics;
 
 class SimulationSession {
  public:
   /// Throws tsf::Error when `tools` is empty or a tool is invalid.
   SimulationSession(std::unique_ptr<interaction::TissueModel> model, std::vector<NamedTool> tools);
 
-  /// Applies `command` (an idle command lifts the tool), advances `dt_display` simulated seconds
-  /// and publishes the surface and stats. A tool error (e.g. cut with a sphere) or an instability
-  /// is reported in stats().error and the model stops advancing; never throws for those.
-  void step(double dt_display, const ToolCommand& command);
+  /// Applies the hands' commands (an idle command, or a tool no hand holds, lifts that tool),
+  /// advances `dt_display` simulated seconds and publishes the surface and stats; with haptics
+  /// attached, captures the haptic frame around the first hand's tool. A tool error (e.g. cut
+  /// with a sphere) or an instability is reported in stats().error and the model stops
+  /// advancing; never throws for those.
+  void step_hands(double dt_display, const std::vector<ToolCommand>& hands);
+  /// One hand.
+  void step(double dt_display, const ToolCommand& command) {
+    step_hands(dt_display, std::vector<ToolCommand>{command});
+  }
+  /// Live haptics for the first hand (null: none); it must outlive the session's stepping.
+  void attach_haptics(LiveHaptics* haptics) { haptics_ = haptics; }
+  LiveHaptics* haptics() const { return haptics_; }
 
   const std::vector<NamedTool>& tools() const { return tools_; }
   const interaction::TissueModel& model() const { return *model_; }
@@ -65,8 +82,9 @@ class SimulationSession {
   std::vector<NamedTool> tools_;
   SurfaceExchange exchange_;
   SimulationStats stats_;
-  bool holding_ = false;
+  std::vector<bool> holding_;  ///< per tool: its slot acts on the model
   bool edited_since_publish_ = true;
+  LiveHaptics* haptics_ = nullptr;
   // Recent (wall time, steps, simulated s) for the rates.
   struct Sample {
     double wall_s;
@@ -77,25 +95,32 @@ class SimulationSession {
   double wall_start_ = -1;
 };
 
-/// Runs a session's step() on its own thread until stopped; the render thread sets the tool.
+/// Runs a session's step() on its own thread until stopped; the render thread sets the hands.
+/// With live haptics attached, the first hand's pose is the device's, read at every step.
 class SimulationThread {
  public:
   /// `frame_s`: simulated seconds per step; the loop sleeps so that simulated time does not run
   /// ahead of wall-clock time (it runs behind when the solver is slower than real time).
-  SimulationThread(SimulationSession& session, double frame_s);
+  /// `on_start` runs first on the thread (the viewer lowers its priority below the haptic
+  /// thread's there).
+  SimulationThread(SimulationSession& session, double frame_s, std::function<void()> on_start = {});
   ~SimulationThread();  ///< stops and joins
   SimulationThread(const SimulationThread&) = delete;
   SimulationThread& operator=(const SimulationThread&) = delete;
 
-  void set_tool(const ToolCommand& command);
+  void set_tool(const ToolCommand& command) { set_hands({command}); }
+  void set_hands(const std::vector<ToolCommand>& hands);
   void stop();
+  /// The hands as the last step applied them (render thread: where to draw the tools).
+  std::vector<ToolCommand> applied_hands();
 
  private:
   void run();
   SimulationSession& session_;
   double frame_s_;
+  std::function<void()> on_start_;
   std::mutex mutex_;
-  ToolCommand command_;
+  std::vector<ToolCommand> hands_, applied_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <string>
 
@@ -55,6 +56,11 @@ struct ViewOptions {
   double frame_s = 1.0 / 120.0;
   /// Window: close by itself after this many rendered frames (< 0: when the user quits).
   int close_after_frames = -1;
+  /// Window: close by itself after this many seconds of wall time (≤ 0: when the user quits).
+  double close_after_s = 0;
+  /// Window: runs once the haptic loop has started, on the render thread, before the simulation
+  /// thread starts (tsf view lowers every other thread's priority below the haptic thread's).
+  std::function<void()> on_haptics_started;
 
   /// Throws tsf::Error naming the field when a value is out of range.
   void validate() const;

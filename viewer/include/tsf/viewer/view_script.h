@@ -11,15 +11,17 @@
 //   hud: true
 //   plot: true
 //   tool: true                   # draw the tool
-//   keyframes:                   # the hand: which tool, where, in which mode, from which frame
+//   keyframes:                   # the hands: which tool, where, in which mode, from which frame
 //     - {frame: 0,  tool: wand, position: [10, 6, 16], rotation: {axis: [1, 0, 0], angle_deg: 90},
 //     mode: idle}
 //     - {frame: 10, tool: wand, position: [10, 6, 12], mode: ablate}
+//     - {frame: 4, hand: 1, tool: ball, position: [30, 8, 13], mode: press}   # a second hand
 //
-// Between keyframes the pose is interpolated (interaction/trajectory.h: position linear,
-// rotation slerp) and the mode of the earlier keyframe holds; the tool of a keyframe is held from
-// it until the next. A keyframe without `rotation` keeps the previous one. Before the first
-// keyframe the hand is empty (idle, no tool drawn).
+// Each hand (`hand:`, 0 when left out) is its own sequence of keyframes: between two of them the
+// pose is interpolated (interaction/trajectory.h: position linear, rotation slerp) and the mode of
+// the earlier keyframe holds; the tool of a keyframe is held from it until the next. A keyframe
+// without `rotation` keeps the hand's previous one. Before its first keyframe a hand is empty
+// (idle, no tool drawn). Hands act at once, each tool in its own slot (two-handed work).
 #pragma once
 
 #include <filesystem>
@@ -32,14 +34,30 @@
 
 namespace tsf::viewer {
 
-struct ViewScript {
-  ViewOptions options;
-  interaction::Trajectory hand;     ///< time = frame index
+/// One hand's keyframes.
+struct ViewHand {
+  interaction::Trajectory path;     ///< time = frame index
   std::vector<int> keyframe_tools;  ///< tool index per keyframe
 
   /// The hand at `frame` (idle with tool 0 before the first keyframe).
   ToolCommand command_at(int frame) const;
   bool holds_tool_at(int frame) const;
+};
+
+/// The most hands a view script moves at once.
+constexpr int kMaxHands = 8;
+
+struct ViewScript {
+  ViewOptions options;
+  std::vector<ViewHand> hands;  ///< hand 0 first; may be empty (no keyframes)
+
+  /// Hand 0 at `frame` (idle with tool 0 when there is no hand).
+  ToolCommand command_at(int frame) const;
+  bool holds_tool_at(int frame) const;
+  /// Every hand at `frame`; an empty hand has tool −1.
+  std::vector<ToolCommand> commands_at(int frame) const;
+  /// The last keyframe of any hand (frames), −1 when there is none.
+  double last_keyframe() const;
 };
 
 /// Reads a view script; `tools` are the scene's (keyframes name them). `defaults` are the options

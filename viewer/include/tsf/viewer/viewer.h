@@ -27,6 +27,7 @@
 #include "tsf/viewer/simulation_session.h"
 #include "tsf/viewer/slice_volume.h"
 #include "tsf/viewer/view_options.h"
+#include "tsf/viewer/view_script.h"
 #include "tsf/volume/voxel_volume.h"
 
 namespace tsf::viewer {
@@ -62,15 +63,22 @@ class Viewer {
   Viewer(const Viewer&) = delete;
   Viewer& operator=(const Viewer&) = delete;
 
-  /// Opens the window and runs until the user quits (q, Esc, closing it) or close_after_frames.
-  /// The simulation runs on its own thread meanwhile. Returns the number of frames rendered.
-  int run_window();
+  /// Opens the window and runs until the user quits (q, Esc, closing it), close_after_frames or
+  /// close_after_s. The simulation runs on its own thread meanwhile, and the session's live
+  /// haptics (if attached) on theirs. With a `script`, its hands play in wall-clock time (frame
+  /// f at f·frame_s seconds) instead of the mouse. Returns the number of frames rendered.
+  int run_window(const ViewScript* script = nullptr);
 
   /// Offscreen (or a window driven by the caller): simulates one frame with `command` on this
   /// thread, then renders it. The tool is drawn where `command` holds it.
   void step_and_render(const ToolCommand& command);
   /// Renders the latest published state without simulating.
   void render(const ToolCommand& command);
+  /// The same with every hand's tool drawn (an empty hand: tool −1).
+  void render_hands(const std::vector<ToolCommand>& hands);
+  /// |force| shown in the HUD and plot by the last render: the haptic force with live haptics,
+  /// else the tools' contact force, µN.
+  double shown_force_un() const;
   Frame capture() const;
   /// Writes the last rendered frame as PNG (atomically: a temporary file, then rename).
   void write_png(const std::filesystem::path& path) const;
