@@ -15,6 +15,7 @@ IgtlDevice::IgtlDevice(IgtlDeviceOptions options) : options_(std::move(options))
 haptics::DeviceState IgtlDevice::read() {
   haptics::DeviceState s;
   s.valid = false;
+  s.pressing = false;  // no pose: the tool lifts (the loop renders no force, the tissue is free)
   const std::optional<PoseUpdate> u = server_->pose(options_.transform);
   if (!u) return s;
   const std::optional<ToolPose> lps =
@@ -27,6 +28,7 @@ haptics::DeviceState IgtlDevice::read() {
   }
   s.pose = *lps;
   s.valid = true;
+  s.pressing = true;
   return s;
 }
 

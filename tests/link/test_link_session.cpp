@@ -187,6 +187,7 @@ TEST(IgtlDevice, FollowsTheTrackerInPatientLpsAndSendsTheForceBackInNewtons) {
   o.server.log = [](const std::string&) {};
   IgtlDevice device(o);
   EXPECT_FALSE(device.read().valid);  // nothing received yet: the tool is lifted
+  EXPECT_FALSE(device.read().pressing);
   igtl::ClientSocket::Pointer tracker = igtl::ClientSocket::New();
   ASSERT_EQ(tracker->ConnectToServer("127.0.0.1", device.server().port()), 0);
   tracker->SetReceiveTimeout(5000);
@@ -196,6 +197,7 @@ TEST(IgtlDevice, FollowsTheTrackerInPatientLpsAndSendsTheForceBackInNewtons) {
   EXPECT_NEAR(s.pose.position.x, -10, 1e-6);  // L = −R
   EXPECT_NEAR(s.pose.position.y, -20, 1e-6);  // P = −A
   EXPECT_NEAR(s.pose.position.z, 30, 1e-6);
+  EXPECT_TRUE(s.pressing);
   EXPECT_EQ(device.poses_read(), 1u);
   // A force of 2 N towards L (patient) is 2 N towards −R on the wire.
   device.apply_force({2e6, 0, -1e6});
