@@ -56,6 +56,18 @@ wait_for() {
   done
 }
 
+# wait_ok LOG WHAT: tsf (TSF_PID) ends with status 0, else fail showing LOG.
+wait_ok() {
+  status=0
+  wait "$TSF_PID" || status=$?
+  TSF_PID=""
+  if [ "$status" -ne 0 ]; then
+    echo "FAIL: $2 exited with $status" >&2
+    cat "$1" >&2
+    exit 1
+  fi
+}
+
 # A live session on a free port; the stylus follows 'Tracker'. It runs until stopped (Ctrl-C).
 "$TSF" link "$SRC/scenes/link-block.yaml" --igtl-port 0 --igtl-tool stylus=Tracker:press \
   --seconds 600 --out session >tsf.log 2>&1 &
@@ -78,14 +90,7 @@ wait_for tsf.log "served surface .* triangles" 120
 sleep 4
 build-PolyData/PolyDataClient 127.0.0.1 "$PORT" >polydata-after.txt 2>&1
 kill -TERM "$TSF_PID"
-status=0
-wait "$TSF_PID" || status=$?
-TSF_PID=""
-if [ "$status" -ne 0 ]; then
-  echo "FAIL: tsf link exited with $status" >&2
-  cat tsf.log >&2
-  exit 1
-fi
+wait_ok tsf.log "tsf link"
 cat tsf.log
 
 # 3. tsf view serves the same surface (--igtl-port): offscreen frames of the same scene, asked
@@ -98,14 +103,7 @@ TSF_PID=$!
 wait_for view.log "listening on 127.0.0.1:" 120
 PORT=$(sed -n 's/.*listening on 127\.0\.0\.1:\([0-9]*\).*/\1/p' view.log | head -n 1)
 build-PolyData/PolyDataClient 127.0.0.1 "$PORT" >polydata-view.txt 2>&1 || true
-status=0
-wait "$TSF_PID" || status=$?
-TSF_PID=""
-if [ "$status" -ne 0 ]; then
-  echo "FAIL: tsf view --igtl-port exited with $status" >&2
-  cat view.log >&2
-  exit 1
-fi
+wait_ok view.log "tsf view --igtl-port"
 
 python3 - <<'EOF'
 import json, struct, sys
