@@ -36,6 +36,9 @@
 #include "tsf/viewer/view_script.h"
 #include "tsf/viewer/viewer.h"
 #include "tsf/volume/tissue_labels.h"
+#ifdef TSF_HAVE_LINK_CMD
+#include "link/link_session.h"  // --igtl-port: the surface served over OpenIGTLink (docs/live.md)
+#endif
 #ifdef TSF_HAVE_IMPORT
 #include <fstream>
 
@@ -65,6 +68,9 @@ struct ViewArguments {
   int haptic_filter = 1;
   double seconds = 0;  ///< window: close after this many seconds
   std::string report;  ///< window: JSON report
+#ifdef TSF_HAVE_LINK_CMD
+  link::LinkOptions link;
+#endif
 };
 
 /// Tools for a bare volume: a ball, an ablation wand and a scalpel (sizes of the shipped scenes).
@@ -495,6 +501,29 @@ void render_view_offscreen(const ViewArguments& args, const ViewInputs& in,
         r.last.live_triangles);
 }
 
+#ifdef TSF_HAVE_LINK_CMD
+/// --igtl-port: every surface the simulation publishes goes out as POLYDATA (patient frame, RAS on
+/// the wire unless --igtl-frame lps) at --igtl-rate at most (docs/live.md). Null when not asked.
+std::unique_ptr<link::LinkSession> start_view_link(const ViewArguments& args,
+                                                   viewer::SimulationSession& session,
+                                                   const VolumeGeometry& patient_frame,
+                                                   const std::string& name) {
+  if (!args.link.enabled()) return nullptr;
+  auto live = std::make_unique<link::LinkSession>(
+      args.link, std::vector<link::LinkSession::NamedTool>{}, name);
+  link::LinkSession* l = live.get();
+  session.set_on_published([l, patient_frame](const interaction::TissueModel& model) {
+    if (l->surface_due())
+      l->publish_surface(mesh_in_patient_frame(model.deformed_mesh(), patient_frame));
+  });
+  if (!args.quiet) {
+    std::printf("tsf view: OpenIGTLink %s\n", live->describe().c_str());
+    std::fflush(stdout);
+  }
+  return live;
+}
+#endif
+
 void run_view(const ViewArguments& args) {
   // Cheap checks first (scene, tools, script, display, output folder), then the tissue model.
   ViewInputs in = read_view_inputs(args);
@@ -528,6 +557,11 @@ void run_view(const ViewArguments& args) {
   session.attach_haptics(live.get());
   const std::optional<viewer::SliceVolume> slice_volume = view_slices(args, in, session.model());
   const viewer::SliceVolume* slices = slice_volume ? &*slice_volume : nullptr;
+#ifdef TSF_HAVE_LINK_CMD
+  const std::unique_ptr<link::LinkSession> served = start_view_link(
+      args, session, vm.patient_frame,
+      in.scene ? in.scene->name : std::filesystem::path(args.input).stem().string());
+#endif
   if (!args.quiet)
     std::printf("tsf view: %s on %s, lattice %d x %d x %d, %zu triangles (setup %.2f s)\n",
                 args.input.c_str(), session.stats().backend.c_str(), session.stats().lattice_dims.x,
@@ -657,6 +691,9 @@ void add_view_command(CLI::App& app) {
                 "Replace the files of an earlier tsf run in the --out folder");
   sub->add_flag("--quiet,-q", args->quiet, "No summary or progress on the terminal");
   sub->footer(std::string("Keys: ") + viewer::kViewerKeyHelp);
+#ifdef TSF_HAVE_LINK_CMD
+  link::add_link_options(*sub, args->link, -1, false);
+#endif
   sub->callback([args] { run_view(*args); });
 }
 

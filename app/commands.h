@@ -17,6 +17,7 @@ void add_haptics_command(CLI::App& app);   // cmd_haptics.cpp
 void add_export_command(CLI::App& app);    // cmd_export.cpp    (TSF_WITH_ASSIMP)
 void add_view_command(CLI::App& app);      // cmd_view.cpp      (TSF_WITH_VTK)
 void add_run_command(CLI::App& app);       // cmd_run.cpp
+void add_link_command(CLI::App& app);      // cmd_link.cpp      (TSF_WITH_IGTL)
 
 /// The manual page (roff) and the bash completion script, from the commands' definitions
 /// (cmd_docs.cpp): `tsf --man`, `tsf --bash-completion`.

@@ -75,6 +75,12 @@ int main(int argc, char** argv) {
 #ifdef TSF_HAVE_RUN_CMD
   tsf::app::add_run_command(app);
 #endif
+#ifdef TSF_HAVE_LINK_CMD
+  tsf::app::add_link_command(app);
+#else
+  tsf::app::add_unavailable_command(app, "link", "Live session linked over OpenIGTLink",
+                                    "TSF_WITH_IGTL");
+#endif
 
   // Generated documentation: the manual page and the bash completion (cmd_docs.cpp).
   if (argc == 2 &&

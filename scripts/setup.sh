@@ -25,6 +25,7 @@ PACKAGES=(
   gnuplot-nox                                                                  # report plots
   dpkg-dev file                                                                # the .deb (cpack: dpkg-shlibdeps)
   snakemake                                                                    # the cohort workflow (scripts/cohort)
+  libopenigtlink-dev openigtlink-examples                                      # the live link (tsf link); its CI test builds the examples
 )
 
 install_missing_packages() {

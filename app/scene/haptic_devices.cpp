@@ -20,6 +20,9 @@
 #include "tsf/common/error.h"
 #include "tsf/haptics/input_device.h"
 #include "tsf/haptics/scripted_device.h"
+#ifdef TSF_HAVE_LINK_CMD
+#include "link/igtl_device.h"  // `igtl`: the live link as a device (docs/live.md)
+#endif
 
 namespace tsf::app {
 
@@ -53,6 +56,9 @@ haptics::DeviceRegistry haptic_devices(const DeviceContext& context) {
             }
             return std::make_unique<haptics::InputDevice>(o);
           });
+#ifdef TSF_HAVE_LINK_CMD
+  link::add_igtl_device(r);
+#endif
   return r;
 }
 

@@ -5,6 +5,8 @@
 //              view script's or the scene script's first hand); tissue space
 //   mouse      the viewer window's mouse and keys (tsf view only); tissue space;
 //              `mouse:speed=MM_PER_S` sets how fast held keys move the tool (default 10)
+//   igtl       the live link (OpenIGTLink, docs/live.md): a tracker's or haptic bridge's
+//              TRANSFORM in, the force back as SENSOR; patient LPS (built with TSF_WITH_IGTL)
 //
 // A driver for real hardware or a network link adds itself in haptic_devices() (its poses and
 // forces in patient LPS mm, HapticDevice::frame()); every command then offers it.

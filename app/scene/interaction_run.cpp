@@ -418,7 +418,7 @@ InteractionResult run_interaction_scene(const Scene& scene, const InteractionRun
   result.frames_planned = std::max<std::int64_t>(clock.frames, 0);
   Stopwatch wall;
   Progress progress("simulate " + scene.name, static_cast<std::uint64_t>(result.frames_planned),
-                    !options.quiet && Progress::stderr_is_terminal());
+                    !options.quiet && options.progress && Progress::stderr_is_terminal());
   for (std::int64_t f = 0; f < clock.frames && !result.instability; ++f) {
     if (interrupted()) {
       result.interrupted = true;
@@ -427,6 +427,11 @@ InteractionResult run_interaction_scene(const Scene& scene, const InteractionRun
     const double t = static_cast<double>(f) * clock.frame_s;
     apply_due_events(scene, t, event_done, runs);
     apply_trajectories(scene, paths, t, clock.frame_s, lifted, runs);
+    if (options.before_advance)
+      for (std::size_t i = 0; i < runs.size(); ++i)
+        for (const EditRecord& e :
+             options.before_advance(t, i, *runs[i].built.model, runs[i].result.patient_frame))
+          record_edit(runs[i].result, e.time_s, e.tool, e.report);
     const ContactSample sum =
         advance_instances(scene, options, t + clock.frame_s, clock.frame_s, contacts, runs, result);
     result.frames = f + 1;

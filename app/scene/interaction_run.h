@@ -28,6 +28,12 @@
 
 namespace tsf::app {
 
+struct EditRecord {
+  double time_s = 0;
+  std::string tool;
+  interaction::EditReport report;
+};
+
 struct InteractionRunOptions {
   std::optional<double> duration_s;  ///< overrides script.duration
   InteractionOutputs outputs;        ///< with several instances each path gets the instance's name
@@ -41,17 +47,20 @@ struct InteractionRunOptions {
   /// `extra_key` (tsf run measures the effects' cost here).
   std::function<nlohmann::json(std::size_t instance, interaction::TissueModel& model)> after_script;
   std::string extra_key = "extra";
+  /// Called before every frame's advance, per instance, after the script moved its tools, with
+  /// the frame's start time and the instance's patient frame (`tsf link`: the tools a live link
+  /// drives). The edits it returns join the instance's report.
+  std::function<std::vector<EditRecord>(double time_s, std::size_t instance,
+                                        interaction::TissueModel& model,
+                                        const VolumeGeometry& patient_frame)>
+      before_advance;
+  /// A progress bar on a terminal (a live session, which ends when stopped, shows none).
+  bool progress = true;
 };
 
 /// `X.ext` → `X-<instance>.ext` (several instances); unchanged for a single-instance scene.
 std::filesystem::path instance_output_path(const std::filesystem::path& path, const Scene& scene,
                                            std::size_t instance);
-
-struct EditRecord {
-  double time_s = 0;
-  std::string tool;
-  interaction::EditReport report;
-};
 
 /// One tool's share of a frame's contact (several tools press at once).
 struct ToolShare {

@@ -7,12 +7,7 @@
 
 namespace tsf::app {
 
-namespace {
-
-/// `mesh` (tissue space) in the patient frame (LPS mm), the frame every written mesh is in:
-/// positions through origin + D·(p − origin), normals through D, and the winding reversed when D
-/// mirrors so triangles stay counter-clockwise seen from outside.
-imt::SurfaceMesh in_patient_frame(const imt::SurfaceMesh& mesh, const VolumeGeometry& frame) {
+imt::SurfaceMesh mesh_in_patient_frame(const imt::SurfaceMesh& mesh, const VolumeGeometry& frame) {
   if (frame.identity_direction()) return mesh;
   imt::SurfaceMesh out = mesh;
   for (Vec3f& p : out.positions) p = to_float(frame.tissue_to_patient(to_double(p)));
@@ -22,14 +17,12 @@ imt::SurfaceMesh in_patient_frame(const imt::SurfaceMesh& mesh, const VolumeGeom
   return out;
 }
 
-}  // namespace
-
 SceneOutputWriter::SceneOutputWriter(const InteractionOutputs& files,
                                      const VolumeGeometry& patient_frame,
                                      const interaction::TissueModel& model)
     : files_(files), frame_(patient_frame) {
   if (!files_.rest_mesh.empty())
-    imt::write_surface_ply(files_.rest_mesh, in_patient_frame(model.deformed_mesh(), frame_));
+    imt::write_surface_ply(files_.rest_mesh, mesh_in_patient_frame(model.deformed_mesh(), frame_));
   if (!files_.states.empty())
     states_ = std::make_unique<io::MeshSequenceWriter>(files_.states, patient_frame,
                                                        model.deformed_mesh(), 0.0);
@@ -52,7 +45,7 @@ void SceneOutputWriter::finish(const imt::SurfaceMesh& final_mesh, double time_s
     states_->finish();
   }
   if (!files_.mesh.empty())
-    imt::write_surface_ply(files_.mesh, in_patient_frame(final_mesh, frame_));
+    imt::write_surface_ply(files_.mesh, mesh_in_patient_frame(final_mesh, frame_));
 }
 
 std::size_t SceneOutputWriter::states_saved() const {

@@ -18,6 +18,11 @@ class MeshSequenceWriter;
 
 namespace tsf::app {
 
+/// `mesh` (tissue space) in the patient frame (LPS mm), the frame every written or served mesh is
+/// in: positions through origin + D·(p − origin), normals through D, and the winding reversed
+/// when D mirrors so triangles stay counter-clockwise seen from outside.
+imt::SurfaceMesh mesh_in_patient_frame(const imt::SurfaceMesh& mesh, const VolumeGeometry& frame);
+
 /// The files an interactive run writes (absolute paths; empty = not written).
 struct InteractionOutputs {
   std::filesystem::path mesh, rest_mesh, report, states;

@@ -221,6 +221,8 @@ const char* to_string(SceneCommand command) {
       return "view";
     case SceneCommand::kHaptics:
       return "haptics";
+    case SceneCommand::kLink:
+      return "link";
   }
   return "?";
 }
@@ -232,7 +234,7 @@ void check_scene_for_command(const Scene& scene, SceneCommand command) {
            "does not import or segment: the pipeline section runs with `tsf run " +
                scene.file.string() +
                "`; give this command a scene whose lattice.volume names the segmented density");
-  if (command == C::kRun && !scene.interactive)
+  if ((command == C::kRun || command == C::kLink) && !scene.interactive)
     refuse(scene, command, "lattice",
            "needs an interaction scene (tissue, tools and a script); this one only steps a "
            "lattice: run it with `tsf simulate`");

@@ -25,7 +25,7 @@
 namespace tsf::app {
 
 /// The commands that run a scene.
-enum class SceneCommand { kSimulate, kRun, kView, kHaptics };
+enum class SceneCommand { kSimulate, kRun, kView, kHaptics, kLink };
 const char* to_string(SceneCommand command);
 
 /// Throws tsf::Error "FILE: key: tsf <command> …" for the first key of `scene` that `command`

@@ -98,6 +98,7 @@ void SimulationSession::step_hands(double dt_display, const std::vector<ToolComm
   }
   exchange_.publish(*model_, edited_since_publish_, stats_);
   edited_since_publish_ = false;
+  if (on_published_) on_published_(*model_);
 }
 
 SimulationThread::SimulationThread(SimulationSession& session, double frame_s,

@@ -70,8 +70,14 @@ class SimulationSession {
   const SimulationStats& stats() const { return stats_; }
   /// Publishes the current surface without stepping (the first frame).
   void publish_initial();
+  /// Called on the simulation thread after each step's surface is published (tsf view
+  /// --igtl-port serves it over OpenIGTLink); null: nothing.
+  void set_on_published(std::function<void(const interaction::TissueModel&)> f) {
+    on_published_ = std::move(f);
+  }
 
  private:
+  std::function<void(const interaction::TissueModel&)> on_published_;
   std::unique_ptr<interaction::TissueModel> model_;
   std::vector<NamedTool> tools_;
   SurfaceExchange exchange_;
