@@ -624,6 +624,7 @@ json assemble_report(const RunContext& ctx, const SegmentOutcome& seg, const Int
     instances.push_back(
         {{"name", r.name},
          {"material", material_json(scene, scene.instances[r.index])},
+         {"poisson_ratio", ir["session"].value("poisson_ratio", json(nullptr))},
          {"effects_active", r.effects_active},
          {"kernel_features", r.kernel_features},
          {"bytes_per_node", r.bytes_per_node},
