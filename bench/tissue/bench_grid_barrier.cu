@@ -23,13 +23,13 @@
 
 namespace cg = cooperative_groups;
 
-#define CHECK(x)                                                                        \
-  do {                                                                                  \
-    cudaError_t e = (x);                                                                \
-    if (e != cudaSuccess) {                                                             \
+#define CHECK(x)                                                                             \
+  do {                                                                                       \
+    cudaError_t e = (x);                                                                     \
+    if (e != cudaSuccess) {                                                                  \
       std::fprintf(stderr, "%s:%d %s: %s\n", __FILE__, __LINE__, #x, cudaGetErrorString(e)); \
-      std::exit(1);                                                                     \
-    }                                                                                   \
+      std::exit(1);                                                                          \
+    }                                                                                        \
   } while (0)
 
 __device__ __forceinline__ unsigned load_acquire(const unsigned* p) {
@@ -110,7 +110,8 @@ __global__ void neighbour_kernel(int iterations, unsigned* flags, float* sink) {
 int main(int argc, char** argv) {
   int iterations = 20000;
   for (int a = 1; a < argc; ++a)
-    if (std::strcmp(argv[a], "--iterations") == 0 && a + 1 < argc) iterations = std::atoi(argv[++a]);
+    if (std::strcmp(argv[a], "--iterations") == 0 && a + 1 < argc)
+      iterations = std::atoi(argv[++a]);
   int count = 0;
   if (cudaGetDeviceCount(&count) != cudaSuccess || count == 0) {
     std::fprintf(stderr, "bench_grid_barrier: no CUDA device\n");
@@ -186,15 +187,14 @@ int main(int argc, char** argv) {
         if (cudaOccupancyMaxActiveClusters(&max_clusters, cluster_kernel, &cfg) != cudaSuccess ||
             max_clusters * cluster < cblocks) {
           cudaGetLastError();
-          std::printf("%-11s %7d %8d %10s (cluster %d: %d clusters resident)\n", "cluster",
-                      cblocks, threads, "-", cluster, max_clusters);
+          std::printf("%-11s %7d %8d %10s (cluster %d: %d clusters resident)\n", "cluster", cblocks,
+                      threads, "-", cluster, max_clusters);
           continue;
         }
-        const double cluster_us = time_launch([&](int n) {
-          CHECK(cudaLaunchKernelEx(&cfg, cluster_kernel, n, counter, sink));
-        });
-        std::printf("%-11s %7d %8d %10.3f (cluster %d)\n", "cluster", cblocks, threads,
-                    cluster_us, cluster);
+        const double cluster_us = time_launch(
+            [&](int n) { CHECK(cudaLaunchKernelEx(&cfg, cluster_kernel, n, counter, sink)); });
+        std::printf("%-11s %7d %8d %10.3f (cluster %d)\n", "cluster", cblocks, threads, cluster_us,
+                    cluster);
       }
     }
   }
