@@ -140,8 +140,9 @@ BENCHMARK(BM_CrmsSymmetricTiling)
 /// Small lattices, where a step's arithmetic is shorter than a kernel launch: microseconds per
 /// step of the symmetric form (the default), in the same run: CUDA graphs of one launch per step
 /// (the earlier form), one persistent launch over the same tiles (a grid barrier between steps),
-/// and the node-parallel persistent launch (three threads per node, two barriers per step).
-/// args: edge (nodes per axis), launch (1 graphs, 2 persistent tiles, 3 node-parallel).
+/// the node-parallel persistent launch (three threads per node, two barriers per step) and the
+/// brick launch (bricks in shared memory, one barrier per step; the default).
+/// args: edge (nodes per axis), launch (1 graphs, 2 persistent tiles, 3 node-parallel, 4 bricks).
 void BM_CrmsSmallLatticeStep(benchmark::State& state) {
   const int edge = static_cast<int>(state.range(0));
   const auto launch = static_cast<CudaLaunch>(state.range(1));
@@ -165,7 +166,7 @@ void BM_CrmsSmallLatticeStep(benchmark::State& state) {
   state.SetLabel(solver->backend_name());
 }
 BENCHMARK(BM_CrmsSmallLatticeStep)
-    ->ArgsProduct({{8, 16, 24, 28, 32, 40, 48, 58, 64, 80}, {1, 2, 3}})
+    ->ArgsProduct({{8, 16, 24, 28, 32, 40, 48, 58, 64, 80}, {1, 2, 3, 4}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
     ->MinTime(0.3);
@@ -177,7 +178,7 @@ BENCHMARK(BM_CrmsSmallLatticeStep)
 /// scene's material (turbinate soft tissue: 7.6 kPa, damping time 0.5 ms; gravity). Microseconds
 /// per step and the real-time factor at the scene's automatic dt, per launch form. args: voxels per
 /// node (2: the scene, ~13 k alive nodes; 1: ~100 k), launch (1 graphs, 2 persistent tiles, 3
-/// node-parallel).
+/// node-parallel, 4 bricks).
 void BM_CrmsSinusLatticeStep(benchmark::State& state) {
   const int k = static_cast<int>(state.range(0));
   const auto launch = static_cast<CudaLaunch>(state.range(1));
@@ -232,7 +233,7 @@ void BM_CrmsSinusLatticeStep(benchmark::State& state) {
   state.SetLabel(solver.backend_name());
 }
 BENCHMARK(BM_CrmsSinusLatticeStep)
-    ->ArgsProduct({{2, 1}, {1, 2, 3}})
+    ->ArgsProduct({{2, 1}, {1, 2, 3, 4}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
     ->MinTime(0.3);

@@ -146,9 +146,11 @@ TEST(CrmsBackendParity, SharedEvaluationMatchesPerNodeOnEveryInstructionSetAndTi
       EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
           << "CUDA per-node, combo " << combo;
       c.force_evaluation = ForceEvaluation::kShared;
-      c.cuda_launch = CudaLaunch::kNodes;
-      EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
-          << "CUDA node-parallel, combo " << combo;
+      for (CudaLaunch launch : {CudaLaunch::kNodes, CudaLaunch::kBricks}) {
+        c.cuda_launch = launch;
+        EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
+            << "CUDA " << to_string(launch) << ", combo " << combo;
+      }
     }
   }
 }
@@ -186,7 +188,8 @@ TEST(CrmsBackendParity, IdleTilesAndPersistentLaunchesMatchTheCpu) {
   };
   const Lattice rest = test::box({20, 14, 24}, 1);
   const auto cpu = run(Backend::kCpu, CudaLaunch::kAuto);
-  for (CudaLaunch launch : {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes})
+  for (CudaLaunch launch :
+       {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes, CudaLaunch::kBricks})
     EXPECT_LE(max_difference_relative(run(Backend::kCuda, launch), cpu, rest), 1e-4)
         << to_string(launch);
 }
@@ -216,7 +219,8 @@ TEST(CrmsBackendParity, SegmentedCraniumAgreesOnEveryLaunch) {
     return s.positions();
   };
   const auto cpu = run(Backend::kCpu, CudaLaunch::kAuto);
-  for (CudaLaunch launch : {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes})
+  for (CudaLaunch launch :
+       {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes, CudaLaunch::kBricks})
     EXPECT_LE(max_difference_relative(run(Backend::kCuda, launch), cpu, rest), 1e-4)
         << to_string(launch);
 }

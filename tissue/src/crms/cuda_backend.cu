@@ -502,6 +502,8 @@ __global__ void __launch_bounds__(256, 3)
   }
 }
 
+#include "cuda_brick_step.cuh"
+
 __global__ void advance_steps_kernel(Guard* guard, int steps) {
   guard->step_base += steps;
 }
@@ -663,7 +665,8 @@ class CudaBackend final : public SolverBackend {
   std::string name() const override {
     return "cuda (" + device_name_ + ", shared tiles 32x" + std::to_string(tile_rows_) + "x" +
            std::to_string(planes_per_block_) +
-           (nodes_        ? ", node-parallel persistent launch"
+           (bricks_       ? ", brick persistent launch"
+            : nodes_      ? ", node-parallel persistent launch"
             : persistent_ ? ", " + std::to_string(persistent_blocks_) + " persistent blocks"
                           : ", graphs of " + std::to_string(steps_per_graph_) + " steps") +
            ")";
@@ -676,10 +679,11 @@ class CudaBackend final : public SolverBackend {
         cudaMemcpyAsync(flags_.data(), flags.data(), n, cudaMemcpyHostToDevice, stream_.get()));
     host_flags_ = flags;
     count_moving_tiles();
-    if (nodes_ && launch_ == CudaLaunch::kAuto &&
+    if ((nodes_ || bricks_) && launch_ == CudaLaunch::kAuto &&
         std::count_if(flags.begin(), flags.end(), [](std::uint8_t f) { return f & kAliveBit; }) >
             kNodesMaxAlive)
-      nodes_ = false;  // many alive nodes: graphs of the tile kernel (see kNodesMaxAlive)
+      nodes_ = bricks_ = false;  // many alive nodes: graphs of the tile kernel (kNodesMaxAlive)
+    count_moving_bricks();
     upload_alive_list();
     TSF_CUDA_CHECK(cudaMemcpyAsync(inv_mass_.data(), inv_mass.data(), n * sizeof(float),
                                    cudaMemcpyHostToDevice, stream_.get()));
@@ -712,10 +716,16 @@ class CudaBackend final : public SolverBackend {
         int& m = tile_moving_[tile_of(n)];
         if ((m == 0) != (m + now - was == 0)) tile_plan_stale_ = true;
         m += now - was;
+        if (bricks_) {
+          int& b = brick_moving_[brick_of(n)];
+          if ((b == 0) != (b + now - was == 0)) brick_plan_stale_ = true;
+          b += now - was;
+        }
       }
       host_flags_[n] = flags[t];
     }
     if (tile_plan_stale_) upload_tile_plan();
+    if (brick_plan_stale_) upload_brick_plan();
     if (alive_changed) upload_alive_list();
     stage_scatter(nodes, flags.data(), flags.size());
     scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
@@ -797,11 +807,14 @@ class CudaBackend final : public SolverBackend {
   void step(int n, const StepParameters& p, unsigned features) override {
     require_compiled_feature_set(features);
     const LatticeView lat = lattice_view();
-    if ((nodes_ || persistent_) && n > 0 && (features & features::kSymmetricReactions) != 0 &&
+    if ((bricks_ || nodes_ || persistent_) && n > 0 &&
+        (features & features::kSymmetricReactions) != 0 &&
         evaluation_ == ForceEvaluation::kShared) {  // every step in one cooperative launch
       dispatch_features(features, [&](auto f) {
         if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0) {
-          if (nodes_)
+          if (bricks_)
+            launch_bricks<decltype(f)::value>(lat, p, n);
+          else if (nodes_)
             launch_nodes<decltype(f)::value>(lat, p, n);
           else
             launch_persistent<decltype(f)::value>(lat, p, n);
@@ -1000,9 +1013,24 @@ class CudaBackend final : public SolverBackend {
     const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
     launch_ = options.cuda_launch;
     persistent_ = cooperative && options.cuda_launch == CudaLaunch::kPersistent;
+    bricks_ =
+        cooperative && (options.cuda_launch == CudaLaunch::kBricks ||
+                        (options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes));
     nodes_ = cooperative && count_ < (std::int64_t{1} << 31) &&  // 32-bit node lists
-             (options.cuda_launch == CudaLaunch::kNodes ||
-              (options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes));
+             options.cuda_launch == CudaLaunch::kNodes;
+    if (bricks_) {
+      int per_sm = 0;
+      brick_kernel_attributes<features::kSymmetricReactions>();
+      TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
+          &per_sm, brick_step_kernel<features::kSymmetricReactions>, kBrickThreads,
+          sizeof(BrickShared)));
+      brick_resident_blocks_ = per_sm * multiprocessors;
+      if (brick_resident_blocks_ < 1) bricks_ = false;
+      bricks_x_ = (nx + kBrickX - 1) / kBrickX;
+      bricks_y_ = (ny + kBrickY - 1) / kBrickY;
+      bricks_z_ = (nz + kBrickZ - 1) / kBrickZ;
+      brick_moving_.assign(static_cast<std::size_t>(bricks_x_) * bricks_y_ * bricks_z_, 0);
+    }
     if (nodes_) {
       int per_sm = 0;
       TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
@@ -1088,6 +1116,64 @@ class CudaBackend final : public SolverBackend {
     plan.list = tile_list_.data();
     plan.active = tile_active_.data();
     return plan;
+  }
+
+  int brick_of(std::int64_t n) const {
+    const Int3 c = geometry_.coordinates(n);
+    return c.x / kBrickX + bricks_x_ * (c.y / kBrickY + bricks_y_ * (c.z / kBrickZ));
+  }
+  /// Moving nodes per brick from the host copy of the flags, and the brick list (brick launch).
+  void count_moving_bricks() {
+    if (!bricks_) return;
+    std::fill(brick_moving_.begin(), brick_moving_.end(), 0);
+    for (std::int64_t n = 0; n < count_; ++n)
+      if (moving(host_flags_[static_cast<std::size_t>(n)])) ++brick_moving_[brick_of(n)];
+    upload_brick_plan();
+  }
+  void upload_brick_plan() {
+    std::vector<int> list;
+    for (std::size_t b = 0; b < brick_moving_.size(); ++b)
+      if (brick_moving_[b] > 0) list.push_back(static_cast<int>(b));
+    if (brick_list_.size() < std::max<std::size_t>(list.size(), 1))
+      brick_list_.resize(std::max<std::size_t>(brick_moving_.size(), 1));
+    // The kernels read the list while queued steps run: replace it in stream order.
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    if (!list.empty())
+      TSF_CUDA_CHECK(cudaMemcpyAsync(brick_list_.data(), list.data(), list.size() * sizeof(int),
+                                     cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));  // `list` goes out of scope
+    active_bricks_ = static_cast<int>(list.size());
+    brick_plan_stale_ = false;
+  }
+  /// The brick kernel's shared memory (69 KB) is above the default 48 KB a block may ask for.
+  template <unsigned F>
+  static void brick_kernel_attributes() {
+    static const bool done = [] {
+      TSF_CUDA_CHECK(cudaFuncSetAttribute(reinterpret_cast<const void*>(&brick_step_kernel<F>),
+                                          cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                          static_cast<int>(sizeof(BrickShared))));
+      return true;
+    }();
+    (void)done;
+  }
+  template <unsigned F>
+  void launch_bricks(const LatticeView& lat, const StepParameters& p, int n) {
+    brick_kernel_attributes<F>();
+    StateView a = buffer_view(current_), b = buffer_view(1 - current_);
+    StepParameters parameters = p;
+    Guard* guard = guard_.data();
+    BrickPlan plan;
+    plan.bricks_x = bricks_x_;
+    plan.bricks_y = bricks_y_;
+    plan.bricks_z = bricks_z_;
+    plan.list = brick_list_.data();
+    plan.active = active_bricks_;
+    const int blocks = std::max(1, std::min(active_bricks_, brick_resident_blocks_));
+    void* args[] = {const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan};
+    TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&brick_step_kernel<F>),
+                                               dim3(blocks), dim3(kBrickThreads), args,
+                                               sizeof(BrickShared), stream_.get()));
+    if (n & 1) current_ = 1 - current_;
   }
 
   /// The alive list of the node-parallel kernel, from the host copy of the flags.
@@ -1227,6 +1313,12 @@ class CudaBackend final : public SolverBackend {
   bool persistent_ = false;
   int persistent_blocks_ = 0;
   bool nodes_ = false;
+  bool bricks_ = false;
+  int brick_resident_blocks_ = 0;
+  int bricks_x_ = 1, bricks_y_ = 1, bricks_z_ = 1;
+  std::vector<int> brick_moving_;  // moving nodes per brick (brick launch)
+  int active_bricks_ = 0;
+  bool brick_plan_stale_ = false;
   CudaLaunch launch_ = CudaLaunch::kAuto;
   int node_resident_blocks_ = 0;
   int alive_count_ = 0;
@@ -1273,6 +1365,7 @@ class CudaBackend final : public SolverBackend {
   std::vector<CachedGraph> graphs_;
   DeviceBuffer<int> tile_list_, tile_active_;
   DeviceBuffer<std::int32_t> alive_list_;
+  DeviceBuffer<int> brick_list_;    // brick launch: the bricks that hold a moving node
   DeviceBuffer<float> node_terms_;  // node-parallel kernel: 15 vec3 terms per node
   PinnedBuffer<int> plan_staging_;
   DeviceBuffer<std::int64_t> scatter_nodes_;

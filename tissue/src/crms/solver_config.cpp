@@ -63,6 +63,8 @@ const char* to_string(CudaLaunch launch) {
       return "persistent";
     case CudaLaunch::kNodes:
       return "nodes";
+    case CudaLaunch::kBricks:
+      return "bricks";
   }
   return "?";
 }

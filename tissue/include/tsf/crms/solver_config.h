@@ -46,7 +46,7 @@ enum class ForceEvaluation {
 /// How the CUDA backend launches the steps of one Solver::step call (same physics; the symmetric
 /// form with the shared evaluation uses them, other forms use graphs).
 enum class CudaLaunch {
-  /// kNodes for lattices of up to 2^18 nodes of which up to 2^17 are alive (where a step is
+  /// kBricks for lattices of up to 2^18 nodes of which up to 2^17 are alive (where a step is
   /// bounded by latency, not arithmetic), graphs above.
   kAuto,
   /// CUDA graphs of cuda_steps_per_graph launches, one kernel per step over tiles of the lattice.
@@ -56,6 +56,10 @@ enum class CudaLaunch {
   /// One cooperative launch runs all the steps, each alive node's angles spread over three
   /// threads (one per angle plane), two grid barriers per step (docs/crms.md "Small lattices").
   kNodes,
+  /// One cooperative launch runs all the steps; each thread block steps bricks of 8 × 8 × 4 nodes
+  /// from a shared-memory copy of the brick and the layer around it, computing the reactions of
+  /// that layer itself: one grid barrier per step (docs/crms.md "Small lattices").
+  kBricks,
 };
 /// Instruction set of the CPU kernels. kAuto takes the widest the processor has; naming one the
 /// processor lacks is an error.
