@@ -1013,24 +1013,29 @@ class CudaBackend final : public SolverBackend {
     const int nx = geometry_.dims.x, ny = geometry_.dims.y, nz = geometry_.dims.z;
     launch_ = options.cuda_launch;
     persistent_ = cooperative && options.cuda_launch == CudaLaunch::kPersistent;
-    bricks_ =
-        cooperative && (options.cuda_launch == CudaLaunch::kBricks ||
-                        (options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes));
+    const bool automatic = options.cuda_launch == CudaLaunch::kAuto && count_ <= kNodesMaxNodes;
+    bricks_ = cooperative && (options.cuda_launch == CudaLaunch::kBricks || automatic);
     nodes_ = cooperative && count_ < (std::int64_t{1} << 31) &&  // 32-bit node lists
-             options.cuda_launch == CudaLaunch::kNodes;
+             (options.cuda_launch == CudaLaunch::kNodes || automatic);
     if (bricks_) {
       int per_sm = 0;
       brick_kernel_attributes<features::kSymmetricReactions>();
       TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
-          &per_sm, brick_step_kernel<features::kSymmetricReactions>, kBrickThreads,
-          sizeof(BrickShared)));
+          &per_sm, brick_step_kernel<features::kSymmetricReactions>, Brick::kThreads,
+          sizeof(Brick::Shared)));
       brick_resident_blocks_ = per_sm * multiprocessors;
       if (brick_resident_blocks_ < 1) bricks_ = false;
-      bricks_x_ = (nx + kBrickX - 1) / kBrickX;
-      bricks_y_ = (ny + kBrickY - 1) / kBrickY;
-      bricks_z_ = (nz + kBrickZ - 1) / kBrickZ;
+      bricks_x_ = (nx + Brick::kX - 1) / Brick::kX;
+      bricks_y_ = (ny + Brick::kY - 1) / Brick::kY;
+      bricks_z_ = (nz + Brick::kZ - 1) / Brick::kZ;
       brick_moving_.assign(static_cast<std::size_t>(bricks_x_) * bricks_y_ * bricks_z_, 0);
+      // Automatic: bricks where every brick has a resident block (one round of bricks a step),
+      // else the node-parallel launch, which measured faster there (docs/crms.md "Small
+      // lattices").
+      if (automatic && static_cast<std::int64_t>(brick_moving_.size()) > brick_resident_blocks_)
+        bricks_ = false;
     }
+    if (bricks_) nodes_ = false;
     if (nodes_) {
       int per_sm = 0;
       TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
@@ -1120,7 +1125,7 @@ class CudaBackend final : public SolverBackend {
 
   int brick_of(std::int64_t n) const {
     const Int3 c = geometry_.coordinates(n);
-    return c.x / kBrickX + bricks_x_ * (c.y / kBrickY + bricks_y_ * (c.z / kBrickZ));
+    return c.x / Brick::kX + bricks_x_ * (c.y / Brick::kY + bricks_y_ * (c.z / Brick::kZ));
   }
   /// Moving nodes per brick from the host copy of the flags, and the brick list (brick launch).
   void count_moving_bricks() {
@@ -1132,26 +1137,28 @@ class CudaBackend final : public SolverBackend {
   }
   void upload_brick_plan() {
     std::vector<int> list;
+    list.reserve(brick_moving_.size());
     for (std::size_t b = 0; b < brick_moving_.size(); ++b)
       if (brick_moving_[b] > 0) list.push_back(static_cast<int>(b));
-    if (brick_list_.size() < std::max<std::size_t>(list.size(), 1))
-      brick_list_.resize(std::max<std::size_t>(brick_moving_.size(), 1));
+    const int active = static_cast<int>(list.size());
+    for (std::size_t b = 0; b < brick_moving_.size(); ++b)
+      if (brick_moving_[b] == 0) list.push_back(static_cast<int>(b));
+    if (brick_list_.size() < list.size()) brick_list_.resize(list.size());
     // The kernels read the list while queued steps run: replace it in stream order.
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    if (!list.empty())
-      TSF_CUDA_CHECK(cudaMemcpyAsync(brick_list_.data(), list.data(), list.size() * sizeof(int),
-                                     cudaMemcpyHostToDevice, stream_.get()));
+    TSF_CUDA_CHECK(cudaMemcpyAsync(brick_list_.data(), list.data(), list.size() * sizeof(int),
+                                   cudaMemcpyHostToDevice, stream_.get()));
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));  // `list` goes out of scope
-    active_bricks_ = static_cast<int>(list.size());
+    active_bricks_ = active;
     brick_plan_stale_ = false;
   }
-  /// The brick kernel's shared memory (69 KB) is above the default 48 KB a block may ask for.
+  /// The brick kernel's shared memory may exceed the default 48 KB a block may ask for.
   template <unsigned F>
   static void brick_kernel_attributes() {
     static const bool done = [] {
       TSF_CUDA_CHECK(cudaFuncSetAttribute(reinterpret_cast<const void*>(&brick_step_kernel<F>),
                                           cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                          static_cast<int>(sizeof(BrickShared))));
+                                          static_cast<int>(sizeof(Brick::Shared))));
       return true;
     }();
     (void)done;
@@ -1168,11 +1175,12 @@ class CudaBackend final : public SolverBackend {
     plan.bricks_z = bricks_z_;
     plan.list = brick_list_.data();
     plan.active = active_bricks_;
-    const int blocks = std::max(1, std::min(active_bricks_, brick_resident_blocks_));
+    plan.count = static_cast<int>(brick_moving_.size());
+    const int blocks = std::max(1, std::min(plan.count, brick_resident_blocks_));
     void* args[] = {const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan};
     TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&brick_step_kernel<F>),
-                                               dim3(blocks), dim3(kBrickThreads), args,
-                                               sizeof(BrickShared), stream_.get()));
+                                               dim3(blocks), dim3(Brick::kThreads), args,
+                                               sizeof(Brick::Shared), stream_.get()));
     if (n & 1) current_ = 1 - current_;
   }
 

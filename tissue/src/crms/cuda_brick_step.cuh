@@ -6,80 +6,129 @@
 // by the grid barriers between its phases (~1 µs each on an H200, bench_grid_barrier) and by the
 // longest chain of dependent instructions and memory round trips one thread executes. The
 // node-parallel kernel needs two barriers a step, because the reactions a node receives are
-// computed by its neighbours. Here the lattice is cut into bricks of 8 × 8 × 4 nodes, one brick
-// per thread block at a time, and a block computes every term its brick's nodes need itself:
-//   1. load the brick and one layer of nodes around it (10 × 10 × 6 nodes: u, v, flags, blends)
+// computed by its neighbours. Here the lattice is cut into bricks (4 × 4 × 4 nodes), one brick per
+// thread block at a time, and a block computes every term its brick's nodes need itself:
+//   1. load the brick and one layer of nodes around it (6 × 6 × 6 nodes: u, v, flags, blends)
 //      from global memory into shared memory, all loads issued at once (one round trip);
-//   2. terms, 512 threads, two items each, warp-uniform: every brick node's three angle planes
-//      (plane_spring_terms: self + the 4 in-plane reactions, node_force_planes.h), and for each
-//      of the 256 nodes on the six faces of the layer around the brick its reaction towards the
-//      brick (reaction_towards: the 4 angles at it with an arm into the brick) — the halo's
+//   2. terms, one item per thread (288 threads), warp-uniform: every brick node's three angle
+//      planes (plane_spring_terms: self + the 4 in-plane reactions, node_force_planes.h), and for
+//      each of the 96 nodes on the six faces of the layer around the brick its reaction towards
+//      the brick (reaction_towards: the 4 angles at it with an arm into the brick) — the layer's
 //      share of the angles is recomputed rather than exchanged;
 //   3. each brick node sums its self terms and the reactions of its linked neighbours in a
 //      fixed order (deterministic, no atomics) and integrates (integrate_node), writing its new
 //      state to global memory;
 //   4. one grid barrier, then the next step reads the other ping-pong buffer.
 // Every piece of physics is the one copy in node_force.h / node_force_planes.h / node_update.h,
-// read through a shared-memory stencil accessor. Bricks with no moving node are not in the plan;
-// like the node-parallel kernel, the launch's first two steps copy every node's state (a
-// non-moving node: u kept, v = 0) so that both buffers hold the nodes no brick steps.
+// read through a shared-memory stencil accessor. Bricks with no moving node are not stepped: they
+// are copied in the launch's first two steps (u kept, v = 0), so that both ping-pong buffers hold
+// them, alongside the other bricks' steps (disjoint nodes, no extra barrier).
 #pragma once
 
-constexpr int kBrickX = 8, kBrickY = 8, kBrickZ = 4;
-constexpr int kBrickNodes = kBrickX * kBrickY * kBrickZ;  // 256
-constexpr int kBrickExtX = kBrickX + 2, kBrickExtY = kBrickY + 2, kBrickExtZ = kBrickZ + 2;
-constexpr int kBrickExtNodes = kBrickExtX * kBrickExtY * kBrickExtZ;  // 600
-/// Nodes on the six faces of the layer around a brick (edges and corners excluded).
-constexpr int kBrickHalo = 2 * (kBrickY * kBrickZ + kBrickX * kBrickZ + kBrickX * kBrickY);
-constexpr int kBrickThreads = 512;
-static_assert(kBrickNodes == 256 && kBrickHalo == 256 && kBrickThreads == 2 * kBrickNodes,
-              "the item split below assumes 256 brick nodes, 256 halo nodes, 512 threads");
+/// A brick of BX × BY × BZ nodes and the layer around it: sizes, the thread count (three plane
+/// items per brick node, one item per face-halo node, in whole warps), shared memory.
+template <int BX, int BY, int BZ>
+struct BrickShape {
+  static constexpr int kX = BX, kY = BY, kZ = BZ;
+  static constexpr int kNodes = BX * BY * BZ;
+  static constexpr int kExtX = BX + 2, kExtY = BY + 2, kExtZ = BZ + 2;
+  static constexpr int kExtNodes = kExtX * kExtY * kExtZ;
+  static constexpr int kFaceX = BY * BZ, kFaceY = BX * BZ, kFaceZ = BX * BY;
+  /// Nodes on the six faces of the layer around the brick (edges and corners excluded).
+  static constexpr int kHalo = 2 * (kFaceX + kFaceY + kFaceZ);
+  static constexpr int kThreads = (3 * kNodes + kHalo + 31) / 32 * 32;
+  static_assert(kNodes % 32 == 0, "plane items must fill whole warps (warp-uniform planes)");
 
-/// The bricks that hold a moving node, listed by index (bx + bricks_x·(by + bricks_y·bz)).
+  /// Offset of a stencil slot in the extended brick (x fastest).
+  static __device__ __forceinline__ int slot_offset_ext(int slot) {
+    return slot_offset(slot, 0) + slot_offset(slot, 1) * kExtX +
+           slot_offset(slot, 2) * kExtX * kExtY;
+  }
+  /// Extended-brick index of brick node b (x fastest).
+  static __device__ __forceinline__ int node_ext(int b) {
+    const int x = b % BX, y = (b / BX) % BY, z = b / (BX * BY);
+    return (x + 1) + kExtX * ((y + 1) + kExtY * (z + 1));
+  }
+  /// Extended-brick index of face-halo node h and the direction from it towards the brick.
+  static __device__ __forceinline__ int halo_ext(int h, int& toward) {
+    int x, y, z;
+    if (h < 2 * kFaceX) {  // the layers at x = −1 and x = BX
+      const int side = h / kFaceX, r = h % kFaceX;
+      x = side ? BX : -1, y = r % BY, z = r / BY;
+      toward = make_direction(0, side ? -1 : 1);
+    } else if (h < 2 * kFaceX + 2 * kFaceY) {
+      const int g = h - 2 * kFaceX, side = g / kFaceY, r = g % kFaceY;
+      y = side ? BY : -1, x = r % BX, z = r / BX;
+      toward = make_direction(1, side ? -1 : 1);
+    } else {
+      const int g = h - 2 * kFaceX - 2 * kFaceY, side = g / kFaceZ, r = g % kFaceZ;
+      z = side ? BZ : -1, x = r % BX, y = r / BX;
+      toward = make_direction(2, side ? -1 : 1);
+    }
+    return (x + 1) + kExtX * ((y + 1) + kExtY * (z + 1));
+  }
+  /// The face-halo index of the node next to brick node (x, y, z) in direction d (outside).
+  static __device__ __forceinline__ int halo_index(int x, int y, int z, int d) {
+    const int side = d & 1;  // + direction: the far layer
+    switch (direction_axis(d)) {
+      case 0:
+        return side * kFaceX + y + BY * z;
+      case 1:
+        return 2 * kFaceX + side * kFaceY + x + BX * z;
+      default:
+        return 2 * kFaceX + 2 * kFaceY + side * kFaceZ + x + BX * y;
+    }
+  }
+
+  /// The brick and its layer in shared memory, plus their terms.
+  struct Shared {
+    float u[3][kExtNodes];
+    float v[3][kExtNodes];
+    /// [plane][slot: 0 self, 1 + q reaction towards arm q][component][brick node]
+    float terms[3][5][3][kNodes];
+    /// The reaction of face-halo node h towards its brick neighbour.
+    float halo[3][kHalo];
+    std::uint32_t material_index[kExtNodes];
+    std::uint32_t material_weight[kExtNodes];
+    /// The brick nodes' 1/m and external forces, loaded with the state (no round trip later).
+    float inv_mass[kNodes];
+    float external[3][kNodes];
+    std::uint8_t flags[kExtNodes];
+  };
+};
+/// The brick of the default launch: 4 × 4 × 4 nodes, 288 threads (measured against 8 × 8 × 4 on
+/// an H200: a step's time is one brick's chain, so smaller bricks spread a lattice over more of
+/// the GPU; docs/crms.md "Small lattices").
+using Brick = BrickShape<4, 4, 4>;
+
+/// Every brick by index (bx + bricks_x·(by + bricks_y·bz)), those that hold a moving node first.
 struct BrickPlan {
   int bricks_x = 1, bricks_y = 1, bricks_z = 1;
   const int* list = nullptr;
-  int active = 0;
+  int active = 0;  ///< bricks with a moving node (the first `active` of the list)
+  int count = 0;   ///< bricks in all
 };
-
-/// A brick and the layer around it in shared memory, plus its terms.
-struct BrickShared {
-  float u[3][kBrickExtNodes];
-  float v[3][kBrickExtNodes];
-  /// [plane][slot: 0 self, 1 + q reaction towards arm q][component][brick node]
-  float terms[3][5][3][kBrickNodes];
-  /// The reaction of face-halo node h towards its brick neighbour.
-  float halo[3][kBrickHalo];
-  std::uint32_t material_index[kBrickExtNodes];
-  std::uint32_t material_weight[kBrickExtNodes];
-  std::uint8_t flags[kBrickExtNodes];
-};
-
-/// Offset of a stencil slot in the extended brick (10 × 10 × 6, x fastest).
-__device__ __forceinline__ int brick_slot_offset(int slot) {
-  return slot_offset(slot, 0) + slot_offset(slot, 1) * kBrickExtX +
-         slot_offset(slot, 2) * kBrickExtX * kBrickExtY;
-}
 
 /// The stencil accessor of node_force.h over the shared-memory brick (index e of the extended
 /// brick). Every slot the brick kernel asks for lies inside the extended brick.
+template <class B>
 struct BrickStencil {
   using Scalar = float;
-  const BrickShared& s;
+  const typename B::Shared& s;
   int e;
   __device__ __forceinline__ Vec3f u(int slot) const {
-    const int m = e + brick_slot_offset(slot);
+    const int m = e + B::slot_offset_ext(slot);
     return {s.u[0][m], s.u[1][m], s.u[2][m]};
   }
   __device__ __forceinline__ Vec3f v(int slot) const {
-    const int m = e + brick_slot_offset(slot);
+    const int m = e + B::slot_offset_ext(slot);
     return {s.v[0][m], s.v[1][m], s.v[2][m]};
   }
   __device__ __forceinline__ unsigned flags(int slot) const {
-    return s.flags[e + brick_slot_offset(slot)];
+    return s.flags[e + B::slot_offset_ext(slot)];
   }
   __device__ __forceinline__ MaterialBlend material(int slot) const {
-    const int m = e + brick_slot_offset(slot);
+    const int m = e + B::slot_offset_ext(slot);
     MaterialBlend b;
     b.index = s.material_index[m];
     b.weight = s.material_weight[m];
@@ -87,52 +136,15 @@ struct BrickStencil {
   }
 };
 
-/// Extended-brick index of brick node b (x fastest) and of face-halo node h, with the direction
-/// from the halo node towards its brick neighbour.
-__device__ __forceinline__ int brick_node_ext(int b) {
-  const int x = b % kBrickX, y = (b / kBrickX) % kBrickY, z = b / (kBrickX * kBrickY);
-  return (x + 1) + kBrickExtX * ((y + 1) + kBrickExtY * (z + 1));
-}
-__device__ __forceinline__ int brick_halo_ext(int h, int& toward) {
-  constexpr int kFaceX = kBrickY * kBrickZ, kFaceY = kBrickX * kBrickZ, kFaceZ = kBrickX * kBrickY;
-  int x, y, z;
-  if (h < 2 * kFaceX) {  // the layers at x = −1 and x = kBrickX
-    const int side = h / kFaceX, r = h % kFaceX;
-    x = side ? kBrickX : -1, y = r % kBrickY, z = r / kBrickY;
-    toward = make_direction(0, side ? -1 : 1);
-  } else if (h < 2 * kFaceX + 2 * kFaceY) {
-    const int g = h - 2 * kFaceX, side = g / kFaceY, r = g % kFaceY;
-    y = side ? kBrickY : -1, x = r % kBrickX, z = r / kBrickX;
-    toward = make_direction(1, side ? -1 : 1);
-  } else {
-    const int g = h - 2 * kFaceX - 2 * kFaceY, side = g / kFaceZ, r = g % kFaceZ;
-    z = side ? kBrickZ : -1, x = r % kBrickX, y = r / kBrickX;
-    toward = make_direction(2, side ? -1 : 1);
-  }
-  return (x + 1) + kBrickExtX * ((y + 1) + kBrickExtY * (z + 1));
-}
-/// The face-halo index of the extended-brick node next to brick node (x, y, z) in direction d.
-__device__ __forceinline__ int brick_halo_index(int x, int y, int z, int d) {
-  constexpr int kFaceX = kBrickY * kBrickZ, kFaceY = kBrickX * kBrickZ, kFaceZ = kBrickX * kBrickY;
-  const int side = d & 1;  // + direction: the far layer
-  switch (direction_axis(d)) {
-    case 0:
-      return side * kFaceX + y + kBrickY * z;
-    case 1:
-      return 2 * kFaceX + side * kFaceY + x + kBrickX * z;
-    default:
-      return 2 * kFaceX + 2 * kFaceY + side * kFaceZ + x + kBrickX * y;
-  }
-}
-
 /// Plane P's terms of brick node b into the shared terms (nothing for a node that is not alive:
 /// no linked neighbour reads them, and integrate_node ignores a non-moving node's force).
-template <unsigned F, int P>
-__device__ __forceinline__ void brick_plane_terms(BrickShared& s, int b, const float rest_length[3],
+template <unsigned F, int P, class B>
+__device__ __forceinline__ void brick_plane_terms(typename B::Shared& s, int b,
+                                                  const float rest_length[3],
                                                   const MaterialPalette& palette) {
-  const int e = brick_node_ext(b);
+  const int e = B::node_ext(b);
   if ((s.flags[e] & kAliveBit) == 0) return;
-  const BrickStencil st{s, e};
+  const BrickStencil<B> st{s, e};
   Vec3f self, reaction[4];
   plane_spring_terms<F, P>(st, rest_length, palette, self, reaction);
   s.terms[P][0][0][b] = self.x;
@@ -146,14 +158,16 @@ __device__ __forceinline__ void brick_plane_terms(BrickShared& s, int b, const f
   }
 }
 
-template <unsigned F>
-__device__ __forceinline__ void brick_halo_terms(BrickShared& s, int h, const float rest_length[3],
+/// Face-halo node h's reaction towards its brick neighbour (0 when they are not linked).
+template <unsigned F, class B>
+__device__ __forceinline__ void brick_halo_terms(typename B::Shared& s, int h,
+                                                 const float rest_length[3],
                                                  const MaterialPalette& palette) {
   int toward = 0;
-  const int e = brick_halo_ext(h, toward);
+  const int e = B::halo_ext(h, toward);
   Vec3f r{0.0f, 0.0f, 0.0f};
-  if ((s.flags[e] >> toward) & 1u) {  // linked to its brick neighbour (so alive)
-    const BrickStencil st{s, e};
+  if ((s.flags[e] >> toward) & 1u) {
+    const BrickStencil<B> st{s, e};
     r = reaction_towards<F>(st, toward, rest_length, palette);
   }
   s.halo[0][h] = r.x;
@@ -162,17 +176,17 @@ __device__ __forceinline__ void brick_halo_terms(BrickShared& s, int h, const fl
 }
 
 /// One step of brick (bx, by, bz): load, terms, sum and integrate (see header).
-template <unsigned F>
+template <unsigned F, class B>
 __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, const StateView& out,
                            const StepParameters& p, Guard* guard, long long step, int bx, int by,
-                           int bz, BrickShared& s) {
+                           int bz, typename B::Shared& s) {
   constexpr bool kHetero = (F & features::kHeterogeneous) != 0;
   const int t = threadIdx.x;
-  const int x0 = bx * kBrickX - 1, y0 = by * kBrickY - 1, z0 = bz * kBrickZ - 1;
+  const int x0 = bx * B::kX - 1, y0 = by * B::kY - 1, z0 = bz * B::kZ - 1;
   // 1. The extended brick; nodes outside the lattice read as unlinked and at rest.
-  for (int e = t; e < kBrickExtNodes; e += kBrickThreads) {
-    const int x = x0 + e % kBrickExtX, y = y0 + (e / kBrickExtX) % kBrickExtY,
-              z = z0 + e / (kBrickExtX * kBrickExtY);
+  for (int e = t; e < B::kExtNodes; e += B::kThreads) {
+    const int x = x0 + e % B::kExtX, y = y0 + (e / B::kExtX) % B::kExtY,
+              z = z0 + e / (B::kExtX * B::kExtY);
     const bool inside = static_cast<unsigned>(x) < static_cast<unsigned>(lat.dims.x) &&
                         static_cast<unsigned>(y) < static_cast<unsigned>(lat.dims.y) &&
                         static_cast<unsigned>(z) < static_cast<unsigned>(lat.dims.z);
@@ -187,44 +201,52 @@ __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, con
       s.material_index[e] = inside ? lat.material_index[n] : 0u;
       s.material_weight[e] = inside ? lat.material_weight[n] : 0u;
     }
+    const int bxi = x - x0 - 1, byi = y - y0 - 1, bzi = z - z0 - 1;
+    if (inside && bxi >= 0 && bxi < B::kX && byi >= 0 && byi < B::kY && bzi >= 0 &&
+        bzi < B::kZ) {  // a brick node
+      const int bn = bxi + B::kX * (byi + B::kY * bzi);
+      s.inv_mass[bn] = lat.inv_mass[n];
+      if constexpr ((F & features::kExternalForces) != 0)
+        for (int a = 0; a < 3; ++a) s.external[a][bn] = lat.external_force[a][n];
+    }
   }
   __syncthreads();
-  // 2. Terms: threads 0–255 planes 0 and 2 of brick node t, threads 256–511 plane 1 of brick
-  // node t − 256 and face-halo node t − 256 (warp-uniform).
-  if (t < kBrickNodes) {
-    brick_plane_terms<F, 0>(s, t, lat.rest_length, p.palette);
-    brick_plane_terms<F, 2>(s, t, lat.rest_length, p.palette);
-  } else {
-    brick_plane_terms<F, 1>(s, t - kBrickNodes, lat.rest_length, p.palette);
-    brick_halo_terms<F>(s, t - kBrickNodes, lat.rest_length, p.palette);
-  }
+  // 2. Terms, one item per thread, warp-uniform: plane t / kNodes of brick node t % kNodes, then
+  // the face-halo nodes.
+  if (t < B::kNodes)
+    brick_plane_terms<F, 0, B>(s, t, lat.rest_length, p.palette);
+  else if (t < 2 * B::kNodes)
+    brick_plane_terms<F, 1, B>(s, t - B::kNodes, lat.rest_length, p.palette);
+  else if (t < 3 * B::kNodes)
+    brick_plane_terms<F, 2, B>(s, t - 2 * B::kNodes, lat.rest_length, p.palette);
+  else if (t < 3 * B::kNodes + B::kHalo)
+    brick_halo_terms<F, B>(s, t - 3 * B::kNodes, lat.rest_length, p.palette);
   __syncthreads();
-  // 3. Sum and integrate, one thread per brick node.
-  if (t < kBrickNodes) {
-    const int bxi = t % kBrickX, byi = (t / kBrickX) % kBrickY, bzi = t / (kBrickX * kBrickY);
-    const int x = x0 + 1 + bxi, y = y0 + 1 + byi, z = z0 + 1 + bzi;
+  // 3. Sum in a fixed order and integrate, one thread per brick node.
+  if (t < B::kNodes) {
+    const int c[3] = {t % B::kX, (t / B::kX) % B::kY, t / (B::kX * B::kY)};
+    const int x = x0 + 1 + c[0], y = y0 + 1 + c[1], z = z0 + 1 + c[2];
     if (x < lat.dims.x && y < lat.dims.y && z < lat.dims.z) {
-      const int e = brick_node_ext(t);
+      const int e = B::node_ext(t);
       const unsigned fl = s.flags[e];
       const std::int64_t n = x + y * lat.stride_y + static_cast<std::int64_t>(z) * lat.stride_z;
       const Vec3f u{s.u[0][e], s.u[1][e], s.u[2][e]};
       const Vec3f v{s.v[0][e], s.v[1][e], s.v[2][e]};
-      NodeStepResult r{u, Vec3f{0.0f, 0.0f, 0.0f}, true};
+      NodeStepResult r{u, Vec3f{0.0f, 0.0f, 0.0f}, true};  // not moving: u kept, v = 0
       if ((fl & (kAliveBit | kFixedBit)) == kAliveBit) {
         Vec3f f{0.0f, 0.0f, 0.0f};
 #pragma unroll
         for (int plane = 0; plane < 3; ++plane)
           f += Vec3f{s.terms[plane][0][0][t], s.terms[plane][0][1][t], s.terms[plane][0][2][t]};
-        const int c[3] = {bxi, byi, bzi};
-        const int brick_extent[3] = {kBrickX, kBrickY, kBrickZ};
-        const int brick_stride[3] = {1, kBrickX, kBrickX * kBrickY};
+        constexpr int kExtent[3] = {B::kX, B::kY, B::kZ};
+        constexpr int kStride[3] = {1, B::kX, B::kX * B::kY};
 #pragma unroll
         for (int d = 0; d < 6; ++d) {
           if (((fl >> d) & 1u) == 0) continue;
           const int axis = direction_axis(d);
           const int next = c[axis] + direction_sign(d);
-          if (next >= 0 && next < brick_extent[axis]) {  // a brick node: its two planes' terms
-            const int m = t + direction_sign(d) * brick_stride[axis];
+          if (next >= 0 && next < kExtent[axis]) {  // a brick node: its two planes' reactions
+            const int m = t + direction_sign(d) * kStride[axis];
             const int back = opposite_direction(d);
 #pragma unroll
             for (int plane = 0; plane < 3; ++plane)
@@ -233,15 +255,15 @@ __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, con
                 f += Vec3f{s.terms[plane][slot][0][m], s.terms[plane][slot][1][m],
                            s.terms[plane][slot][2][m]};
               }
-          } else {  // a halo node: its reaction towards this node
-            const int h = brick_halo_index(bxi, byi, bzi, d);
+          } else {  // a node of the layer around: its reaction towards this node
+            const int h = B::halo_index(c[0], c[1], c[2], d);
             f += Vec3f{s.halo[0][h], s.halo[1][h], s.halo[2][h]};
           }
         }
         Vec3f external{0.0f, 0.0f, 0.0f};
         if constexpr ((F & features::kExternalForces) != 0)
-          external = {lat.external_force[0][n], lat.external_force[1][n], lat.external_force[2][n]};
-        r = integrate_node<F>(fl, u, v, lat.inv_mass[n], external, f, p);
+          external = {s.external[0][t], s.external[1][t], s.external[2][t]};
+        r = integrate_node<F>(fl, u, v, s.inv_mass[t], external, f, p);
       }
       out.u[0][n] = r.u.x, out.u[1][n] = r.u.y, out.u[2][n] = r.u.z;
       out.v[0][n] = r.v.x, out.v[1][n] = r.v.y, out.v[2][n] = r.v.z;
@@ -253,41 +275,52 @@ __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, con
   }
 }
 
-/// `steps` steps in one cooperative launch, one grid barrier a step (two more in the launch's
-/// first two steps, and in halted steps, for the copy of every node).
-template <unsigned F>
-__global__ void __launch_bounds__(kBrickThreads, 1)
+/// The nodes of a brick that no node of moves (or of any brick in a halted step): u kept, v kept
+/// when halted, else 0 (what integrate_node gives a node that does not move).
+template <class B>
+__device__ void brick_copy(const LatticeView& lat, const ConstStateView& in, const StateView& out,
+                           int bx, int by, int bz, bool halted) {
+  for (int b = threadIdx.x; b < B::kNodes; b += B::kThreads) {
+    const int x = bx * B::kX + b % B::kX, y = by * B::kY + (b / B::kX) % B::kY,
+              z = bz * B::kZ + b / (B::kX * B::kY);
+    if (x >= lat.dims.x || y >= lat.dims.y || z >= lat.dims.z) continue;
+    const std::int64_t n = x + y * lat.stride_y + static_cast<std::int64_t>(z) * lat.stride_z;
+    for (int c = 0; c < 3; ++c) {
+      out.u[c][n] = in.u[c][n];
+      out.v[c][n] = halted ? in.v[c][n] : 0.0f;
+    }
+  }
+}
+
+/// `steps` steps in one cooperative launch, one grid barrier a step. Bricks with a moving node
+/// step; the others are copied in the launch's first two steps only (both state buffers then
+/// hold them); a halted step copies every brick.
+template <unsigned F, class B = Brick>
+__global__ void __launch_bounds__(B::kThreads, 2)
     brick_step_kernel(LatticeView lat, StateView a, StateView b, StepParameters p, Guard* guard,
                       int steps, BrickPlan plan) {
   extern __shared__ __align__(16) unsigned char brick_smem[];
-  BrickShared& s = *reinterpret_cast<BrickShared*>(brick_smem);
+  typename B::Shared& s = *reinterpret_cast<typename B::Shared*>(brick_smem);
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
   const long long base = guard->step_base;
-  const std::int64_t threads = static_cast<std::int64_t>(gridDim.x) * blockDim.x;
-  const std::int64_t tid = static_cast<std::int64_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   for (int st = 0; st < steps; ++st) {
     const ConstStateView in = (st & 1) ? b : a;
     const StateView out = (st & 1) ? a : b;
     const long long step = base + st;
     const bool halted = halted_before(guard, step);
-    if (st < 2 || halted) {  // every node: halted keeps its state, a non-moving one u and v = 0
-      for (std::int64_t n = tid; n < lat.count; n += threads) {
-        const bool moving = (lat.flags[n] & (kAliveBit | kFixedBit)) == kAliveBit;
-        for (int c = 0; c < 3; ++c) {
-          out.u[c][n] = in.u[c][n];
-          out.v[c][n] = halted || moving ? in.v[c][n] : 0.0f;
-        }
-      }
-      grid.sync();
-    }
-    if (!halted)
-      for (int q = blockIdx.x; q < plan.active; q += gridDim.x) {
-        const int brick = plan.list[q];
-        const int bx = brick % plan.bricks_x, by = (brick / plan.bricks_x) % plan.bricks_y,
-                  bz = brick / (plan.bricks_x * plan.bricks_y);
-        brick_step<F>(lat, in, out, p, guard, step, bx, by, bz, s);
+    const int stepped = halted ? 0 : plan.active;
+    const int copied = halted || st < 2 ? plan.count : plan.active;
+    for (int q = blockIdx.x; q < copied; q += gridDim.x) {
+      const int brick = plan.list[q];
+      const int bx = brick % plan.bricks_x, by = (brick / plan.bricks_x) % plan.bricks_y,
+                bz = brick / (plan.bricks_x * plan.bricks_y);
+      if (q < stepped) {
+        brick_step<F, B>(lat, in, out, p, guard, step, bx, by, bz, s);
         __syncthreads();  // the shared brick is reused by the block's next brick
+      } else if (q >= plan.active || halted) {
+        brick_copy<B>(lat, in, out, bx, by, bz, halted);
       }
+    }
     grid.sync();
   }
 }

@@ -46,8 +46,9 @@ enum class ForceEvaluation {
 /// How the CUDA backend launches the steps of one Solver::step call (same physics; the symmetric
 /// form with the shared evaluation uses them, other forms use graphs).
 enum class CudaLaunch {
-  /// kBricks for lattices of up to 2^18 nodes of which up to 2^17 are alive (where a step is
-  /// bounded by latency, not arithmetic), graphs above.
+  /// For lattices of up to 2^18 nodes of which up to 2^17 are alive (where a step is bounded by
+  /// latency, not arithmetic): kBricks where every brick gets a resident thread block, else
+  /// kNodes; graphs above.
   kAuto,
   /// CUDA graphs of cuda_steps_per_graph launches, one kernel per step over tiles of the lattice.
   kGraphs,
