@@ -110,6 +110,7 @@ BackendOptions backend_options(const SolverConfig& config) {
   o.cuda_planes_per_block = config.cuda_planes_per_block;
   o.cuda_tile_rows = config.cuda_tile_rows;
   o.cuda_launch = config.cuda_launch;
+  o.cuda_tile_kernel = config.cuda_tile_kernel;
   return o;
 }
 
