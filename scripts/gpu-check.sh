@@ -89,7 +89,7 @@ if [ "${TSF_GPU_PROFILE:-0}" = "1" ] && command -v ncu >/dev/null; then
   t0=$(date +%s)
   b="$BUILD/bench/bench_crms_throughput"
   [[ "${TSF_GPU_PROFILE_KERNELS:-symmetric nodes}" == *symmetric* ]] &&
-  timeout 240 ncu --clock-control none --set full -k regex:shared_step_kernel --launch-skip 20 \
+  timeout 240 ncu --clock-control none --set full -k regex:"(staged|shared)_step_kernel" --launch-skip 20 \
     --launch-count 1 -o "$OUT/raw/symmetric-256" "$b" \
     --benchmark_filter='BM_CrmsNodeSteps/256/1/1/0/' --benchmark_min_time=0.01 \
     >"$OUT/raw/ncu-256.log" 2>&1

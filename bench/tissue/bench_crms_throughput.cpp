@@ -12,6 +12,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -42,7 +43,8 @@ double copy_bandwidth() {
 std::unique_ptr<Solver> make_solver(Int3 dims, Backend backend, AngularReactions reactions,
                                     AngularForm form = AngularForm::kExact,
                                     CudaLaunch launch = CudaLaunch::kAuto, int tile_rows = 0,
-                                    int planes_per_block = 0) {
+                                    int planes_per_block = 0,
+                                    CudaTileKernel tile_kernel = CudaTileKernel::kStaged) {
   BoxLatticeOptions o;
   o.size_mm = {double(dims.x), double(dims.y), double(dims.z)};
   o.spacing_mm = 1.0;
@@ -61,6 +63,7 @@ std::unique_ptr<Solver> make_solver(Int3 dims, Backend backend, AngularReactions
   c.cuda_launch = launch;
   c.cuda_tile_rows = tile_rows;
   c.cuda_planes_per_block = planes_per_block;
+  c.cuda_tile_kernel = tile_kernel;
   return std::make_unique<Solver>(std::move(l), c);
 }
 
@@ -133,6 +136,51 @@ void BM_CrmsSymmetricTiling(benchmark::State& state) {
 }
 BENCHMARK(BM_CrmsSymmetricTiling)
     ->ArgsProduct({{4, 8}, {0, 16, 128}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
+
+/// The default tile kernel (staged: each plane's state in shared memory) against the previous one
+/// (direct: neighbours from L1/L2) at 256³, in the same run, against the copy roofline measured in
+/// the same run (docs/crms.md "The default kernel against the roofline"). The previous kernel of
+/// a form runs first, so the default's row reports `x_previous`, its rate over the previous
+/// kernel's. args: kernel (1 direct, 0 staged), form (0 exact, 1 cosine).
+void BM_CrmsTileKernel(benchmark::State& state) {
+  if (!cuda_status().available) {
+    state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
+    return;
+  }
+  const auto kernel = state.range(0) ? CudaTileKernel::kDirect : CudaTileKernel::kStaged;
+  const AngularForm form = state.range(1) ? AngularForm::kCosine : AngularForm::kExact;
+  static double previous[2] = {0.0, 0.0};  // the direct kernel's rate, per form
+  auto solver = make_solver({256, 256, 256}, Backend::kCuda, AngularReactions::kSymmetric, form,
+                            CudaLaunch::kAuto, 0, 0, kernel);
+  const double dt = 0.5 * solver->stable_dt();
+  const int steps = 16;
+  solver->step(steps, dt);
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) solver->step(steps, dt);  // synchronous
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double node_steps =
+      double(solver->lattice().node_count()) * steps * double(state.iterations());
+  const double rate = node_steps / seconds;
+  state.counters["node_steps_per_s"] = benchmark::Counter(node_steps, benchmark::Counter::kIsRate);
+  state.counters["copy_bandwidth_GBps"] = copy_bandwidth() * 1e-9;
+  state.counters["of_roofline"] =
+      benchmark::Counter(node_steps * kBytesPerNodeStep / std::max(copy_bandwidth(), 1.0),
+                         benchmark::Counter::kIsRate);
+  if (kernel == CudaTileKernel::kDirect)
+    previous[state.range(1)] = rate;
+  else if (previous[state.range(1)] > 0.0)
+    state.counters["x_previous"] = rate / previous[state.range(1)];
+  state.SetLabel(solver->backend_name() + ", " + to_string(form));
+}
+BENCHMARK(BM_CrmsTileKernel)
+    ->Args({1, 0})
+    ->Args({0, 0})
+    ->Args({1, 1})
+    ->Args({0, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(0.5);

@@ -129,18 +129,22 @@ TEST(CrmsBackendParity, SharedEvaluationMatchesPerNodeOnEveryInstructionSetAndTi
     EXPECT_GE(instruction_sets_run, 1);
     if (cuda_status().available) {
       for (CudaLaunch launch : {CudaLaunch::kGraphs, CudaLaunch::kPersistent})
-        for (int rows : {4, 8})
-          for (int planes : {0, 1, 3}) {
-            SolverConfig c = reference;
-            c.backend = Backend::kCuda;
-            c.force_evaluation = ForceEvaluation::kShared;
-            c.cuda_tile_rows = rows;
-            c.cuda_planes_per_block = planes;
-            c.cuda_launch = launch;
-            EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
-                << "CUDA shared, combo " << combo << ", " << to_string(launch) << ", rows " << rows
-                << ", planes " << planes;
-          }
+        for (CudaTileKernel kernel : {CudaTileKernel::kStaged, CudaTileKernel::kDirect})
+          for (int rows : {4, 8})
+            for (int planes : {0, 1, 3}) {
+              if (launch == CudaLaunch::kPersistent && kernel != CudaTileKernel::kStaged)
+                continue;  // the persistent launch has one tile kernel
+              SolverConfig c = reference;
+              c.backend = Backend::kCuda;
+              c.force_evaluation = ForceEvaluation::kShared;
+              c.cuda_tile_rows = rows;
+              c.cuda_planes_per_block = planes;
+              c.cuda_launch = launch;
+              c.cuda_tile_kernel = kernel;
+              EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
+                  << "CUDA shared, combo " << combo << ", " << to_string(launch) << ", "
+                  << to_string(kernel) << " tile kernel, rows " << rows << ", planes " << planes;
+            }
       SolverConfig c = reference;
       c.backend = Backend::kCuda;
       EXPECT_LE(max_difference_relative(scene.run(c, 300, combo), expected, rest), 1e-4)
@@ -157,12 +161,13 @@ TEST(CrmsBackendParity, SharedEvaluationMatchesPerNodeOnEveryInstructionSetAndTi
 
 /// A lattice whose lower half is anchored and whose corner is dead, so whole tiles of the CUDA
 /// shared evaluation move no node (they only copy the state) and the node-parallel kernel steps
-/// only part of the nodes: CPU, CUDA with graphs, with one persistent launch over tiles and with
-/// the node-parallel launch agree, also after anchors are released (tiles turn active) and nodes
-/// die (tiles turn idle, the alive list shrinks) between calls.
+/// only part of the nodes: CPU, CUDA with graphs (either tile kernel), with one persistent launch
+/// over tiles and with the node-parallel launch agree, also after anchors are released (tiles turn
+/// active) and nodes die (tiles turn idle, the alive list shrinks) between calls.
 TEST(CrmsBackendParity, IdleTilesAndPersistentLaunchesMatchTheCpu) {
   if (!cuda_status().available) GTEST_SKIP() << "CUDA parity not run: " << cuda_status().reason;
-  auto run = [](Backend backend, CudaLaunch launch) {
+  auto run = [](Backend backend, CudaLaunch launch,
+                CudaTileKernel kernel = CudaTileKernel::kStaged) {
     Lattice l = test::box({20, 14, 24}, 1);
     fix_nodes_in_box(l, {-1, -1, -1}, {30, 30, 11.5});
     for (std::int64_t n = 0; n < l.node_count(); ++n) {
@@ -172,6 +177,7 @@ TEST(CrmsBackendParity, IdleTilesAndPersistentLaunchesMatchTheCpu) {
     SolverConfig c;
     c.backend = backend;
     c.cuda_launch = launch;
+    c.cuda_tile_kernel = kernel;
     c.cuda_planes_per_block = 4;  // tiles of 4 planes: planes 0–11 form whole anchored tiles
     c.materials = {test::soft_material(10e3, 2e-4)};
     c.gravity = {0, -3000, -9810};
@@ -192,6 +198,10 @@ TEST(CrmsBackendParity, IdleTilesAndPersistentLaunchesMatchTheCpu) {
        {CudaLaunch::kGraphs, CudaLaunch::kPersistent, CudaLaunch::kNodes, CudaLaunch::kBricks})
     EXPECT_LE(max_difference_relative(run(Backend::kCuda, launch), cpu, rest), 1e-4)
         << to_string(launch);
+  EXPECT_LE(max_difference_relative(
+                run(Backend::kCuda, CudaLaunch::kGraphs, CudaTileKernel::kDirect), cpu, rest),
+            1e-4)
+      << "graphs, direct tile kernel";
 }
 
 /// The segmented cranium (the committed sample: tsf segment's sinus output around the nose) as a

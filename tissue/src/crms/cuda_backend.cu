@@ -13,7 +13,10 @@
 //   instead of 12). Plane t − 1 is finished (force, integration, store) while plane t is
 //   evaluated. Global memory traffic: the state once per step plus the tile borders (L1/L2).
 //   Tiles in which no node moves (dead or anchored: most of a patient's lattice box) only copy
-//   their state (TilePlan).
+//   their state (TilePlan). Two kernels do this (CudaTileKernel): the staged one (the default of
+//   the graphs launch, staged_tile_step) first copies each plane's state of the tile and its ring
+//   into shared memory and splits the halo's reactions over two threads; the direct one
+//   (shared_tile_step, also the persistent launch's) reads neighbours from global memory.
 // * node-parallel (symmetric form, small lattices, CudaLaunch::kNodes): every alive node's terms
 //   split over three threads by angle plane (node_force_planes.h), then a pass that sums and
 //   integrates; see node_step_kernel.
@@ -40,6 +43,7 @@
 // event, and the next poll publishes it. The solver never waits for that copy; a request while
 // one is in flight is dropped.
 #include <cooperative_groups.h>
+#include <cuda_pipeline.h>
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -48,6 +52,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "solver_backend.h"
@@ -337,6 +342,359 @@ __global__ void __launch_bounds__(kTileX* kRows, 2048 / (kTileX * kRows) / 4)
                    min(bz * plan.planes + plan.planes, lat.dims.z), halted, kRows);
 }
 
+/// The staged tile kernel (CudaTileKernel::kStaged, the default of the graphs launch; docs/crms.md
+/// "The default kernel against the roofline"): shared_tile_step's evaluation with each plane's
+/// state (u, v, 1/m, flags) of the tile and its one-node ring, corners included, staged in shared
+/// memory, so the stencil reads are shared-memory loads at fixed offsets instead of L1/L2 loads
+/// behind 64-bit address arithmetic. A ring of four planes: while plane t is evaluated (it reads
+/// planes t − 1, t and t + 1, and finishes t − 1), plane t + 2 streams in (cp.async) into the slot
+/// of plane t − 2, whose last reader passed the previous barrier; one barrier per plane as before.
+/// The halo's reaction towards the tile (4 angles) is split over two threads by angle plane
+/// (add_reaction_towards_in_plane) where the block has the threads, which halves the extra work
+/// of the threads that also evaluate the halo (the others wait for them at the barrier).
+template <int kRows>
+struct StagedTile {
+  static constexpr int kPitch = kTileX + 2;            ///< cells per staged row
+  static constexpr int kCells = (kRows + 2) * kPitch;  ///< cells per staged plane
+  static constexpr int kArrays = 7;                    ///< u x/y/z, v x/y/z, 1/m
+  static constexpr int kRing = 4;                      ///< planes held
+  static constexpr int kThreads = kTileX * kRows;
+  static constexpr int kHalo = 2 * kTileX + 2 * kRows;              ///< halo nodes per plane
+  static constexpr int kHaloSplit = 2 * kHalo <= kThreads ? 2 : 1;  ///< threads per halo node
+  static constexpr std::size_t kRingOffset = sizeof(InPlane<kRows>);
+  static constexpr std::size_t kFlagsOffset =
+      kRingOffset + sizeof(float) * kRing * kArrays * kCells;
+  static constexpr std::size_t kBytes = kFlagsOffset + kRing * kCells;
+};
+
+/// Stencil accessor over the staged planes (the 7-node stencil of node_spring_terms and
+/// reaction_towards; no edge-diagonal slots): slot 0 the cell, 1 + d its face neighbour d.
+template <int kRows>
+struct StagedStencil {
+  using Scalar = float;
+  static constexpr int kPitch = StagedTile<kRows>::kPitch;
+  static constexpr int kCells = StagedTile<kRows>::kCells;
+  const float* below;  ///< plane t − 1, array 0 (the arrays follow kCells apart)
+  const float* here;   ///< plane t
+  const float* above;  ///< plane t + 1
+  const std::uint8_t* flags_below;
+  const std::uint8_t* flags_here;
+  const std::uint8_t* flags_above;
+  int cell;
+  // Material lookups (heterogeneous lattices) read the global arrays.
+  const LatticeView* lattice;
+  std::int64_t n;
+  int i, j, k;
+
+  __device__ __forceinline__ int offset(int slot) const {
+    return cell + (slot == 1 ? -1 : slot == 2 ? 1 : slot == 3 ? -kPitch : slot == 4 ? kPitch : 0);
+  }
+  __device__ __forceinline__ const float* plane(int slot) const {
+    return slot == 5 ? below : (slot == 6 ? above : here);
+  }
+  __device__ __forceinline__ Vec3f u(int slot) const {
+    const float* p = plane(slot) + offset(slot);
+    return {p[0], p[kCells], p[2 * kCells]};
+  }
+  __device__ __forceinline__ Vec3f v(int slot) const {
+    const float* p = plane(slot) + offset(slot);
+    return {p[3 * kCells], p[4 * kCells], p[5 * kCells]};
+  }
+  __device__ __forceinline__ unsigned flags(int slot) const {
+    const std::uint8_t* f = slot == 5 ? flags_below : (slot == 6 ? flags_above : flags_here);
+    return f[offset(slot)];
+  }
+  __device__ __forceinline__ MaterialBlend material(int slot) const {
+    return node_material(*lattice, stencil_node(*lattice, n, i, j, k, slot));
+  }
+};
+
+/// The staged evaluation of the symmetric form for one tile (see StagedTile). Block (32, kRows);
+/// `smem` holds StagedTile<kRows>::kBytes.
+template <unsigned F, int kRows>
+__device__ void staged_tile_step(const LatticeView& lat, const ConstStateView& in,
+                                 const StateView& out, const StepParameters& p, Guard* guard,
+                                 long long step, bool halted, int bx, int by, int bz, int planes,
+                                 unsigned char* smem) {
+  static_assert((F & features::kSymmetricReactions) != 0, "shared evaluation is symmetric only");
+  using Tile = StagedTile<kRows>;
+  constexpr int kPitch = Tile::kPitch, kCells = Tile::kCells, kThreads = Tile::kThreads;
+  constexpr int kPlane = Tile::kArrays * kCells;  // floats per staged plane
+  constexpr int kSplit = Tile::kHaloSplit;
+  InPlane<kRows>& in_plane = *reinterpret_cast<InPlane<kRows>*>(smem);
+  float* const ring = reinterpret_cast<float*>(smem + Tile::kRingOffset);
+  std::uint8_t* const ring_flags = smem + Tile::kFlagsOffset;
+
+  const int nx = lat.dims.x, ny = lat.dims.y, nz = lat.dims.z;
+  const int tx = threadIdx.x, ty = threadIdx.y;
+  const int tid = tx + kTileX * ty;
+  const int i0 = bx * kTileX, j0 = by * kRows;
+  const int i = i0 + tx, j = j0 + ty;
+  const int k0 = bz * planes;
+  const int k1 = min(k0 + planes, nz);
+  const bool inside = i < nx && j < ny;
+  const std::int64_t column = i + j * lat.stride_y;
+  if (halted) {  // halted by an earlier step (uniform): keep the state
+    if (inside)
+      for (int k = k0; k < k1; ++k) {
+        const std::int64_t n = column + k * lat.stride_z;
+        for (int a = 0; a < 3; ++a) {
+          out.u[a][n] = in.u[a][n];
+          out.v[a][n] = in.v[a][n];
+        }
+      }
+    return;
+  }
+  const int cell = (ty + 1) * kPitch + tx + 1;
+
+  // The cells this thread stages: e = tid and tid + kThreads (row-major over the ring's rows).
+  std::int64_t stage_column[2];
+  bool stage_inside[2];
+  const bool stage_second = tid + kThreads < kCells;
+#pragma unroll
+  for (int s = 0; s < 2; ++s) {
+    const int e = tid + s * kThreads;
+    const int si = i0 - 1 + e % kPitch, sj = j0 - 1 + e / kPitch;
+    stage_inside[s] = (s == 0 || stage_second) && si >= 0 && si < nx && sj >= 0 && sj < ny;
+    stage_column[s] = si + sj * lat.stride_y;
+  }
+  const float* const sources[Tile::kArrays] = {in.u[0], in.u[1], in.u[2],     in.v[0],
+                                               in.v[1], in.v[2], lat.inv_mass};
+  // Starts copying plane t into its ring slot (cp.async; cells outside the lattice are zeroed)
+  // and returns the flags of this thread's cells, which the caller stores later (a byte cannot
+  // be copied asynchronously): their load then overlaps the evaluation.
+  auto stage = [&](int t, std::uint8_t flags_out[2]) {
+    float* slot = ring + (t & 3) * kPlane;
+    const bool plane_in = t >= 0 && t < nz;
+#pragma unroll
+    for (int s = 0; s < 2; ++s) {
+      flags_out[s] = 0;
+      if (s == 1 && !stage_second) break;
+      const int e = tid + s * kThreads;
+      if (plane_in && stage_inside[s]) {
+        const std::int64_t n = stage_column[s] + static_cast<std::int64_t>(t) * lat.stride_z;
+#pragma unroll
+        for (int a = 0; a < Tile::kArrays; ++a)
+          __pipeline_memcpy_async(slot + a * kCells + e, sources[a] + n, sizeof(float));
+        flags_out[s] = lat.flags[n];
+      } else {
+#pragma unroll
+        for (int a = 0; a < Tile::kArrays; ++a) slot[a * kCells + e] = 0.0f;
+      }
+    }
+    __pipeline_commit();
+  };
+  auto store_flags = [&](int t, const std::uint8_t flags_in[2]) {
+    std::uint8_t* f = ring_flags + (t & 3) * kCells;
+    f[tid] = flags_in[0];
+    if (stage_second) f[tid + kThreads] = flags_in[1];
+  };
+  {
+    std::uint8_t f0[2], f1[2];
+    stage(k0 - 1, f0);
+    stage(k0, f1);
+    store_flags(k0 - 1, f0);
+    store_flags(k0, f1);
+    __pipeline_wait_prior(0);
+    __syncthreads();
+  }
+
+  // This thread's halo item, if any: halo node h (the rows below/above the tile, then the
+  // columns left/right) and, split over two threads, the angle plane q of its reaction.
+  const int h = kSplit == 2 ? tid >> 1 : tid;
+  const int hplane = kSplit == 2 ? tid & 1 : 0;
+  int hi = -1, hj = -1, hd = 0, hq = 0, hr = 0, hc = 0;
+  if (h < kTileX) {
+    hi = i0 + h, hj = j0 - 1, hd = 3, hq = 2, hr = 0, hc = h + 1;
+  } else if (h < 2 * kTileX) {
+    hi = i0 + h - kTileX, hj = j0 + kRows, hd = 2, hq = 3, hr = kRows + 1, hc = h - kTileX + 1;
+  } else if (h < 2 * kTileX + kRows) {
+    hi = i0 - 1, hj = j0 + h - 2 * kTileX, hd = 1, hq = 0, hr = h - 2 * kTileX + 1, hc = 0;
+  } else if (h < Tile::kHalo) {
+    hi = i0 + kTileX, hj = j0 + h - 2 * kTileX - kRows, hd = 0, hq = 1;
+    hr = h - 2 * kTileX - kRows + 1, hc = kTileX + 1;
+  }
+  const bool has_halo_item = h < Tile::kHalo;
+  const bool halo_inside = has_halo_item && hi >= 0 && hi < nx && hj >= 0 && hj < ny;
+  const bool halo_writer = has_halo_item && hplane == 0;
+  const int halo_cell = hr * kPitch + hc;
+
+  const Vec3f zero{0.0f, 0.0f, 0.0f};
+  Vec3f up_two = zero, up_one = zero;  // reaction[+z] of planes t − 2 and t − 1 (this column)
+  Vec3f partial = zero;                // plane t − 1: self + in-plane reactions received
+  for (int t = k0 - 1; t <= k1; ++t) {
+    const int parity = t & 1;
+    const bool staging = t + 2 <= k1;  // uniform
+    std::uint8_t next_flags[2];
+    if (staging) stage(t + 2, next_flags);
+    const float* below = ring + ((t - 1) & 3) * kPlane;
+    const float* here = ring + (t & 3) * kPlane;
+    const float* above = ring + ((t + 1) & 3) * kPlane;
+    const std::uint8_t* flags_below = ring_flags + ((t - 1) & 3) * kCells;
+    const std::uint8_t* flags_here = ring_flags + (t & 3) * kCells;
+    const std::uint8_t* flags_above = ring_flags + ((t + 1) & 3) * kCells;
+    const bool plane_inside = t >= 0 && t < nz;
+    const std::int64_t n = column + static_cast<std::int64_t>(t) * lat.stride_z;
+    const StagedStencil<kRows> st{below, here, above, flags_below, flags_here, flags_above,
+                                  cell,  &lat, n,     i,           j,          t};
+    Vec3f up = zero, down = zero, self = zero;  // reaction[+z], reaction[−z], self of plane t
+    if (t == k0 - 1 || t == k1) {
+      // A plane just outside the block: only its reaction towards the block.
+      if (inside && plane_inside) {
+        if (t == k0 - 1)
+          up = reaction_towards<F>(st, 5, lat.rest_length, p.palette);
+        else
+          down = reaction_towards<F>(st, 4, lat.rest_length, p.palette);
+      }
+    } else {
+      NodeSpringTerms<float> terms;
+      if (inside) {
+        node_spring_terms<F>(st, lat.rest_length, p.palette, terms);
+      } else {
+        terms.self = zero;
+        for (int d = 0; d < 6; ++d) terms.reaction[d] = zero;
+      }
+      const int sends[4] = {1, 0, 3, 2};  // reaction towards +x, −x, +y, −y
+#pragma unroll
+      for (int q = 0; q < 4; ++q) {
+        in_plane[parity][q][0][ty + 1][tx + 1] = terms.reaction[sends[q]].x;
+        in_plane[parity][q][1][ty + 1][tx + 1] = terms.reaction[sends[q]].y;
+        in_plane[parity][q][2][ty + 1][tx + 1] = terms.reaction[sends[q]].z;
+      }
+      up = terms.reaction[5];
+      down = terms.reaction[4];
+      self = terms.self;
+      Vec3f r = zero;
+      if (halo_inside) {
+        const std::int64_t nh =
+            hi + hj * lat.stride_y + static_cast<std::int64_t>(t) * lat.stride_z;
+        const StagedStencil<kRows> hs{below,     here, above, flags_below, flags_here, flags_above,
+                                      halo_cell, &lat, nh,    hi,          hj,         t};
+        if constexpr (kSplit == 2) {
+          const unsigned links = hs.flags(0) & kLinkBits;
+          const SpringConstants& own = own_constants<F>(hs, p.palette);
+          const Vec3f u0 = hs.u(0), v0 = hs.v(0);
+          const Arm<float> toward = arm_of(hs, links, u0, v0, lat.rest_length, hd);
+          add_reaction_towards_in_plane<F>(hs, links, own, u0, v0, toward, hd, hplane,
+                                           lat.rest_length, r);
+        } else {
+          r = reaction_towards<F>(hs, hd, lat.rest_length, p.palette);
+        }
+      }
+      if constexpr (kSplit == 2) {  // the two angle planes of a halo node are adjacent lanes
+        r.x += __shfl_xor_sync(0xffffffffu, r.x, 1);
+        r.y += __shfl_xor_sync(0xffffffffu, r.y, 1);
+        r.z += __shfl_xor_sync(0xffffffffu, r.z, 1);
+      }
+      if (halo_writer) {
+        in_plane[parity][hq][0][hr][hc] = r.x;
+        in_plane[parity][hq][1][hr][hc] = r.y;
+        in_plane[parity][hq][2][hr][hc] = r.z;
+      }
+    }
+
+    // Finish plane t − 1: its z-neighbours' reactions are in this thread's registers, its state
+    // in the ring.
+    const int kf = t - 1;
+    if (kf >= k0 && kf < k1 && inside) {
+      const std::int64_t nf = column + static_cast<std::int64_t>(kf) * lat.stride_z;
+      const unsigned fl = flags_below[cell];
+      Vec3f f = partial;
+      f += select_if(((fl >> 4) & 1u) != 0, up_two);
+      f += select_if(((fl >> 5) & 1u) != 0, down);
+      Vec3f external = zero;
+      if constexpr ((F & features::kExternalForces) != 0)
+        external = {lat.external_force[0][nf], lat.external_force[1][nf],
+                    lat.external_force[2][nf]};
+      const float* s = below + cell;
+      const Vec3f u{s[0], s[kCells], s[2 * kCells]};
+      const Vec3f v{s[3 * kCells], s[4 * kCells], s[5 * kCells]};
+      const NodeStepResult r = integrate_node<F>(fl, u, v, s[6 * kCells], external, f, p);
+      out.u[0][nf] = r.u.x;
+      out.u[1][nf] = r.u.y;
+      out.u[2][nf] = r.u.z;
+      out.v[0][nf] = r.v.x;
+      out.v[1][nf] = r.v.y;
+      out.v[2][nf] = r.v.z;
+      if (!r.finite) {
+        guard->bad_step = step;
+        atomicMin(&guard->bad_node, static_cast<unsigned long long>(nf));
+      }
+    }
+    if (staging) {
+      store_flags(t + 2, next_flags);
+      __pipeline_wait_prior(0);
+    }
+    __syncthreads();  // in_plane[parity] and plane t + 2 complete (the other parity free)
+    if (t >= k0 && t < k1 && inside) {
+      const unsigned fl = flags_here[cell];
+      const int r = ty + 1, c = tx + 1;
+      Vec3f f = self;
+      // Neighbour −x sent its +x reaction (q 0), +x its −x (q 1), −y its +y (q 2), +y its −y (q 3).
+      f += select_if((fl & 1u) != 0,
+                     Vec3f{in_plane[parity][0][0][r][c - 1], in_plane[parity][0][1][r][c - 1],
+                           in_plane[parity][0][2][r][c - 1]});
+      f += select_if((fl & 2u) != 0,
+                     Vec3f{in_plane[parity][1][0][r][c + 1], in_plane[parity][1][1][r][c + 1],
+                           in_plane[parity][1][2][r][c + 1]});
+      f += select_if((fl & 4u) != 0,
+                     Vec3f{in_plane[parity][2][0][r - 1][c], in_plane[parity][2][1][r - 1][c],
+                           in_plane[parity][2][2][r - 1][c]});
+      f += select_if((fl & 8u) != 0,
+                     Vec3f{in_plane[parity][3][0][r + 1][c], in_plane[parity][3][1][r + 1][c],
+                           in_plane[parity][3][2][r + 1][c]});
+      partial = f;
+    }
+    up_two = up_one;
+    up_one = up;
+  }
+}
+
+/// One step of the staged evaluation: block q of the grid does tile q of the plan (dynamic
+/// shared memory: StagedTile<kRows>::kBytes).
+template <unsigned F, int kRows>
+__global__ void __launch_bounds__(kTileX* kRows, 2048 / (kTileX * kRows) / 4)
+    staged_step_kernel(LatticeView lat, ConstStateView in, StateView out, StepParameters p,
+                       Guard* guard, int local_step, TilePlan plan) {
+  extern __shared__ __align__(16) unsigned char staged_shared[];
+  const long long step = guard->step_base + local_step;
+  const bool halted = halted_before(guard, step);
+  int bx, by, bz;
+  bool active;
+  plan_tile(plan, blockIdx.x, bx, by, bz, active);
+  if (active)
+    staged_tile_step<F, kRows>(lat, in, out, p, guard, step, halted, bx, by, bz, plan.planes,
+                               staged_shared);
+  else
+    idle_tile_step(lat, in, out, bx * kTileX, by * kRows, bz * plan.planes,
+                   min(bz * plan.planes + plan.planes, lat.dims.z), halted, kRows);
+}
+
+/// Lets every compiled symmetric feature set's staged kernels use their dynamic shared memory
+/// (above the 48 KB default for 8 rows), with the largest shared-memory carveout so that the
+/// blocks the registers allow (2 of 8 rows, 4 of 4 rows per multiprocessor) fit.
+template <unsigned F>
+void allow_staged_shared_memory() {
+  if constexpr ((F & features::kSymmetricReactions) != 0) {
+    TSF_CUDA_CHECK(cudaFuncSetAttribute(staged_step_kernel<F, 8>,
+                                        cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                        static_cast<int>(StagedTile<8>::kBytes)));
+    TSF_CUDA_CHECK(cudaFuncSetAttribute(staged_step_kernel<F, 4>,
+                                        cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                        static_cast<int>(StagedTile<4>::kBytes)));
+    TSF_CUDA_CHECK(cudaFuncSetAttribute(staged_step_kernel<F, 8>,
+                                        cudaFuncAttributePreferredSharedMemoryCarveout,
+                                        cudaSharedmemCarveoutMaxShared));
+    TSF_CUDA_CHECK(cudaFuncSetAttribute(staged_step_kernel<F, 4>,
+                                        cudaFuncAttributePreferredSharedMemoryCarveout,
+                                        cudaSharedmemCarveoutMaxShared));
+  }
+}
+template <unsigned... Sets>
+void allow_staged_shared_memory(std::integer_sequence<unsigned, Sets...>) {
+  (allow_staged_shared_memory<Sets>(), ...);
+}
+
 /// `steps` steps in one launch (small lattices: the launch, not the arithmetic, bounds a step).
 /// Every block strides over the plan's tiles; a grid barrier separates the steps, and the state
 /// ping-pongs between a and b (step s reads a when s is even). Launched cooperatively, so every
@@ -621,7 +979,8 @@ class CudaBackend final : public SolverBackend {
       : geometry_(g),
         count_(g.node_count()),
         steps_per_graph_(options.cuda_steps_per_graph),
-        evaluation_(options.evaluation) {
+        evaluation_(options.evaluation),
+        tile_kernel_(options.cuda_tile_kernel) {
     // Every resource is an RAII member (device_buffer.h): a throw below frees what was made.
     const auto n = static_cast<std::size_t>(count_);
     stream_ = make_stream();
@@ -651,6 +1010,7 @@ class CudaBackend final : public SolverBackend {
     int cooperative = 0;
     TSF_CUDA_CHECK(cudaDeviceGetAttribute(&cooperative, cudaDevAttrCooperativeLaunch, 0));
     plan_shared_launch(options, prop.multiProcessorCount, cooperative != 0);
+    allow_staged_shared_memory(CompiledFeatureSets{});
   }
 
   ~CudaBackend() override {
@@ -668,7 +1028,8 @@ class CudaBackend final : public SolverBackend {
            (bricks_       ? ", brick persistent launch"
             : nodes_      ? ", node-parallel persistent launch"
             : persistent_ ? ", " + std::to_string(persistent_blocks_) + " persistent blocks"
-                          : ", graphs of " + std::to_string(steps_per_graph_) + " steps") +
+                          : ", graphs of " + std::to_string(steps_per_graph_) + " steps, " +
+                                to_string(tile_kernel_) + " tile kernel") +
            ")";
   }
 
@@ -1245,6 +1606,20 @@ class CudaBackend final : public SolverBackend {
     const ConstStateView in = buffer_view(current_);
     const StateView out = buffer_view(1 - current_);
     if constexpr ((F & features::kSymmetricReactions) != 0) {
+      if (evaluation_ == ForceEvaluation::kShared && tile_kernel_ == CudaTileKernel::kStaged) {
+        const TilePlan plan = tile_plan();
+        if (tile_rows_ == 8)
+          staged_step_kernel<F, 8>
+              <<<plan.count, dim3(kTileX, 8), StagedTile<8>::kBytes, stream_.get()>>>(
+                  lat, in, out, p, guard_.data(), local_step, plan);
+        else
+          staged_step_kernel<F, 4>
+              <<<plan.count, dim3(kTileX, 4), StagedTile<4>::kBytes, stream_.get()>>>(
+                  lat, in, out, p, guard_.data(), local_step, plan);
+        TSF_CUDA_CHECK_LAUNCH();
+        current_ = 1 - current_;
+        return;
+      }
       if (evaluation_ == ForceEvaluation::kShared) {
         const TilePlan plan = tile_plan();
         if (tile_rows_ == 8)
@@ -1315,6 +1690,7 @@ class CudaBackend final : public SolverBackend {
   std::int64_t count_;
   int steps_per_graph_;
   ForceEvaluation evaluation_;
+  CudaTileKernel tile_kernel_;
   int tile_rows_ = 4;
   int planes_per_block_ = 1;
   int tiles_x_ = 1, tiles_y_ = 1, tiles_z_ = 1;

@@ -39,11 +39,11 @@ Solver::Solver(Lattice lattice, const SolverConfig& config)
   for (std::int64_t n = 0; n < lattice_.node_count(); ++n)
     for (int c = 0; c < 4; ++c) {
       const MaterialBlend b = lattice_.material(n);
-      require(
-          b.weight_of(c) == 0u || static_cast<std::size_t>(b.entry(c)) < config_.materials.size(),
-          "lattice node " + std::to_string(n) + " uses material " + std::to_string(b.entry(c)) +
-              " but only " + std::to_string(config_.materials.size()) +
-              " material(s) are configured");
+      // The message is built only on failure: building it for every node took ~10 s at 256³.
+      if (b.weight_of(c) != 0u && static_cast<std::size_t>(b.entry(c)) >= config_.materials.size())
+        throw Error("lattice node " + std::to_string(n) + " uses material " +
+                    std::to_string(b.entry(c)) + " but only " +
+                    std::to_string(config_.materials.size()) + " material(s) are configured");
     }
 
   const bool symmetric = config_.angular_reactions == AngularReactions::kSymmetric;
@@ -110,6 +110,7 @@ BackendOptions backend_options(const SolverConfig& config) {
   o.cuda_planes_per_block = config.cuda_planes_per_block;
   o.cuda_tile_rows = config.cuda_tile_rows;
   o.cuda_launch = config.cuda_launch;
+  o.cuda_tile_kernel = config.cuda_tile_kernel;
   return o;
 }
 

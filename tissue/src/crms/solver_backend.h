@@ -100,6 +100,7 @@ struct BackendOptions {
   int cuda_planes_per_block = 0;
   int cuda_tile_rows = 0;
   CudaLaunch cuda_launch = CudaLaunch::kAuto;
+  CudaTileKernel cuda_tile_kernel = CudaTileKernel::kStaged;
 };
 BackendOptions backend_options(const SolverConfig& config);
 

@@ -69,6 +69,16 @@ const char* to_string(CudaLaunch launch) {
   return "?";
 }
 
+const char* to_string(CudaTileKernel kernel) {
+  switch (kernel) {
+    case CudaTileKernel::kStaged:
+      return "staged";
+    case CudaTileKernel::kDirect:
+      return "direct";
+  }
+  return "?";
+}
+
 void validate_solver_config(const SolverConfig& c) {
   const double g = std::sqrt(length_squared(c.gravity));
   require(std::isfinite(g) && g <= 1e7,

@@ -228,6 +228,36 @@ TSF_HD_INLINE void node_spring_terms(const St& st, const float rest_length[3],
   terms.self = self;
 }
 
+/// The two angles of reaction_towards() that lie in one of the two planes holding d's axis
+/// (q = 0: the plane of lower normal axis, 1: the other), added to r in reaction_towards' order.
+/// reaction_towards() is this for q = 0 then q = 1; the CUDA tile kernel splits a halo node's
+/// reaction over two threads by q (docs/crms.md "The default kernel against the roofline").
+template <unsigned kF, class St>
+TSF_HD_INLINE void add_reaction_towards_in_plane(
+    const St& st, unsigned links, const SpringConstants& own, const Vec3<typename St::Scalar>& u0,
+    const Vec3<typename St::Scalar>& v0, const Arm<typename St::Scalar>& toward, int d, int q,
+    const float rest_length[3], Vec3<typename St::Scalar>& r) {
+  using S = typename St::Scalar;
+  using V = Vec3<S>;
+  const int ax = direction_axis(d);
+  const int plane = q == 0 ? (ax == 0 ? 1 : 0) : (ax == 2 ? 1 : 2);  // ascending normal (= t order)
+  const int other_axis = 3 - ax - plane;
+  const float k_angular = axis_value(own.k_angular, plane);
+  const float c_angular = axis_value(own.c_angular, plane);
+  TSF_UNROLL
+  for (int sign = 0; sign < 2; ++sign) {  // the other arm's − then + (= t order)
+    const Arm<S> other = arm_of(st, links, u0, v0, rest_length, make_direction(other_axis, sign));
+    V on_a, on_c;
+    if (ax < other_axis) {
+      angle_reactions<kF>(toward, other, k_angular, c_angular, on_a, on_c);
+      r += on_a;
+    } else {
+      angle_reactions<kF>(other, toward, k_angular, c_angular, on_a, on_c);
+      r += on_c;
+    }
+  }
+}
+
 /// reaction[d] of node_spring_terms alone: the force that the 4 angles at the stencil's centre
 /// node with an arm d put on its neighbour d (d may be a run-time value). Same angles, same
 /// order and same arithmetic as node_spring_terms.
@@ -242,27 +272,10 @@ TSF_HD_INLINE Vec3<typename St::Scalar> reaction_towards(const St& st, int d,
   const V u0 = st.u(0);
   const V v0 = st.v(0);
   const Arm<S> toward = arm_of(st, links, u0, v0, rest_length, d);
-  const int ax = direction_axis(d);
   V r{S(0), S(0), S(0)};
   TSF_UNROLL
-  for (int q = 0; q < 2; ++q) {  // the two planes holding axis ax, ascending normal (= t order)
-    const int plane = q == 0 ? (ax == 0 ? 1 : 0) : (ax == 2 ? 1 : 2);
-    const int other_axis = 3 - ax - plane;
-    TSF_UNROLL
-    for (int sign = 0; sign < 2; ++sign) {  // the other arm's − then + (= t order)
-      const Arm<S> other = arm_of(st, links, u0, v0, rest_length, make_direction(other_axis, sign));
-      const float k_angular = axis_value(own.k_angular, plane);
-      const float c_angular = axis_value(own.c_angular, plane);
-      V on_a, on_c;
-      if (ax < other_axis) {
-        angle_reactions<kF>(toward, other, k_angular, c_angular, on_a, on_c);
-        r += on_a;
-      } else {
-        angle_reactions<kF>(other, toward, k_angular, c_angular, on_a, on_c);
-        r += on_c;
-      }
-    }
-  }
+  for (int q = 0; q < 2; ++q)
+    add_reaction_towards_in_plane<kF>(st, links, own, u0, v0, toward, d, q, rest_length, r);
   return r;
 }
 

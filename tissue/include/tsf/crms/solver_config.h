@@ -62,6 +62,16 @@ enum class CudaLaunch {
   /// that layer itself: one grid barrier per step (docs/crms.md "Small lattices").
   kBricks,
 };
+/// Which kernel runs the tiles of the shared evaluation in the graphs launch (same physics; a
+/// benchmark knob that keeps the previous kernel selectable).
+enum class CudaTileKernel {
+  /// Each plane's state (u, v, 1/m, flags) of the tile and its one-node ring staged in shared
+  /// memory, the halo's reactions split over two threads (docs/crms.md "The default kernel
+  /// against the roofline"). The default.
+  kStaged,
+  /// Neighbour state read from global memory through L1/L2 (the earlier kernel).
+  kDirect,
+};
 /// Instruction set of the CPU kernels. kAuto takes the widest the processor has; naming one the
 /// processor lacks is an error.
 enum class CpuInstructionSet { kAuto, kBaseline, kAvx2, kAvx512 };
@@ -73,6 +83,7 @@ const char* to_string(AngularReactions reactions);
 const char* to_string(ForceEvaluation evaluation);
 const char* to_string(CpuInstructionSet isa);
 const char* to_string(CudaLaunch launch);
+const char* to_string(CudaTileKernel kernel);
 
 struct StabilityControls {
   /// k_sys, 1/mm: speed-dependent drag a = −k_sys·|v|·v (node_update.h). Range [0, 1e3].
@@ -118,6 +129,8 @@ struct SolverConfig {
   int cuda_tile_rows = 0;
   /// CUDA: how the steps of a call are launched (see CudaLaunch). A tuning and benchmark knob.
   CudaLaunch cuda_launch = CudaLaunch::kAuto;
+  /// CUDA: which tile kernel the graphs launch runs (see CudaTileKernel). A benchmark knob.
+  CudaTileKernel cuda_tile_kernel = CudaTileKernel::kStaged;
   /// Implicit Euler: Newton iterations per step (1 = linearised backward Euler) and the relative
   /// residual at which they stop early. Ranges [1, 50] and [0, 1).
   int implicit_newton_iterations = 8;
