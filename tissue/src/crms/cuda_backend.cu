@@ -28,10 +28,12 @@
 //   cost; a remainder runs as plain launches;
 // * persistent: one cooperative launch of the tile kernel's body for all n steps, a grid barrier
 //   between steps;
-// * nodes (the default up to 2^18 nodes): one cooperative launch of the node-parallel kernel,
-//   two grid barriers per step. On a small lattice a step's arithmetic is shorter than a launch,
-//   and its time is set by one thread's chain of dependent instructions, which the split into
-//   planes cuts to a third (docs/crms.md "Small lattices").
+// * nodes (the default up to 2^18 nodes where bricks are not): one cooperative launch of the
+//   node-parallel kernel, two grid barriers per step. On a small lattice a step's arithmetic is
+//   shorter than a launch, and its time is set by one thread's chain of dependent instructions,
+//   which the split into planes cuts to a third (docs/crms.md "Small lattices");
+// * bricks (the default where every brick of the lattice has a resident block): one cooperative
+//   launch of cuda_brick_step.cuh, one grid barrier per step.
 // A guard word in device memory records the first non-finite node; kernels of later steps see it
 // and copy their input unchanged, so the state stays finite and the host learns about it at the
 // next synchronize(). The stability monitor's signals (energies, velocity sums against the state
