@@ -88,6 +88,19 @@ struct Guard {
   long long step_base;          ///< steps completed before the current launch batch
 };
 
+/// Writes node n's new state and, when it is not finite, records it in the guard (every failing
+/// thread of a step writes the same step; the lowest node wins).
+__device__ __forceinline__ void store_node_step(const StateView& out, std::int64_t n,
+                                                const NodeStepResult& r, Guard* guard,
+                                                long long step) {
+  out.u[0][n] = r.u.x, out.u[1][n] = r.u.y, out.u[2][n] = r.u.z;
+  out.v[0][n] = r.v.x, out.v[1][n] = r.v.y, out.v[2][n] = r.v.z;
+  if (!r.finite) {
+    guard->bad_step = step;
+    atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
+  }
+}
+
 static_assert(sizeof(StepParameters) == sizeof(float) * 6 + sizeof(int) + sizeof(MaterialPalette),
               "StepParameters must have no padding: graphs are keyed on its bytes");
 
@@ -114,16 +127,7 @@ __global__ void __launch_bounds__(256)
   }
   const IndexedStencil st{lat, in, n, i, j, k};
   const NodeStepResult r = step_node<F>(st, lat.rest_length, p);
-  out.u[0][n] = r.u.x;
-  out.u[1][n] = r.u.y;
-  out.u[2][n] = r.u.z;
-  out.v[0][n] = r.v.x;
-  out.v[1][n] = r.v.y;
-  out.v[2][n] = r.v.z;
-  if (!r.finite) {
-    guard->bad_step = step;  // every failing thread of this step writes the same value
-    atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
-  }
+  store_node_step(out, n, r, guard, step);
 }
 
 constexpr int kTileX = 32;
@@ -148,6 +152,23 @@ struct TilePlan {
 /// [parity][0: reaction +x, 1: −x, 2: +y, 3: −y][component][row][column].
 template <int kRows>
 using InPlane = float[2][4][3][kRows + 2][kTileX + 2];
+
+/// The in-plane reactions node (r, c) of a tile receives from its linked neighbours: −x sent its
+/// +x reaction (q 0), +x its −x (q 1), −y its +y (q 2), +y its −y (q 3).
+template <int kRows>
+__device__ __forceinline__ Vec3f in_plane_reactions(const InPlane<kRows>& in_plane, int parity,
+                                                    int r, int c, unsigned fl) {
+  const int dr[4] = {0, 0, -1, 1}, dc[4] = {-1, 1, 0, 0};
+  Vec3f f{0.0f, 0.0f, 0.0f};
+#pragma unroll
+  for (int q = 0; q < 4; ++q) {
+    const int rr = r + dr[q], cc = c + dc[q];
+    f += select_if(((fl >> q) & 1u) != 0,
+                   Vec3f{in_plane[parity][q][0][rr][cc], in_plane[parity][q][1][rr][cc],
+                         in_plane[parity][q][2][rr][cc]});
+  }
+  return f;
+}
 
 /// A step of the nodes of one tile that no node of moves: u kept, v = 0 (integrate_node).
 __device__ void idle_tile_step(const LatticeView& lat, const ConstStateView& in,
@@ -273,35 +294,14 @@ __device__ void shared_tile_step(const LatticeView& lat, const ConstStateView& i
       const Vec3f u{in.u[0][nf], in.u[1][nf], in.u[2][nf]};
       const Vec3f v{in.v[0][nf], in.v[1][nf], in.v[2][nf]};
       const NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[nf], external, f, p);
-      out.u[0][nf] = r.u.x;
-      out.u[1][nf] = r.u.y;
-      out.u[2][nf] = r.u.z;
-      out.v[0][nf] = r.v.x;
-      out.v[1][nf] = r.v.y;
-      out.v[2][nf] = r.v.z;
-      if (!r.finite) {
-        guard->bad_step = step;
-        atomicMin(&guard->bad_node, static_cast<unsigned long long>(nf));
-      }
+      store_node_step(out, nf, r, guard, step);
     }
     __syncthreads();  // in_plane[parity] complete (and the other parity free for plane t + 1)
     if (t >= k0 && t < k1 && inside) {
       const unsigned fl = lat.flags[n];
       const int r = ty + 1, c = tx + 1;
       Vec3f f = self;
-      // Neighbour −x sent its +x reaction (q 0), +x its −x (q 1), −y its +y (q 2), +y its −y (q 3).
-      f += select_if((fl & 1u) != 0,
-                     Vec3f{in_plane[parity][0][0][r][c - 1], in_plane[parity][0][1][r][c - 1],
-                           in_plane[parity][0][2][r][c - 1]});
-      f += select_if((fl & 2u) != 0,
-                     Vec3f{in_plane[parity][1][0][r][c + 1], in_plane[parity][1][1][r][c + 1],
-                           in_plane[parity][1][2][r][c + 1]});
-      f += select_if((fl & 4u) != 0,
-                     Vec3f{in_plane[parity][2][0][r - 1][c], in_plane[parity][2][1][r - 1][c],
-                           in_plane[parity][2][2][r - 1][c]});
-      f += select_if((fl & 8u) != 0,
-                     Vec3f{in_plane[parity][3][0][r + 1][c], in_plane[parity][3][1][r + 1][c],
-                           in_plane[parity][3][2][r + 1][c]});
+      f += in_plane_reactions<kRows>(in_plane, parity, r, c, fl);
       partial = f;
     }
     up_two = up_one;
@@ -612,16 +612,7 @@ __device__ void staged_tile_step(const LatticeView& lat, const ConstStateView& i
       const Vec3f u{s[0], s[kCells], s[2 * kCells]};
       const Vec3f v{s[3 * kCells], s[4 * kCells], s[5 * kCells]};
       const NodeStepResult r = integrate_node<F>(fl, u, v, s[6 * kCells], external, f, p);
-      out.u[0][nf] = r.u.x;
-      out.u[1][nf] = r.u.y;
-      out.u[2][nf] = r.u.z;
-      out.v[0][nf] = r.v.x;
-      out.v[1][nf] = r.v.y;
-      out.v[2][nf] = r.v.z;
-      if (!r.finite) {
-        guard->bad_step = step;
-        atomicMin(&guard->bad_node, static_cast<unsigned long long>(nf));
-      }
+      store_node_step(out, nf, r, guard, step);
     }
     if (staging) {
       store_flags(t + 2, next_flags);
@@ -632,19 +623,7 @@ __device__ void staged_tile_step(const LatticeView& lat, const ConstStateView& i
       const unsigned fl = flags_here[cell];
       const int r = ty + 1, c = tx + 1;
       Vec3f f = self;
-      // Neighbour −x sent its +x reaction (q 0), +x its −x (q 1), −y its +y (q 2), +y its −y (q 3).
-      f += select_if((fl & 1u) != 0,
-                     Vec3f{in_plane[parity][0][0][r][c - 1], in_plane[parity][0][1][r][c - 1],
-                           in_plane[parity][0][2][r][c - 1]});
-      f += select_if((fl & 2u) != 0,
-                     Vec3f{in_plane[parity][1][0][r][c + 1], in_plane[parity][1][1][r][c + 1],
-                           in_plane[parity][1][2][r][c + 1]});
-      f += select_if((fl & 4u) != 0,
-                     Vec3f{in_plane[parity][2][0][r - 1][c], in_plane[parity][2][1][r - 1][c],
-                           in_plane[parity][2][2][r - 1][c]});
-      f += select_if((fl & 8u) != 0,
-                     Vec3f{in_plane[parity][3][0][r + 1][c], in_plane[parity][3][1][r + 1][c],
-                           in_plane[parity][3][2][r + 1][c]});
+      f += in_plane_reactions<kRows>(in_plane, parity, r, c, fl);
       partial = f;
     }
     up_two = up_one;
@@ -810,12 +789,7 @@ __device__ __forceinline__ void node_integrate(const LatticeView& lat, const Con
   if constexpr ((F & features::kExternalForces) != 0)
     external = {lat.external_force[0][n], lat.external_force[1][n], lat.external_force[2][n]};
   const NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[n], external, f, p);
-  out.u[0][n] = r.u.x, out.u[1][n] = r.u.y, out.u[2][n] = r.u.z;
-  out.v[0][n] = r.v.x, out.v[1][n] = r.v.y, out.v[2][n] = r.v.z;
-  if (!r.finite) {
-    guard->bad_step = step;
-    atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
-  }
+  store_node_step(out, n, r, guard, step);
 }
 
 template <unsigned F>

@@ -1,6 +1,6 @@
 // The brick launch (CudaLaunch::kBricks) of the CUDA backend: a call's steps in one cooperative
 // launch with ONE grid barrier per step. Included by cuda_backend.cu inside its anonymous
-// namespace (it uses the backend's Guard and halted_before()).
+// namespace (it uses the backend's Guard, halted_before() and store_node_step()).
 //
 // A small lattice's step is bounded by latency, not arithmetic (docs/crms.md "Small lattices"):
 // by the grid barriers between its phases (~1 µs each on an H200, bench_grid_barrier) and by the
@@ -265,12 +265,7 @@ __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, con
           external = {s.external[0][t], s.external[1][t], s.external[2][t]};
         r = integrate_node<F>(fl, u, v, s.inv_mass[t], external, f, p);
       }
-      out.u[0][n] = r.u.x, out.u[1][n] = r.u.y, out.u[2][n] = r.u.z;
-      out.v[0][n] = r.v.x, out.v[1][n] = r.v.y, out.v[2][n] = r.v.z;
-      if (!r.finite) {
-        guard->bad_step = step;
-        atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
-      }
+      store_node_step(out, n, r, guard, step);
     }
   }
 }
