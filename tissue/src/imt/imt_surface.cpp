@@ -4,7 +4,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
+
+#include <omp.h>
 
 #include "lattice_window.h"
 #include "surface_internals.h"
@@ -79,7 +82,10 @@ struct ImtSurface::State {
   std::vector<std::uint32_t> released_vertices, normal_dirty;
   std::vector<Int3> released_cubes;
   std::vector<std::uint8_t> normal_dirty_flag;
-  LatticeWindow window;
+  /// Windows of the chunks of one batch (computed in parallel); `window` is the one being
+  /// meshed.
+  std::vector<std::unique_ptr<LatticeWindow>> windows;
+  const LatticeWindow* window = nullptr;
   SurfaceUpdateStats stats;
 
   // ---- capacity ---------------------------------------------------------------------------------
@@ -256,7 +262,7 @@ struct ImtSurface::State {
     if (v != 0 && stamp[v] == generation) return v;
     Vec3d ip;
     std::uint8_t label;
-    window.vertex(o, window.local_index(o), slot, ip, label);
+    window->vertex(o, window->local_index(o), slot, ip, label);
     const Vec3f p = detail::tissue_position(geometry, ip);
     if (v == 0) {
       v = allocate_vertex();
@@ -355,8 +361,6 @@ struct ImtSurface::State {
   /// (LatticeWindow::margin).
   void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
                      int margin);
-  void remesh_chunk(const VoxelVolume& volume, const VoxelBox& core, const Int3& c0,
-                    const Int3& c1);
   void remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core);
   bool refresh_cube_vertices(const LatticeWindow::Cube& cube);
   void collect_emptied_cubes(const Int3& c0, const Int3& c1);
@@ -470,31 +474,52 @@ void ImtSurface::State::begin_update() {
 void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox& region,
                                       const VoxelBox& core, int margin) {
   const bool ranges = volume.brick_ranges_current();
+  struct Chunk {
+    Int3 c0, c1;
+  };
+  std::vector<Chunk> chunks;
   for (int z0 = region.lo.z; z0 < region.hi.z; z0 += kChunk)
     for (int y0 = region.lo.y; y0 < region.hi.y; y0 += kChunk)
-      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk) {
-        const Int3 c0{x0, y0, z0};
-        const Int3 c1{std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
-                      std::min(z0 + kChunk, region.hi.z)};
-        const bool may_hold_surface =
-            !ranges ||
-            detail::range_straddles(
-                volume, volume.brick_ranges(), {c0.x - margin, c0.y - margin, c0.z - margin},
-                {c1.x + margin - 1, c1.y + margin - 1, c1.z + margin - 1}, options.iso);
-        if (may_hold_surface) remesh_chunk(volume, core, c0, c1);
-        collect_emptied_cubes(c0, c1);
+      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk)
+        chunks.push_back({{x0, y0, z0},
+                          {std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
+                           std::min(z0 + kChunk, region.hi.z)}});
+  // The chunks go in batches of one per thread: each batch's lattice windows (the volume read,
+  // the merging decisions: pure functions of the volume) are computed in parallel, then its cubes
+  // are meshed against the records on this thread in the serial order, so the slots, lists and
+  // change lists are the same on any number of threads.
+  const auto batch = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
+  while (windows.size() < std::min(batch, chunks.size()))
+    windows.push_back(std::make_unique<LatticeWindow>());
+  std::vector<std::uint8_t> meshed(std::min(batch, chunks.size()));
+  for (std::size_t first = 0; first < chunks.size(); first += batch) {
+    const auto count = static_cast<std::int64_t>(std::min(batch, chunks.size() - first));
+#pragma omp parallel for schedule(dynamic, 1) if (count > 1)
+    for (std::int64_t b = 0; b < count; ++b) {
+      const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
+      const bool may_hold_surface =
+          !ranges ||
+          detail::range_straddles(
+              volume, volume.brick_ranges(), {ch.c0.x - margin, ch.c0.y - margin, ch.c0.z - margin},
+              {ch.c1.x + margin - 1, ch.c1.y + margin - 1, ch.c1.z + margin - 1}, options.iso);
+      meshed[static_cast<std::size_t>(b)] = may_hold_surface ? 1 : 0;
+      if (may_hold_surface)
+        windows[static_cast<std::size_t>(b)]->compute(volume, options, ch.c0, ch.c1);
+    }
+    for (std::int64_t b = 0; b < count; ++b) {
+      const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
+      if (meshed[static_cast<std::size_t>(b)]) {
+        window = windows[static_cast<std::size_t>(b)].get();
+        for (const auto& cube : window->relevant_cubes()) remesh_cube(cube, core);
       }
-}
-
-/// Meshes every cube of chunk [c0, c1) that can hold surface now; compares with what it held.
-void ImtSurface::State::remesh_chunk(const VoxelVolume& volume, const VoxelBox& core,
-                                     const Int3& c0, const Int3& c1) {
-  window.compute(volume, options, c0, c1);
-  for (const auto& cube : window.relevant_cubes()) remesh_cube(cube, core);
+      collect_emptied_cubes(ch.c0, ch.c1);
+    }
+  }
+  window = nullptr;
 }
 
 void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core) {
-  const std::uint32_t signature = window.signature(cube.local);
+  const std::uint32_t signature = window->signature(cube.local);
   const std::uint32_t rid = record_of(cube.c, false);
   if (rid != 0) {
     if (rid >= record_stamp.size()) record_stamp.resize(2 * rid + 2, 0);
@@ -510,7 +535,7 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Voxel
   }
   const auto first = static_cast<std::uint32_t>(new_triangles.size());
   begin_cube();
-  window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+  window->mesh_cube(cube.local, [&](const LatticeRef* keys) {
     new_triangles.push_back(
         {cube_vertex(cube.c, keys[0]), cube_vertex(cube.c, keys[1]), cube_vertex(cube.c, keys[2])});
   });
@@ -523,7 +548,7 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Voxel
 bool ImtSurface::State::refresh_cube_vertices(const LatticeWindow::Cube& cube) {
   bool any_moved = false;
   begin_cube();
-  window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+  window->mesh_cube(cube.local, [&](const LatticeRef* keys) {
     for (int k = 0; k < 3; ++k) {
       const std::size_t before = moved.size();
       const std::uint32_t v = cube_vertex(cube.c, keys[k]);
