@@ -149,9 +149,9 @@ std::size_t Coupler::orphan_count() const {
 
 namespace {
 
-/// Re-binding fewer vertices than this stays on the calling thread (an ablation stroke's few
-/// hundred): a parallel region costs more than it saves there.
-constexpr std::int64_t kParallelBindVertices = 2048;
+/// Re-binding or coupling fewer vertices than this stays on the calling thread (an ablation
+/// stroke's few hundred): a parallel region costs more than it saves there.
+constexpr std::int64_t kParallelVertices = 2048;
 
 /// Sorts keys (cell << 32 | slot) by cell, keeping the order of keys with the same cell (LSD
 /// radix sort, 11-bit digits over the bits a cell index can have). With the slots ascending on
@@ -186,7 +186,7 @@ void Coupler::bind_slots(const imt::ImtSurface& surface, const crms::Lattice& la
   const std::vector<Vec3f>& p = surface.positions();
   const std::vector<Vec3f>& n = surface.normals();
   const auto count = static_cast<std::int64_t>(slots.size());
-  const bool parallel = count >= kParallelBindVertices;
+  const bool parallel = count >= kParallelVertices;
   // Sort by cube (key = cell << 32 | slot) so consecutive vertices reuse the binder's per-cube
   // grouping and frames. The slots arrive ascending (both callers sort them).
   std::vector<std::uint64_t>& order = scratch_order_;
@@ -355,7 +355,11 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
   report.cubes_touched = cells.size();
   const std::size_t before = slots.size();
   for (std::int64_t c : cells) slots_in_cube(c, slots);
-  std::sort(slots.begin(), slots.end());
+  // The first `before` are sorted already: sort the cubes' slots and merge (a whole sort of a
+  // sorted run with an unsorted tail fell back to heapsort here).
+  const auto tail = slots.begin() + static_cast<std::ptrdiff_t>(before);
+  std::sort(tail, slots.end());
+  std::inplace_merge(slots.begin(), tail, slots.end());
   slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
   report.from_topology = slots.size() - before;
 
@@ -493,17 +497,28 @@ void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::ui
     return;
   }
   const LatticeReader reader{view};
-  for (std::uint32_t f : scratch_frames_)
+  // A cut's thousands of vertices on the threads (distinct frames, distinct slots); a stroke's
+  // few hundred on the calling thread.
+  const bool parallel = static_cast<std::int64_t>(slots.size()) >= kParallelVertices;
+  const auto frames = static_cast<std::int64_t>(scratch_frames_.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::int64_t i = 0; i < frames; ++i) {
+    const std::uint32_t f = scratch_frames_[static_cast<std::size_t>(i)];
     frame_corners_[f] = resolve_frame(reader, view, frames_[f], mode);
-  for (std::uint32_t s : slots) {
+  }
+  const auto count = static_cast<std::int64_t>(slots.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::int64_t i = 0; i < count; ++i) {
+    const std::uint32_t s = slots[static_cast<std::size_t>(i)];
     const VertexFrameBinding b = vertex_frames_[s];
     if (b.frame == kNoFrame) continue;
     const CoupledVertex v =
         couple_from_frame(frame_corners_[b.frame], b.w, view.spacing, rest_normals_[s], mode);
     positions_[s] = v.position;
     normals_[s] = v.normal;
-    stamp_block(s / kDirtyBlockSlots);
   }
+  for (std::uint32_t s : slots)
+    if (vertex_frames_[s].frame != kNoFrame) stamp_block(s / kDirtyBlockSlots);
 }
 
 std::vector<std::pair<std::uint32_t, std::uint32_t>> Coupler::changed_ranges(
