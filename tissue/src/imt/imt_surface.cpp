@@ -82,10 +82,30 @@ struct ImtSurface::State {
   std::vector<std::uint32_t> released_vertices, normal_dirty;
   std::vector<Int3> released_cubes;
   std::vector<std::uint8_t> normal_dirty_flag;
-  /// Windows of the chunks of one batch (computed in parallel); `window` is the one being
-  /// meshed.
-  std::vector<std::unique_ptr<LatticeWindow>> windows;
-  const LatticeWindow* window = nullptr;
+  /// A vertex of an unchanged cube's triangles as its chunk's window makes it now: `moved` when
+  /// that differs from the vertex's position or label.
+  struct Refresh {
+    std::uint32_t vertex;
+    Vec3f position;
+    std::uint8_t label;
+    bool moved;
+  };
+  /// What a chunk's unchanged cubes need, worked out with its window: per relevant cube, whether
+  /// it keeps its triangles and lies in the core (then its vertices are refreshed), and those
+  /// vertices in the order the cube's triangles first use them.
+  struct ChunkPlan {
+    std::vector<std::uint8_t> refreshed;  // per relevant cube
+    std::vector<std::uint32_t> first;     // per relevant cube + 1: its range in `refreshes`
+    std::vector<Refresh> refreshes;
+  };
+  /// A chunk's window and plan, one allocation per chunk of a batch (computed in parallel: no
+  /// two threads write to one cache line).
+  struct ChunkWork {
+    LatticeWindow window;
+    ChunkPlan plan;
+  };
+  std::vector<std::unique_ptr<ChunkWork>> chunk_work;
+  const LatticeWindow* window = nullptr;  // the one being meshed
   SurfaceUpdateStats stats;
 
   // ---- capacity ---------------------------------------------------------------------------------
@@ -143,6 +163,12 @@ struct ImtSurface::State {
     const auto x = static_cast<unsigned>(u.x) & 7u, y = static_cast<unsigned>(u.y) & 7u,
                z = static_cast<unsigned>(u.z) & 7u;
     return static_cast<int>(x + 8u * (y + 8u * z));
+  }
+  /// Record id of cube c, 0 when it has none (read only: safe on several threads).
+  std::uint32_t find_record(const Int3& c) const {
+    const Int3 u{c.x + 1, c.y + 1, c.z + 1};
+    const std::uint32_t page = page_of[page_cell(u)];
+    return page == 0 ? 0 : page_records[page - 1][static_cast<std::size_t>(page_local(u))];
   }
   /// Record id of cube c (0 when it has none and `create` is false).
   std::uint32_t record_of(const Int3& c, bool create) {
@@ -361,8 +387,8 @@ struct ImtSurface::State {
   /// (LatticeWindow::margin).
   void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
                      int margin);
-  void remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core);
-  bool refresh_cube_vertices(const LatticeWindow::Cube& cube);
+  void plan_chunk(const LatticeWindow& w, const VoxelBox& core, ChunkPlan& plan) const;
+  void remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan, std::size_t index);
   void collect_emptied_cubes(const Int3& c0, const Int3& c1);
   void collect_emptied_cubes_in_page(std::uint32_t page, const Int3& p, const VoxelBox& chunk);
   /// Pass 2. Reads changed_cubes and kept_records, with the old positions; releases the changed
@@ -484,13 +510,15 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
         chunks.push_back({{x0, y0, z0},
                           {std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
                            std::min(z0 + kChunk, region.hi.z)}});
-  // The chunks go in batches of one per thread: each batch's lattice windows (the volume read,
-  // the merging decisions: pure functions of the volume) are computed in parallel, then its cubes
-  // are meshed against the records on this thread in the serial order, so the slots, lists and
-  // change lists are the same on any number of threads.
+  // The chunks go in batches of one per thread. Each batch's lattice windows (the volume read,
+  // the merging decisions: pure functions of the volume) and plans (the unchanged cubes' vertices
+  // made again and compared: reads of the records and positions, which this pass does not
+  // write) are computed in parallel; then its cubes are meshed against the records on this
+  // thread in the serial order, so the slots, lists and change lists are the same on any number
+  // of threads.
   const auto batch = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
-  while (windows.size() < std::min(batch, chunks.size()))
-    windows.push_back(std::make_unique<LatticeWindow>());
+  while (chunk_work.size() < std::min(batch, chunks.size()))
+    chunk_work.push_back(std::make_unique<ChunkWork>());
   std::vector<std::uint8_t> meshed(std::min(batch, chunks.size()));
   for (std::size_t first = 0; first < chunks.size(); first += batch) {
     const auto count = static_cast<std::int64_t>(std::min(batch, chunks.size() - first));
@@ -503,14 +531,19 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
               volume, volume.brick_ranges(), {ch.c0.x - margin, ch.c0.y - margin, ch.c0.z - margin},
               {ch.c1.x + margin - 1, ch.c1.y + margin - 1, ch.c1.z + margin - 1}, options.iso);
       meshed[static_cast<std::size_t>(b)] = may_hold_surface ? 1 : 0;
-      if (may_hold_surface)
-        windows[static_cast<std::size_t>(b)]->compute(volume, options, ch.c0, ch.c1);
+      if (may_hold_surface) {
+        ChunkWork& work = *chunk_work[static_cast<std::size_t>(b)];
+        work.window.compute(volume, options, ch.c0, ch.c1);
+        plan_chunk(work.window, core, work.plan);
+      }
     }
     for (std::int64_t b = 0; b < count; ++b) {
       const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
       if (meshed[static_cast<std::size_t>(b)]) {
-        window = windows[static_cast<std::size_t>(b)].get();
-        for (const auto& cube : window->relevant_cubes()) remesh_cube(cube, core);
+        const ChunkWork& work = *chunk_work[static_cast<std::size_t>(b)];
+        window = &work.window;
+        const auto& cubes = window->relevant_cubes();
+        for (std::size_t i = 0; i < cubes.size(); ++i) remesh_cube(cubes[i], work.plan, i);
       }
       collect_emptied_cubes(ch.c0, ch.c1);
     }
@@ -518,7 +551,53 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
   window = nullptr;
 }
 
-void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core) {
+/// Plans chunk `w`'s unchanged cubes in `core` that hold triangles: their vertices made again
+/// from the window (each once per cube, in the order its triangles first use them) and compared
+/// with what the vertices hold. Reads only: runs on any thread.
+void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VoxelBox& core,
+                                   ChunkPlan& plan) const {
+  const auto& cubes = w.relevant_cubes();
+  plan.refreshed.assign(cubes.size(), 0);
+  plan.first.resize(cubes.size() + 1);
+  plan.refreshes.clear();
+  std::array<unsigned, 64> seen{};  // packed keys of the cube's vertices so far
+  for (std::size_t i = 0; i < cubes.size(); ++i) {
+    const LatticeWindow::Cube& cube = cubes[i];
+    plan.first[i] = static_cast<std::uint32_t>(plan.refreshes.size());
+    const std::uint32_t rid = find_record(cube.c);
+    if (rid == 0 || records[rid].signature != w.signature(cube.local) ||
+        records[rid].first_triangle == kNone || !core.contains(cube.c.x, cube.c.y, cube.c.z))
+      continue;
+    plan.refreshed[i] = 1;
+    std::size_t n_seen = 0;
+    w.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+      for (int k = 0; k < 3; ++k) {
+        const LatticeRef& ref = keys[k];
+        const unsigned packed = static_cast<unsigned>(ref.offset[0] + 1) |
+                                (static_cast<unsigned>(ref.offset[1] + 1) << 2) |
+                                (static_cast<unsigned>(ref.offset[2] + 1) << 4) |
+                                (static_cast<unsigned>(ref.slot) << 6);
+        if (std::find(seen.begin(), seen.begin() + static_cast<std::ptrdiff_t>(n_seen), packed) !=
+            seen.begin() + static_cast<std::ptrdiff_t>(n_seen))
+          continue;
+        if (n_seen < seen.size()) seen[n_seen++] = packed;
+        const Int3 o{cube.c.x + ref.offset[0], cube.c.y + ref.offset[1], cube.c.z + ref.offset[2]};
+        const std::uint32_t orid = find_record(o);
+        const std::uint32_t v = orid == 0 ? 0 : records[orid].vertex[ref.slot];
+        Vec3d ip;
+        std::uint8_t label = 0;
+        w.vertex(o, w.local_index(o), ref.slot, ip, label);
+        const Vec3f p = detail::tissue_position(geometry, ip);
+        const bool differs = v != 0 && (!(positions[v] == p) || labels[v] != label);
+        plan.refreshes.push_back({v, p, label, differs});
+      }
+    });
+  }
+  plan.first[cubes.size()] = static_cast<std::uint32_t>(plan.refreshes.size());
+}
+
+void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan,
+                                    std::size_t index) {
   const std::uint32_t signature = window->signature(cube.local);
   const std::uint32_t rid = record_of(cube.c, false);
   if (rid != 0) {
@@ -527,10 +606,28 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Voxel
   }
   if (rid != 0 && records[rid].signature == signature) {
     // Same triangles (as lattice keys, so as vertex ids). Only near the change can their
-    // vertices have moved: refresh those.
-    const bool in_core = core.contains(cube.c.x, cube.c.y, cube.c.z);
-    if (in_core && records[rid].first_triangle != kNone && refresh_cube_vertices(cube))
-      kept_records.push_back(rid);
+    // vertices have moved: refresh those (planned with the window); the cube's fan is redone
+    // when one moved, now or earlier in this update through another cube.
+    if (!plan.refreshed[index]) return;
+    bool any_moved = false;
+    for (std::uint32_t e = plan.first[index]; e < plan.first[index + 1]; ++e) {
+      const Refresh& r = plan.refreshes[e];
+      if (r.vertex == 0)
+        throw Error(
+            "ImtSurface::update: an unchanged cube's triangle uses a vertex its cube "
+            "record does not hold (internal)");
+      if (stamp[r.vertex] == generation) {
+        any_moved = any_moved || pending[r.vertex];
+        continue;
+      }
+      stamp[r.vertex] = generation;
+      if (!r.moved) continue;
+      moved.push_back({r.vertex, r.position, r.label});
+      pending[r.vertex] = 1;
+      ++stats.vertices_moved;
+      any_moved = true;
+    }
+    if (any_moved) kept_records.push_back(rid);
     return;
   }
   const auto first = static_cast<std::uint32_t>(new_triangles.size());
@@ -541,21 +638,6 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Voxel
   });
   const auto count = static_cast<std::uint32_t>(new_triangles.size()) - first;
   changed_cubes.push_back({cube.c, first, count, signature});
-}
-
-/// Refreshes the vertices of an unchanged cube's triangles: true when one of them moved, now or
-/// earlier in this update through another cube.
-bool ImtSurface::State::refresh_cube_vertices(const LatticeWindow::Cube& cube) {
-  bool any_moved = false;
-  begin_cube();
-  window->mesh_cube(cube.local, [&](const LatticeRef* keys) {
-    for (int k = 0; k < 3; ++k) {
-      const std::size_t before = moved.size();
-      const std::uint32_t v = cube_vertex(cube.c, keys[k]);
-      any_moved = any_moved || moved.size() != before || pending[v];
-    }
-  });
-  return any_moved;
 }
 
 /// Cubes of chunk [c0, c1) that held triangles and are not relevant any more lose them all:
