@@ -100,12 +100,26 @@ struct ImtSurface::State {
   };
   /// A chunk's window and plan, one allocation per chunk of a batch (computed in parallel: no
   /// two threads write to one cache line).
+  /// The vertices of a chunk's own cubes near the change (the core grown by the one cube a
+  /// triangle's keys reach), made with its window: per cube of [c0, c1) the slots made and where
+  /// the first one is.
+  struct VertexTable {
+    Int3 c0{0, 0, 0}, c1{0, 0, 0};
+    std::vector<std::uint16_t> made;
+    std::vector<std::uint32_t> first;
+    std::vector<Vec3f> positions;
+    std::vector<std::uint8_t> labels;
+  };
   struct ChunkWork {
     LatticeWindow window;
     ChunkPlan plan;
+    VertexTable table;
+    bool meshed = false;  // the chunk can hold surface: window, plan and table are current
   };
   std::vector<std::unique_ptr<ChunkWork>> chunk_work;
+  std::size_t batch_size = 0;             // chunks of chunk_work in the batch being meshed
   const LatticeWindow* window = nullptr;  // the one being meshed
+  const ChunkWork* work = nullptr;        // its chunk
   SurfaceUpdateStats stats;
 
   // ---- capacity ---------------------------------------------------------------------------------
@@ -279,6 +293,37 @@ struct ImtSurface::State {
     records[rid].first_triangle = kNone;
   }
 
+  /// Position and label of the vertex in slot `slot` of cube `o`: from the table of the batch's
+  /// chunk that owns o when it made it (the current chunk first), else from the current window
+  /// (every window makes a vertex alike: the merging decisions they hold agree).
+  void made_vertex(const Int3& o, int slot, Vec3f& p, std::uint8_t& label) const {
+    auto from = [&](const ChunkWork& w) {
+      const VertexTable& t = w.table;
+      if (!w.meshed || o.x < t.c0.x || o.y < t.c0.y || o.z < t.c0.z || o.x >= t.c1.x ||
+          o.y >= t.c1.y || o.z >= t.c1.z)
+        return false;
+      const Int3 e{t.c1.x - t.c0.x, t.c1.y - t.c0.y, t.c1.z - t.c0.z};
+      const std::size_t i =
+          static_cast<std::size_t>(o.x - t.c0.x) +
+          static_cast<std::size_t>(e.x) *
+              (static_cast<std::size_t>(o.y - t.c0.y) +
+               static_cast<std::size_t>(e.y) * static_cast<std::size_t>(o.z - t.c0.z));
+      const unsigned made = t.made[i];
+      if (!((made >> slot) & 1u)) return false;
+      const std::size_t at =
+          t.first[i] + static_cast<std::size_t>(__builtin_popcount(made & ((1u << slot) - 1u)));
+      p = t.positions[at];
+      label = t.labels[at];
+      return true;
+    };
+    if (from(*work)) return;
+    for (std::size_t b = 0; b < batch_size; ++b)
+      if (chunk_work[b].get() != work && from(*chunk_work[b])) return;
+    Vec3d ip;
+    window->vertex(o, window->local_index(o), slot, ip, label);
+    p = detail::tissue_position(geometry, ip);
+  }
+
   /// The vertex for lattice slot `slot` of cube `o`: made from the current window when new;
   /// refreshed once per update otherwise, a changed position or label going to `moved` (applied
   /// after the old normal contributions are taken off).
@@ -286,10 +331,9 @@ struct ImtSurface::State {
     const std::uint32_t rid = record_of(o, true);
     std::uint32_t v = records[rid].vertex[slot];
     if (v != 0 && stamp[v] == generation) return v;
-    Vec3d ip;
-    std::uint8_t label;
-    window->vertex(o, window->local_index(o), slot, ip, label);
-    const Vec3f p = detail::tissue_position(geometry, ip);
+    Vec3f p;
+    std::uint8_t label = 0;
+    made_vertex(o, slot, p, label);
     if (v == 0) {
       v = allocate_vertex();
       touch_vertex(v, kModified);
@@ -388,6 +432,8 @@ struct ImtSurface::State {
   void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
                      int margin);
   void plan_chunk(const LatticeWindow& w, const VoxelBox& core, ChunkPlan& plan) const;
+  void make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
+                           const VoxelBox& near, VertexTable& table) const;
   void remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan, std::size_t index);
   void collect_emptied_cubes(const Int3& c0, const Int3& c1);
   void collect_emptied_cubes_in_page(std::uint32_t page, const Int3& p, const VoxelBox& chunk);
@@ -519,7 +565,6 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
   const auto batch = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
   while (chunk_work.size() < std::min(batch, chunks.size()))
     chunk_work.push_back(std::make_unique<ChunkWork>());
-  std::vector<std::uint8_t> meshed(std::min(batch, chunks.size()));
   for (std::size_t first = 0; first < chunks.size(); first += batch) {
     const auto count = static_cast<std::int64_t>(std::min(batch, chunks.size() - first));
 #pragma omp parallel for schedule(dynamic, 1) if (count > 1)
@@ -530,25 +575,61 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
           detail::range_straddles(
               volume, volume.brick_ranges(), {ch.c0.x - margin, ch.c0.y - margin, ch.c0.z - margin},
               {ch.c1.x + margin - 1, ch.c1.y + margin - 1, ch.c1.z + margin - 1}, options.iso);
-      meshed[static_cast<std::size_t>(b)] = may_hold_surface ? 1 : 0;
+      ChunkWork& cw = *chunk_work[static_cast<std::size_t>(b)];
+      cw.meshed = may_hold_surface;
       if (may_hold_surface) {
-        ChunkWork& work = *chunk_work[static_cast<std::size_t>(b)];
-        work.window.compute(volume, options, ch.c0, ch.c1);
-        plan_chunk(work.window, core, work.plan);
+        cw.window.compute(volume, options, ch.c0, ch.c1);
+        plan_chunk(cw.window, core, cw.plan);
+        make_chunk_vertices(cw.window, ch.c0, ch.c1, core.dilated(1, 1), cw.table);
       }
     }
+    batch_size = static_cast<std::size_t>(count);
     for (std::int64_t b = 0; b < count; ++b) {
       const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
-      if (meshed[static_cast<std::size_t>(b)]) {
-        const ChunkWork& work = *chunk_work[static_cast<std::size_t>(b)];
-        window = &work.window;
+      work = chunk_work[static_cast<std::size_t>(b)].get();
+      if (work->meshed) {
+        window = &work->window;
         const auto& cubes = window->relevant_cubes();
-        for (std::size_t i = 0; i < cubes.size(); ++i) remesh_cube(cubes[i], work.plan, i);
+        for (std::size_t i = 0; i < cubes.size(); ++i) remesh_cube(cubes[i], work->plan, i);
       }
       collect_emptied_cubes(ch.c0, ch.c1);
     }
   }
   window = nullptr;
+  work = nullptr;
+  batch_size = 0;
+}
+
+/// The table of the vertices of chunk [c0, c1)'s relevant cubes in `near`: every slot a triangle
+/// uses (LatticeWindow::referenced_slots), made with the chunk's window. Reads only.
+void ImtSurface::State::make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
+                                            const VoxelBox& near, VertexTable& table) const {
+  table.c0 = c0;
+  table.c1 = c1;
+  const Int3 e{c1.x - c0.x, c1.y - c0.y, c1.z - c0.z};
+  table.made.assign(static_cast<std::size_t>(e.volume()), 0);
+  table.first.resize(table.made.size());
+  table.positions.clear();
+  table.labels.clear();
+  for (const auto& cube : w.relevant_cubes()) {
+    if (!near.contains(cube.c.x, cube.c.y, cube.c.z)) continue;
+    const std::size_t i =
+        static_cast<std::size_t>(cube.c.x - c0.x) +
+        static_cast<std::size_t>(e.x) *
+            (static_cast<std::size_t>(cube.c.y - c0.y) +
+             static_cast<std::size_t>(e.y) * static_cast<std::size_t>(cube.c.z - c0.z));
+    const std::uint16_t made = w.referenced_slots(cube.local);
+    table.made[i] = made;
+    table.first[i] = static_cast<std::uint32_t>(table.positions.size());
+    for (unsigned bits = made; bits; bits &= bits - 1) {
+      const int slot = __builtin_ctz(bits);
+      Vec3d ip;
+      std::uint8_t label = 0;
+      w.vertex(cube.c, cube.local, slot, ip, label);
+      table.positions.push_back(detail::tissue_position(geometry, ip));
+      table.labels.push_back(label);
+    }
+  }
 }
 
 /// Plans chunk `w`'s unchanged cubes in `core` that hold triangles: their vertices made again
