@@ -147,84 +147,116 @@ std::size_t Coupler::orphan_count() const {
   return n;
 }
 
+namespace {
+
+/// Re-binding or coupling fewer vertices than this stays on the calling thread (an ablation
+/// stroke's few hundred): a parallel region costs more than it saves there.
+constexpr std::int64_t kParallelVertices = 2048;
+
+/// Sorts keys (cell << 32 | slot) by cell, keeping the order of keys with the same cell (LSD
+/// radix sort, 11-bit digits over the bits a cell index can have). With the slots ascending on
+/// entry, that is the order of the keys themselves.
+void sort_by_cell(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& tmp,
+                  std::int64_t cell_count) {
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
+  int bits = 0;
+  while (bits < 32 && (std::int64_t{1} << bits) < cell_count) ++bits;
+  tmp.resize(keys.size());
+  std::size_t count[kBuckets];
+  for (int shift = 32; shift < 32 + bits; shift += kDigitBits) {
+    std::fill(std::begin(count), std::end(count), std::size_t{0});
+    for (std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
+    std::size_t sum = 0;
+    for (std::size_t& c : count) {
+      const std::size_t n = c;
+      c = sum;
+      sum += n;
+    }
+    for (std::uint64_t k : keys) tmp[count[(k >> shift) & (kBuckets - 1)]++] = k;
+    keys.swap(tmp);
+  }
+}
+
+}  // namespace
+
 void Coupler::bind_slots(const imt::ImtSurface& surface, const crms::Lattice& lattice,
-                         std::vector<std::uint32_t>& slots, RebindReport& report, bool parallel,
+                         std::vector<std::uint32_t>& slots, RebindReport& report,
                          const std::vector<std::int64_t>& touched_cells) {
   const std::vector<Vec3f>& p = surface.positions();
   const std::vector<Vec3f>& n = surface.normals();
+  const auto count = static_cast<std::int64_t>(slots.size());
+  const bool parallel = count >= kParallelVertices;
   // Sort by cube (key = cell << 32 | slot) so consecutive vertices reuse the binder's per-cube
-  // grouping and frames.
+  // grouping and frames. The slots arrive ascending (both callers sort them).
   std::vector<std::uint64_t>& order = scratch_order_;
   order.resize(slots.size());
-  for (std::size_t i = 0; i < slots.size(); ++i) {
-    const crms::LatticeCellLocation loc =
-        crms::locate_rest_point(geometry_, to_double(p[slots[i]]));
-    order[i] =
-        (static_cast<std::uint64_t>(geometry_.index(loc.cell.x, loc.cell.y, loc.cell.z)) << 32) |
-        slots[i];
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::int64_t i = 0; i < count; ++i) {
+    const std::uint32_t s = slots[static_cast<std::size_t>(i)];
+    const crms::LatticeCellLocation loc = crms::locate_rest_point(geometry_, to_double(p[s]));
+    order[static_cast<std::size_t>(i)] =
+        (static_cast<std::uint64_t>(geometry_.index(loc.cell.x, loc.cell.y, loc.cell.z)) << 32) | s;
   }
-  std::sort(order.begin(), order.end());
-  // What each slot was bound to, to keep links and frames that do not change.
-  std::vector<std::int32_t>& old_cell = scratch_old_cell_;
-  old_cell.resize(order.size());
-  for (std::size_t i = 0; i < order.size(); ++i)
-    old_cell[i] = bindings_[static_cast<std::uint32_t>(order[i])].cell;
-  // Fast path: a vertex that stays in its cube, bound to a frame of one piece (all alive sources
-  // connected) whose nodes this edit left alone, keeps its frame — binding it afresh would give
-  // the same cell and sources; only w and the normal change.
-  std::vector<std::uint8_t>& full = scratch_full_;
-  full.assign(order.size(), 1);
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    const auto s = static_cast<std::uint32_t>(order[i]);
-    const auto cell = static_cast<std::int32_t>(order[i] >> 32);
-    const std::uint32_t f = vertex_frames_[s].frame;
-    if (f == kNoFrame || old_cell[i] != cell || !frame_single_[f] || orphan_[s]) continue;
-    if (std::binary_search(touched_cells.begin(), touched_cells.end(), std::int64_t{cell}))
-      continue;
-    full[i] = 0;
-    const Int3 c = geometry_.coordinates(cell);
-    const Vec3d r = geometry_.rest_position(c.x, c.y, c.z);
-    VertexBinding& b = bindings_[s];
-    for (int a = 0; a < 3; ++a)
-      b.w[a] = static_cast<float>((static_cast<double>(p[s][a]) - r[a]) / geometry_.spacing[a]);
-    rest_normals_[s] = n[s];
-  }
+  sort_by_cell(order, scratch_sort_, geometry_.node_count());
 
-  const auto count = static_cast<std::int64_t>(order.size());
-  std::vector<std::uint8_t>& single = scratch_single_;
-  single.assign(order.size(), 0);
+  // Each vertex's new binding, by its place in `order`; the coupler's own arrays are only read
+  // here, so the threads share one read-only view of them (and of the lattice), each with a
+  // binder of its own for the per-cube grouping cache. Fast path: a vertex that stays in its
+  // cube, bound to a frame of one piece (all alive sources connected) whose nodes this edit left
+  // alone, keeps its frame — binding it afresh would give the same cell and sources; only w and
+  // the normal change.
+  std::vector<Rebinding>& out = scratch_rebinding_;
+  out.resize(order.size());
   std::size_t orphans = 0;
-#pragma omp parallel if (parallel && count > 4096) reduction(+ : orphans)
+#pragma omp parallel if (parallel) reduction(+ : orphans)
   {
     VertexBinder binder(lattice);
 #pragma omp for schedule(static)
     for (std::int64_t i = 0; i < count; ++i) {
-      if (!full[static_cast<std::size_t>(i)]) continue;
       const auto s = static_cast<std::uint32_t>(order[static_cast<std::size_t>(i)]);
-      const BindingResult r = binder.bind(p[s], n[s]);
-      single[static_cast<std::size_t>(i)] = r.single_piece ? 1 : 0;
-      bindings_[s] = r.binding;
-      sources_[s] = r.sources;
-      orphan_[s] = r.orphan ? 1 : 0;
-      rest_normals_[s] = n[s];
-      orphans += r.orphan ? 1 : 0;
+      const auto cell = static_cast<std::int32_t>(order[static_cast<std::size_t>(i)] >> 32);
+      Rebinding& r = out[static_cast<std::size_t>(i)];
+      r.old_cell = bindings_[s].cell;
+      const std::uint32_t f = vertex_frames_[s].frame;
+      r.full = f == kNoFrame || r.old_cell != cell || !frame_single_[f] || orphan_[s] ||
+               std::binary_search(touched_cells.begin(), touched_cells.end(), std::int64_t{cell});
+      if (!r.full) {
+        const Int3 c = geometry_.coordinates(cell);
+        const Vec3d rest = geometry_.rest_position(c.x, c.y, c.z);
+        r.result.binding.cell = cell;
+        for (int a = 0; a < 3; ++a)
+          r.result.binding.w[a] =
+              static_cast<float>((static_cast<double>(p[s][a]) - rest[a]) / geometry_.spacing[a]);
+        continue;
+      }
+      r.result = binder.bind(p[s], n[s]);
+      orphans += r.result.orphan ? 1 : 0;
     }
   }
+  // Links and frames, in the sorted order.
   last_rebound_.resize(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) {
     const auto s = static_cast<std::uint32_t>(order[i]);
+    const Rebinding& r = out[i];
     last_rebound_[i] = s;
-    const VertexBinding& b = bindings_[s];
-    if (old_cell[i] != b.cell) {
-      unlink_from(s, old_cell[i]);
+    VertexBinding& b = bindings_[s];
+    b = r.result.binding;
+    rest_normals_[s] = n[s];
+    if (r.full) {
+      sources_[s] = r.result.sources;
+      orphan_[s] = r.result.orphan ? 1 : 0;
+    }
+    if (r.old_cell != b.cell) {
+      unlink_from(s, r.old_cell);
       link(s);
     }
     VertexFrameBinding& vf = vertex_frames_[s];
     const std::uint32_t f = vf.frame;
-    if (full[i] &&
+    if (r.full &&
         (f == kNoFrame || frames_[f].cell != b.cell || frames_[f].sources != sources_[s])) {
       release_frame(f);
-      vf.frame = acquire_frame(b.cell, sources_[s], single[i] != 0);
+      vf.frame = acquire_frame(b.cell, sources_[s], r.result.single_piece);
     }
     vf.w[0] = b.w[0];
     vf.w[1] = b.w[1];
@@ -254,7 +286,7 @@ RebindReport Coupler::bind_all(const imt::ImtSurface& surface, const crms::Latti
   slots.reserve(surface.live_vertex_count());
   for (std::uint32_t s = 1; s < slot_count_; ++s)
     if (surface.vertex_live(s)) slots.push_back(s);
-  bind_slots(surface, lattice, slots, report, true, {});
+  bind_slots(surface, lattice, slots, report, {});
   report.from_changes = report.rebound;
   pending_upload_.clear();
   pending_frames_.clear();
@@ -323,7 +355,11 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
   report.cubes_touched = cells.size();
   const std::size_t before = slots.size();
   for (std::int64_t c : cells) slots_in_cube(c, slots);
-  std::sort(slots.begin(), slots.end());
+  // The first `before` are sorted already: sort the cubes' slots and merge (a whole sort of a
+  // sorted run with an unsorted tail fell back to heapsort here).
+  const auto tail = slots.begin() + static_cast<std::ptrdiff_t>(before);
+  std::sort(tail, slots.end());
+  std::inplace_merge(slots.begin(), tail, slots.end());
   slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
   report.from_topology = slots.size() - before;
 
@@ -331,7 +367,7 @@ RebindReport Coupler::apply_changes(const imt::ImtSurface& surface,
     if (!surface.vertex_live(s))
       throw Error("coupler: change list names vertex slot " + std::to_string(s) +
                   ", which is not live");
-  bind_slots(surface, lattice, slots, report, false, cells);
+  bind_slots(surface, lattice, slots, report, cells);
   return report;
 }
 
@@ -461,17 +497,28 @@ void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::ui
     return;
   }
   const LatticeReader reader{view};
-  for (std::uint32_t f : scratch_frames_)
+  // A cut's thousands of vertices on the threads (distinct frames, distinct slots); a stroke's
+  // few hundred on the calling thread.
+  const bool parallel = static_cast<std::int64_t>(slots.size()) >= kParallelVertices;
+  const auto frames = static_cast<std::int64_t>(scratch_frames_.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::int64_t i = 0; i < frames; ++i) {
+    const std::uint32_t f = scratch_frames_[static_cast<std::size_t>(i)];
     frame_corners_[f] = resolve_frame(reader, view, frames_[f], mode);
-  for (std::uint32_t s : slots) {
+  }
+  const auto count = static_cast<std::int64_t>(slots.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::int64_t i = 0; i < count; ++i) {
+    const std::uint32_t s = slots[static_cast<std::size_t>(i)];
     const VertexFrameBinding b = vertex_frames_[s];
     if (b.frame == kNoFrame) continue;
     const CoupledVertex v =
         couple_from_frame(frame_corners_[b.frame], b.w, view.spacing, rest_normals_[s], mode);
     positions_[s] = v.position;
     normals_[s] = v.normal;
-    stamp_block(s / kDirtyBlockSlots);
   }
+  for (std::uint32_t s : slots)
+    if (vertex_frames_[s].frame != kNoFrame) stamp_block(s / kDirtyBlockSlots);
 }
 
 std::vector<std::pair<std::uint32_t, std::uint32_t>> Coupler::changed_ranges(

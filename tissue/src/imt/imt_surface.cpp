@@ -4,7 +4,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
+
+#include <omp.h>
 
 #include "lattice_window.h"
 #include "surface_internals.h"
@@ -79,7 +82,44 @@ struct ImtSurface::State {
   std::vector<std::uint32_t> released_vertices, normal_dirty;
   std::vector<Int3> released_cubes;
   std::vector<std::uint8_t> normal_dirty_flag;
-  LatticeWindow window;
+  /// A vertex of an unchanged cube's triangles as its chunk's window makes it now: `moved` when
+  /// that differs from the vertex's position or label.
+  struct Refresh {
+    std::uint32_t vertex;
+    Vec3f position;
+    std::uint8_t label;
+    bool moved;
+  };
+  /// What a chunk's unchanged cubes need, worked out with its window: per relevant cube, whether
+  /// it keeps its triangles and lies in the core (then its vertices are refreshed), and those
+  /// vertices in the order the cube's triangles first use them.
+  struct ChunkPlan {
+    std::vector<std::uint8_t> refreshed;  // per relevant cube
+    std::vector<std::uint32_t> first;     // per relevant cube + 1: its range in `refreshes`
+    std::vector<Refresh> refreshes;
+  };
+  /// A chunk's window and plan, one allocation per chunk of a batch (computed in parallel: no
+  /// two threads write to one cache line).
+  /// The vertices of a chunk's own cubes near the change (the core grown by the one cube a
+  /// triangle's keys reach), made with its window: per cube of [c0, c1) the slots made and where
+  /// the first one is.
+  struct VertexTable {
+    Int3 c0{0, 0, 0}, c1{0, 0, 0};
+    std::vector<std::uint16_t> made;
+    std::vector<std::uint32_t> first;
+    std::vector<Vec3f> positions;
+    std::vector<std::uint8_t> labels;
+  };
+  struct ChunkWork {
+    LatticeWindow window;
+    ChunkPlan plan;
+    VertexTable table;
+    bool meshed = false;  // the chunk can hold surface: window, plan and table are current
+  };
+  std::vector<std::unique_ptr<ChunkWork>> chunk_work;
+  std::size_t batch_size = 0;             // chunks of chunk_work in the batch being meshed
+  const LatticeWindow* window = nullptr;  // the one being meshed
+  const ChunkWork* work = nullptr;        // its chunk
   SurfaceUpdateStats stats;
 
   // ---- capacity ---------------------------------------------------------------------------------
@@ -137,6 +177,12 @@ struct ImtSurface::State {
     const auto x = static_cast<unsigned>(u.x) & 7u, y = static_cast<unsigned>(u.y) & 7u,
                z = static_cast<unsigned>(u.z) & 7u;
     return static_cast<int>(x + 8u * (y + 8u * z));
+  }
+  /// Record id of cube c, 0 when it has none (read only: safe on several threads).
+  std::uint32_t find_record(const Int3& c) const {
+    const Int3 u{c.x + 1, c.y + 1, c.z + 1};
+    const std::uint32_t page = page_of[page_cell(u)];
+    return page == 0 ? 0 : page_records[page - 1][static_cast<std::size_t>(page_local(u))];
   }
   /// Record id of cube c (0 when it has none and `create` is false).
   std::uint32_t record_of(const Int3& c, bool create) {
@@ -247,6 +293,37 @@ struct ImtSurface::State {
     records[rid].first_triangle = kNone;
   }
 
+  /// Position and label of the vertex in slot `slot` of cube `o`: from the table of the batch's
+  /// chunk that owns o when it made it (the current chunk first), else from the current window
+  /// (every window makes a vertex alike: the merging decisions they hold agree).
+  void made_vertex(const Int3& o, int slot, Vec3f& p, std::uint8_t& label) const {
+    auto from = [&](const ChunkWork& w) {
+      const VertexTable& t = w.table;
+      if (!w.meshed || o.x < t.c0.x || o.y < t.c0.y || o.z < t.c0.z || o.x >= t.c1.x ||
+          o.y >= t.c1.y || o.z >= t.c1.z)
+        return false;
+      const Int3 e{t.c1.x - t.c0.x, t.c1.y - t.c0.y, t.c1.z - t.c0.z};
+      const std::size_t i =
+          static_cast<std::size_t>(o.x - t.c0.x) +
+          static_cast<std::size_t>(e.x) *
+              (static_cast<std::size_t>(o.y - t.c0.y) +
+               static_cast<std::size_t>(e.y) * static_cast<std::size_t>(o.z - t.c0.z));
+      const unsigned made = t.made[i];
+      if (!((made >> slot) & 1u)) return false;
+      const std::size_t at =
+          t.first[i] + static_cast<std::size_t>(__builtin_popcount(made & ((1u << slot) - 1u)));
+      p = t.positions[at];
+      label = t.labels[at];
+      return true;
+    };
+    if (from(*work)) return;
+    for (std::size_t b = 0; b < batch_size; ++b)
+      if (chunk_work[b].get() != work && from(*chunk_work[b])) return;
+    Vec3d ip;
+    window->vertex(o, window->local_index(o), slot, ip, label);
+    p = detail::tissue_position(geometry, ip);
+  }
+
   /// The vertex for lattice slot `slot` of cube `o`: made from the current window when new;
   /// refreshed once per update otherwise, a changed position or label going to `moved` (applied
   /// after the old normal contributions are taken off).
@@ -254,10 +331,9 @@ struct ImtSurface::State {
     const std::uint32_t rid = record_of(o, true);
     std::uint32_t v = records[rid].vertex[slot];
     if (v != 0 && stamp[v] == generation) return v;
-    Vec3d ip;
-    std::uint8_t label;
-    window.vertex(o, window.local_index(o), slot, ip, label);
-    const Vec3f p = detail::tissue_position(geometry, ip);
+    Vec3f p;
+    std::uint8_t label = 0;
+    made_vertex(o, slot, p, label);
     if (v == 0) {
       v = allocate_vertex();
       touch_vertex(v, kModified);
@@ -355,10 +431,10 @@ struct ImtSurface::State {
   /// (LatticeWindow::margin).
   void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
                      int margin);
-  void remesh_chunk(const VoxelVolume& volume, const VoxelBox& core, const Int3& c0,
-                    const Int3& c1);
-  void remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core);
-  bool refresh_cube_vertices(const LatticeWindow::Cube& cube);
+  void plan_chunk(const LatticeWindow& w, const VoxelBox& core, ChunkPlan& plan) const;
+  void make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
+                           const VoxelBox& near, VertexTable& table) const;
+  void remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan, std::size_t index);
   void collect_emptied_cubes(const Int3& c0, const Int3& c1);
   void collect_emptied_cubes_in_page(std::uint32_t page, const Int3& p, const VoxelBox& chunk);
   /// Pass 2. Reads changed_cubes and kept_records, with the old positions; releases the changed
@@ -470,31 +546,140 @@ void ImtSurface::State::begin_update() {
 void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox& region,
                                       const VoxelBox& core, int margin) {
   const bool ranges = volume.brick_ranges_current();
+  struct Chunk {
+    Int3 c0, c1;
+  };
+  std::vector<Chunk> chunks;
   for (int z0 = region.lo.z; z0 < region.hi.z; z0 += kChunk)
     for (int y0 = region.lo.y; y0 < region.hi.y; y0 += kChunk)
-      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk) {
-        const Int3 c0{x0, y0, z0};
-        const Int3 c1{std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
-                      std::min(z0 + kChunk, region.hi.z)};
-        const bool may_hold_surface =
-            !ranges ||
-            detail::range_straddles(
-                volume, volume.brick_ranges(), {c0.x - margin, c0.y - margin, c0.z - margin},
-                {c1.x + margin - 1, c1.y + margin - 1, c1.z + margin - 1}, options.iso);
-        if (may_hold_surface) remesh_chunk(volume, core, c0, c1);
-        collect_emptied_cubes(c0, c1);
+      for (int x0 = region.lo.x; x0 < region.hi.x; x0 += kChunk)
+        chunks.push_back({{x0, y0, z0},
+                          {std::min(x0 + kChunk, region.hi.x), std::min(y0 + kChunk, region.hi.y),
+                           std::min(z0 + kChunk, region.hi.z)}});
+  // The chunks go in batches of one per thread. Each batch's lattice windows (the volume read,
+  // the merging decisions: pure functions of the volume) and plans (the unchanged cubes' vertices
+  // made again and compared: reads of the records and positions, which this pass does not
+  // write) are computed in parallel; then its cubes are meshed against the records on this
+  // thread in the serial order, so the slots, lists and change lists are the same on any number
+  // of threads.
+  const auto batch = static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
+  while (chunk_work.size() < std::min(batch, chunks.size()))
+    chunk_work.push_back(std::make_unique<ChunkWork>());
+  for (std::size_t first = 0; first < chunks.size(); first += batch) {
+    const auto count = static_cast<std::int64_t>(std::min(batch, chunks.size() - first));
+#pragma omp parallel for schedule(dynamic, 1) if (count > 1)
+    for (std::int64_t b = 0; b < count; ++b) {
+      const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
+      const bool may_hold_surface =
+          !ranges ||
+          detail::range_straddles(
+              volume, volume.brick_ranges(), {ch.c0.x - margin, ch.c0.y - margin, ch.c0.z - margin},
+              {ch.c1.x + margin - 1, ch.c1.y + margin - 1, ch.c1.z + margin - 1}, options.iso);
+      ChunkWork& cw = *chunk_work[static_cast<std::size_t>(b)];
+      cw.meshed = may_hold_surface;
+      if (may_hold_surface) {
+        cw.window.compute(volume, options, ch.c0, ch.c1);
+        plan_chunk(cw.window, core, cw.plan);
+        make_chunk_vertices(cw.window, ch.c0, ch.c1, core.dilated(1, 1), cw.table);
       }
+    }
+    batch_size = static_cast<std::size_t>(count);
+    for (std::int64_t b = 0; b < count; ++b) {
+      const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
+      work = chunk_work[static_cast<std::size_t>(b)].get();
+      if (work->meshed) {
+        window = &work->window;
+        const auto& cubes = window->relevant_cubes();
+        for (std::size_t i = 0; i < cubes.size(); ++i) remesh_cube(cubes[i], work->plan, i);
+      }
+      collect_emptied_cubes(ch.c0, ch.c1);
+    }
+  }
+  window = nullptr;
+  work = nullptr;
+  batch_size = 0;
 }
 
-/// Meshes every cube of chunk [c0, c1) that can hold surface now; compares with what it held.
-void ImtSurface::State::remesh_chunk(const VoxelVolume& volume, const VoxelBox& core,
-                                     const Int3& c0, const Int3& c1) {
-  window.compute(volume, options, c0, c1);
-  for (const auto& cube : window.relevant_cubes()) remesh_cube(cube, core);
+/// The table of the vertices of chunk [c0, c1)'s relevant cubes in `near`: every slot a triangle
+/// uses (LatticeWindow::referenced_slots), made with the chunk's window. Reads only.
+void ImtSurface::State::make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
+                                            const VoxelBox& near, VertexTable& table) const {
+  table.c0 = c0;
+  table.c1 = c1;
+  const Int3 e{c1.x - c0.x, c1.y - c0.y, c1.z - c0.z};
+  table.made.assign(static_cast<std::size_t>(e.volume()), 0);
+  table.first.resize(table.made.size());
+  table.positions.clear();
+  table.labels.clear();
+  for (const auto& cube : w.relevant_cubes()) {
+    if (!near.contains(cube.c.x, cube.c.y, cube.c.z)) continue;
+    const std::size_t i =
+        static_cast<std::size_t>(cube.c.x - c0.x) +
+        static_cast<std::size_t>(e.x) *
+            (static_cast<std::size_t>(cube.c.y - c0.y) +
+             static_cast<std::size_t>(e.y) * static_cast<std::size_t>(cube.c.z - c0.z));
+    const std::uint16_t made = w.referenced_slots(cube.local);
+    table.made[i] = made;
+    table.first[i] = static_cast<std::uint32_t>(table.positions.size());
+    for (unsigned bits = made; bits; bits &= bits - 1) {
+      const int slot = __builtin_ctz(bits);
+      Vec3d ip;
+      std::uint8_t label = 0;
+      w.vertex(cube.c, cube.local, slot, ip, label);
+      table.positions.push_back(detail::tissue_position(geometry, ip));
+      table.labels.push_back(label);
+    }
+  }
 }
 
-void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const VoxelBox& core) {
-  const std::uint32_t signature = window.signature(cube.local);
+/// Plans chunk `w`'s unchanged cubes in `core` that hold triangles: their vertices made again
+/// from the window (each once per cube, in the order its triangles first use them) and compared
+/// with what the vertices hold. Reads only: runs on any thread.
+void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VoxelBox& core,
+                                   ChunkPlan& plan) const {
+  const auto& cubes = w.relevant_cubes();
+  plan.refreshed.assign(cubes.size(), 0);
+  plan.first.resize(cubes.size() + 1);
+  plan.refreshes.clear();
+  std::array<unsigned, 64> seen{};  // packed keys of the cube's vertices so far
+  for (std::size_t i = 0; i < cubes.size(); ++i) {
+    const LatticeWindow::Cube& cube = cubes[i];
+    plan.first[i] = static_cast<std::uint32_t>(plan.refreshes.size());
+    const std::uint32_t rid = find_record(cube.c);
+    if (rid == 0 || records[rid].signature != w.signature(cube.local) ||
+        records[rid].first_triangle == kNone || !core.contains(cube.c.x, cube.c.y, cube.c.z))
+      continue;
+    plan.refreshed[i] = 1;
+    std::size_t n_seen = 0;
+    w.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+      for (int k = 0; k < 3; ++k) {
+        const LatticeRef& ref = keys[k];
+        const unsigned packed = static_cast<unsigned>(ref.offset[0] + 1) |
+                                (static_cast<unsigned>(ref.offset[1] + 1) << 2) |
+                                (static_cast<unsigned>(ref.offset[2] + 1) << 4) |
+                                (static_cast<unsigned>(ref.slot) << 6);
+        if (std::find(seen.begin(), seen.begin() + static_cast<std::ptrdiff_t>(n_seen), packed) !=
+            seen.begin() + static_cast<std::ptrdiff_t>(n_seen))
+          continue;
+        if (n_seen < seen.size()) seen[n_seen++] = packed;
+        const Int3 o{cube.c.x + ref.offset[0], cube.c.y + ref.offset[1], cube.c.z + ref.offset[2]};
+        const std::uint32_t orid = find_record(o);
+        const std::uint32_t v = orid == 0 ? 0 : records[orid].vertex[ref.slot];
+        Vec3d ip;
+        std::uint8_t label = 0;
+        w.vertex(o, w.local_index(o), ref.slot, ip, label);
+        const Vec3f p = detail::tissue_position(geometry, ip);
+        const bool differs = v != 0 && (!(positions[v] == p) || labels[v] != label);
+        plan.refreshes.push_back({v, p, label, differs});
+      }
+    });
+  }
+  plan.first[cubes.size()] = static_cast<std::uint32_t>(plan.refreshes.size());
+}
+
+void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan,
+                                    std::size_t index) {
+  const std::uint32_t signature = window->signature(cube.local);
   const std::uint32_t rid = record_of(cube.c, false);
   if (rid != 0) {
     if (rid >= record_stamp.size()) record_stamp.resize(2 * rid + 2, 0);
@@ -502,35 +687,38 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Voxel
   }
   if (rid != 0 && records[rid].signature == signature) {
     // Same triangles (as lattice keys, so as vertex ids). Only near the change can their
-    // vertices have moved: refresh those.
-    const bool in_core = core.contains(cube.c.x, cube.c.y, cube.c.z);
-    if (in_core && records[rid].first_triangle != kNone && refresh_cube_vertices(cube))
-      kept_records.push_back(rid);
+    // vertices have moved: refresh those (planned with the window); the cube's fan is redone
+    // when one moved, now or earlier in this update through another cube.
+    if (!plan.refreshed[index]) return;
+    bool any_moved = false;
+    for (std::uint32_t e = plan.first[index]; e < plan.first[index + 1]; ++e) {
+      const Refresh& r = plan.refreshes[e];
+      if (r.vertex == 0)
+        throw Error(
+            "ImtSurface::update: an unchanged cube's triangle uses a vertex its cube "
+            "record does not hold (internal)");
+      if (stamp[r.vertex] == generation) {
+        any_moved = any_moved || pending[r.vertex];
+        continue;
+      }
+      stamp[r.vertex] = generation;
+      if (!r.moved) continue;
+      moved.push_back({r.vertex, r.position, r.label});
+      pending[r.vertex] = 1;
+      ++stats.vertices_moved;
+      any_moved = true;
+    }
+    if (any_moved) kept_records.push_back(rid);
     return;
   }
   const auto first = static_cast<std::uint32_t>(new_triangles.size());
   begin_cube();
-  window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+  window->mesh_cube(cube.local, [&](const LatticeRef* keys) {
     new_triangles.push_back(
         {cube_vertex(cube.c, keys[0]), cube_vertex(cube.c, keys[1]), cube_vertex(cube.c, keys[2])});
   });
   const auto count = static_cast<std::uint32_t>(new_triangles.size()) - first;
   changed_cubes.push_back({cube.c, first, count, signature});
-}
-
-/// Refreshes the vertices of an unchanged cube's triangles: true when one of them moved, now or
-/// earlier in this update through another cube.
-bool ImtSurface::State::refresh_cube_vertices(const LatticeWindow::Cube& cube) {
-  bool any_moved = false;
-  begin_cube();
-  window.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-    for (int k = 0; k < 3; ++k) {
-      const std::size_t before = moved.size();
-      const std::uint32_t v = cube_vertex(cube.c, keys[k]);
-      any_moved = any_moved || moved.size() != before || pending[v];
-    }
-  });
-  return any_moved;
 }
 
 /// Cubes of chunk [c0, c1) that held triangles and are not relevant any more lose them all:

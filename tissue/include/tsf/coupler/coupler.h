@@ -32,6 +32,7 @@
 #include "tsf/coupler/couple_vertex.h"
 #include "tsf/coupler/deformed_lattice_view.h"
 #include "tsf/coupler/frame_index.h"
+#include "tsf/coupler/vertex_binder.h"
 #include "tsf/crms/lattice.h"
 #include "tsf/crms/solver.h"
 #include "tsf/imt/imt_surface.h"
@@ -122,7 +123,7 @@ class Coupler {
   void unlink_from(std::uint32_t slot, std::int32_t cell);
   void link(std::uint32_t slot);
   void bind_slots(const imt::ImtSurface& surface, const crms::Lattice& lattice,
-                  std::vector<std::uint32_t>& slots, RebindReport& report, bool parallel,
+                  std::vector<std::uint32_t>& slots, RebindReport& report,
                   const std::vector<std::int64_t>& touched_cells);
   void sync_device(const crms::Solver& solver);
   void stamp_block(std::uint32_t block) { block_versions_[block] = version_; }
@@ -156,9 +157,14 @@ class Coupler {
   std::vector<FrameCorners> frame_corners_;
   std::vector<std::uint32_t> pending_frames_;  ///< frames changed since the last device upload
   std::vector<std::uint32_t> scratch_frames_;
-  std::vector<std::uint64_t> scratch_order_;
-  std::vector<std::int32_t> scratch_old_cell_;
-  std::vector<std::uint8_t> scratch_full_, scratch_single_;
+  std::vector<std::uint64_t> scratch_order_, scratch_sort_;
+  /// A re-bound vertex's new binding (by its place in the sorted order) and its old cube.
+  struct Rebinding {
+    BindingResult result;
+    std::int32_t old_cell;
+    bool full;  ///< bound afresh (else: the same frame, new w)
+  };
+  std::vector<Rebinding> scratch_rebinding_;
   // CUDA: device mirror, slots whose binding changed since the last upload, full upload flag.
   std::unique_ptr<CouplerDevice> device_;  // after the output arrays: unregisters them first
   std::vector<std::pair<std::uint32_t, std::uint32_t>> download_ranges_;
