@@ -97,18 +97,36 @@ struct ImtSurface::State {
     std::vector<std::uint8_t> refreshed;  // per relevant cube
     std::vector<std::uint32_t> first;     // per relevant cube + 1: its range in `refreshes`
     std::vector<Refresh> refreshes;
+    std::vector<std::uint32_t> planned;  // open-addressing set of the vertices planned so far
   };
   /// A chunk's window and plan, one allocation per chunk of a batch (computed in parallel: no
   /// two threads write to one cache line).
-  /// The vertices of a chunk's own cubes near the change (the core grown by the one cube a
-  /// triangle's keys reach), made with its window: per cube of [c0, c1) the slots made and where
-  /// the first one is.
+  /// The vertices of a chunk's own cubes in the core (where vertices can move), made with its
+  /// window: per cube of [c0, c1) the slots made and where the first one is.
   struct VertexTable {
     Int3 c0{0, 0, 0}, c1{0, 0, 0};
     std::vector<std::uint16_t> made;
     std::vector<std::uint32_t> first;
     std::vector<Vec3f> positions;
     std::vector<std::uint8_t> labels;
+
+    /// The vertex in slot `slot` of cube o, if this table made it.
+    bool find(const Int3& o, int slot, Vec3f& p, std::uint8_t& label) const {
+      if (o.x < c0.x || o.y < c0.y || o.z < c0.z || o.x >= c1.x || o.y >= c1.y || o.z >= c1.z)
+        return false;
+      const std::size_t i =
+          static_cast<std::size_t>(o.x - c0.x) +
+          static_cast<std::size_t>(c1.x - c0.x) *
+              (static_cast<std::size_t>(o.y - c0.y) +
+               static_cast<std::size_t>(c1.y - c0.y) * static_cast<std::size_t>(o.z - c0.z));
+      const unsigned m = made[i];
+      if (!((m >> slot) & 1u)) return false;
+      const std::size_t at =
+          first[i] + static_cast<std::size_t>(__builtin_popcount(m & ((1u << slot) - 1u)));
+      p = positions[at];
+      label = labels[at];
+      return true;
+    }
   };
   struct ChunkWork {
     LatticeWindow window;
@@ -297,28 +315,11 @@ struct ImtSurface::State {
   /// chunk that owns o when it made it (the current chunk first), else from the current window
   /// (every window makes a vertex alike: the merging decisions they hold agree).
   void made_vertex(const Int3& o, int slot, Vec3f& p, std::uint8_t& label) const {
-    auto from = [&](const ChunkWork& w) {
-      const VertexTable& t = w.table;
-      if (!w.meshed || o.x < t.c0.x || o.y < t.c0.y || o.z < t.c0.z || o.x >= t.c1.x ||
-          o.y >= t.c1.y || o.z >= t.c1.z)
-        return false;
-      const Int3 e{t.c1.x - t.c0.x, t.c1.y - t.c0.y, t.c1.z - t.c0.z};
-      const std::size_t i =
-          static_cast<std::size_t>(o.x - t.c0.x) +
-          static_cast<std::size_t>(e.x) *
-              (static_cast<std::size_t>(o.y - t.c0.y) +
-               static_cast<std::size_t>(e.y) * static_cast<std::size_t>(o.z - t.c0.z));
-      const unsigned made = t.made[i];
-      if (!((made >> slot) & 1u)) return false;
-      const std::size_t at =
-          t.first[i] + static_cast<std::size_t>(__builtin_popcount(made & ((1u << slot) - 1u)));
-      p = t.positions[at];
-      label = t.labels[at];
-      return true;
-    };
-    if (from(*work)) return;
-    for (std::size_t b = 0; b < batch_size; ++b)
-      if (chunk_work[b].get() != work && from(*chunk_work[b])) return;
+    if (work->table.find(o, slot, p, label)) return;
+    for (std::size_t b = 0; b < batch_size; ++b) {
+      const ChunkWork& other = *chunk_work[b];
+      if (&other != work && other.meshed && other.table.find(o, slot, p, label)) return;
+    }
     Vec3d ip;
     window->vertex(o, window->local_index(o), slot, ip, label);
     p = detail::tissue_position(geometry, ip);
@@ -431,7 +432,8 @@ struct ImtSurface::State {
   /// (LatticeWindow::margin).
   void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
                      int margin);
-  void plan_chunk(const LatticeWindow& w, const VoxelBox& core, ChunkPlan& plan) const;
+  void plan_chunk(const LatticeWindow& w, const VertexTable& table, const VoxelBox& core,
+                  ChunkPlan& plan) const;
   void make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
                            const VoxelBox& near, VertexTable& table) const;
   void remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan, std::size_t index);
@@ -579,8 +581,9 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
       cw.meshed = may_hold_surface;
       if (may_hold_surface) {
         cw.window.compute(volume, options, ch.c0, ch.c1);
-        plan_chunk(cw.window, core, cw.plan);
-        make_chunk_vertices(cw.window, ch.c0, ch.c1, core.dilated(1, 1), cw.table);
+        // One chunk (a stroke, or one thread) gains nothing from making its vertices ahead.
+        make_chunk_vertices(cw.window, ch.c0, ch.c1, count > 1 ? core : VoxelBox{}, cw.table);
+        plan_chunk(cw.window, cw.table, core, cw.plan);
       }
     }
     batch_size = static_cast<std::size_t>(count);
@@ -600,13 +603,13 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
   batch_size = 0;
 }
 
-/// The table of the vertices of chunk [c0, c1)'s relevant cubes in `near`: every slot a triangle
-/// uses (LatticeWindow::referenced_slots), made with the chunk's window. Reads only.
+/// The table of the vertices of chunk [c0, c1)'s relevant cubes in `near` (the core): every slot a
+/// triangle uses (LatticeWindow::referenced_slots), made with the chunk's window. Reads only.
 void ImtSurface::State::make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
                                             const VoxelBox& near, VertexTable& table) const {
   table.c0 = c0;
-  table.c1 = c1;
-  const Int3 e{c1.x - c0.x, c1.y - c0.y, c1.z - c0.z};
+  table.c1 = near.empty() ? c0 : c1;
+  const Int3 e{table.c1.x - c0.x, table.c1.y - c0.y, table.c1.z - c0.z};
   table.made.assign(static_cast<std::size_t>(e.volume()), 0);
   table.first.resize(table.made.size());
   table.positions.clear();
@@ -633,14 +636,28 @@ void ImtSurface::State::make_chunk_vertices(const LatticeWindow& w, const Int3& 
 }
 
 /// Plans chunk `w`'s unchanged cubes in `core` that hold triangles: their vertices made again
-/// from the window (each once per cube, in the order its triangles first use them) and compared
-/// with what the vertices hold. Reads only: runs on any thread.
-void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VoxelBox& core,
-                                   ChunkPlan& plan) const {
+/// (from the chunk's table, else the window; each once per cube, in the order its triangles first
+/// use them) and compared with what the vertices hold. Reads only: runs on any thread.
+void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VertexTable& table,
+                                   const VoxelBox& core, ChunkPlan& plan) const {
   const auto& cubes = w.relevant_cubes();
   plan.refreshed.assign(cubes.size(), 0);
   plan.first.resize(cubes.size() + 1);
   plan.refreshes.clear();
+  // A vertex already planned through an earlier cube of the chunk is stamped by then when the
+  // plan is followed: it needs no position (as the serial refresh made each vertex once).
+  std::size_t capacity = 64;
+  while (capacity < 8 * cubes.size()) capacity *= 2;
+  plan.planned.assign(capacity, 0);
+  auto first_time = [&](std::uint32_t v) {
+    for (std::size_t h = (v * 2654435761u) & (capacity - 1);; h = (h + 1) & (capacity - 1)) {
+      if (plan.planned[h] == v) return false;
+      if (plan.planned[h] == 0) {
+        plan.planned[h] = v;
+        return true;
+      }
+    }
+  };
   std::array<unsigned, 64> seen{};  // packed keys of the cube's vertices so far
   for (std::size_t i = 0; i < cubes.size(); ++i) {
     const LatticeWindow::Cube& cube = cubes[i];
@@ -665,10 +682,17 @@ void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VoxelBox& core,
         const Int3 o{cube.c.x + ref.offset[0], cube.c.y + ref.offset[1], cube.c.z + ref.offset[2]};
         const std::uint32_t orid = find_record(o);
         const std::uint32_t v = orid == 0 ? 0 : records[orid].vertex[ref.slot];
-        Vec3d ip;
+        if (v != 0 && !first_time(v)) {
+          plan.refreshes.push_back({v, Vec3f{}, 0, false});
+          continue;
+        }
+        Vec3f p;
         std::uint8_t label = 0;
-        w.vertex(o, w.local_index(o), ref.slot, ip, label);
-        const Vec3f p = detail::tissue_position(geometry, ip);
+        if (!table.find(o, ref.slot, p, label)) {
+          Vec3d ip;
+          w.vertex(o, w.local_index(o), ref.slot, ip, label);
+          p = detail::tissue_position(geometry, ip);
+        }
         const bool differs = v != 0 && (!(positions[v] == p) || labels[v] != label);
         plan.refreshes.push_back({v, p, label, differs});
       }
