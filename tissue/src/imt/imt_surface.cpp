@@ -94,6 +94,7 @@ struct ImtSurface::State {
   /// it keeps its triangles and lies in the core (then its vertices are refreshed), and those
   /// vertices in the order the cube's triangles first use them.
   struct ChunkPlan {
+    bool ready = false;                   // made ahead (a batch of several chunks)
     std::vector<std::uint8_t> refreshed;  // per relevant cube
     std::vector<std::uint32_t> first;     // per relevant cube + 1: its range in `refreshes`
     std::vector<Refresh> refreshes;
@@ -432,11 +433,18 @@ struct ImtSurface::State {
   /// (LatticeWindow::margin).
   void remesh_region(const VoxelVolume& volume, const VoxelBox& region, const VoxelBox& core,
                      int margin);
+  bool refreshes_cube(const LatticeWindow& w, const LatticeWindow::Cube& cube,
+                      const VoxelBox& core) const;
+  template <typename Needs>
+  void plan_cube(const LatticeWindow& w, const VertexTable& table, const LatticeWindow::Cube& cube,
+                 std::vector<Refresh>& out, Needs&& needs) const;
   void plan_chunk(const LatticeWindow& w, const VertexTable& table, const VoxelBox& core,
                   ChunkPlan& plan) const;
+  std::vector<Refresh> cube_refreshes;  // scratch: one cube's plan, made as it is meshed
   void make_chunk_vertices(const LatticeWindow& w, const Int3& c0, const Int3& c1,
                            const VoxelBox& near, VertexTable& table) const;
-  void remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan, std::size_t index);
+  void remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan, std::size_t index,
+                   const VoxelBox& core);
   void collect_emptied_cubes(const Int3& c0, const Int3& c1);
   void collect_emptied_cubes_in_page(std::uint32_t page, const Int3& p, const VoxelBox& chunk);
   /// Pass 2. Reads changed_cubes and kept_records, with the old positions; releases the changed
@@ -581,9 +589,11 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
       cw.meshed = may_hold_surface;
       if (may_hold_surface) {
         cw.window.compute(volume, options, ch.c0, ch.c1);
-        // One chunk (a stroke, or one thread) gains nothing from making its vertices ahead.
+        // One chunk (a stroke, or one thread) gains nothing from working ahead: its cubes are
+        // planned as they are meshed.
         make_chunk_vertices(cw.window, ch.c0, ch.c1, count > 1 ? core : VoxelBox{}, cw.table);
-        plan_chunk(cw.window, cw.table, core, cw.plan);
+        cw.plan.ready = count > 1;
+        if (cw.plan.ready) plan_chunk(cw.window, cw.table, core, cw.plan);
       }
     }
     batch_size = static_cast<std::size_t>(count);
@@ -593,7 +603,7 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
       if (work->meshed) {
         window = &work->window;
         const auto& cubes = window->relevant_cubes();
-        for (std::size_t i = 0; i < cubes.size(); ++i) remesh_cube(cubes[i], work->plan, i);
+        for (std::size_t i = 0; i < cubes.size(); ++i) remesh_cube(cubes[i], work->plan, i, core);
       }
       collect_emptied_cubes(ch.c0, ch.c1);
     }
@@ -635,17 +645,64 @@ void ImtSurface::State::make_chunk_vertices(const LatticeWindow& w, const Int3& 
   }
 }
 
-/// Plans chunk `w`'s unchanged cubes in `core` that hold triangles: their vertices made again
-/// (from the chunk's table, else the window; each once per cube, in the order its triangles first
-/// use them) and compared with what the vertices hold. Reads only: runs on any thread.
+/// Whether unchanged-or-not cube `cube` of window `w` keeps its triangles, holds some and lies in
+/// the core: then its vertices are refreshed. Reads only.
+bool ImtSurface::State::refreshes_cube(const LatticeWindow& w, const LatticeWindow::Cube& cube,
+                                       const VoxelBox& core) const {
+  const std::uint32_t rid = find_record(cube.c);
+  return rid != 0 && records[rid].signature == w.signature(cube.local) &&
+         records[rid].first_triangle != kNone && core.contains(cube.c.x, cube.c.y, cube.c.z);
+}
+
+/// The refresh of an unchanged cube: its vertices in the order its triangles first use them, each
+/// made again (from `table`, else the window) where `needs(vertex)` and compared with what the
+/// vertex holds. Reads only: runs on any thread.
+template <typename Needs>
+void ImtSurface::State::plan_cube(const LatticeWindow& w, const VertexTable& table,
+                                  const LatticeWindow::Cube& cube, std::vector<Refresh>& out,
+                                  Needs&& needs) const {
+  std::array<unsigned, 64> seen{};  // packed keys of the cube's vertices so far
+  std::size_t n_seen = 0;
+  w.mesh_cube(cube.local, [&](const LatticeRef* keys) {
+    for (int k = 0; k < 3; ++k) {
+      const LatticeRef& ref = keys[k];
+      const unsigned packed = static_cast<unsigned>(ref.offset[0] + 1) |
+                              (static_cast<unsigned>(ref.offset[1] + 1) << 2) |
+                              (static_cast<unsigned>(ref.offset[2] + 1) << 4) |
+                              (static_cast<unsigned>(ref.slot) << 6);
+      if (std::find(seen.begin(), seen.begin() + static_cast<std::ptrdiff_t>(n_seen), packed) !=
+          seen.begin() + static_cast<std::ptrdiff_t>(n_seen))
+        continue;
+      if (n_seen < seen.size()) seen[n_seen++] = packed;
+      const Int3 o{cube.c.x + ref.offset[0], cube.c.y + ref.offset[1], cube.c.z + ref.offset[2]};
+      const std::uint32_t orid = find_record(o);
+      const std::uint32_t v = orid == 0 ? 0 : records[orid].vertex[ref.slot];
+      if (v != 0 && !needs(v)) {
+        out.push_back({v, Vec3f{}, 0, false});
+        continue;
+      }
+      Vec3f p;
+      std::uint8_t label = 0;
+      if (!table.find(o, ref.slot, p, label)) {
+        Vec3d ip;
+        w.vertex(o, w.local_index(o), ref.slot, ip, label);
+        p = detail::tissue_position(geometry, ip);
+      }
+      const bool differs = v != 0 && (!(positions[v] == p) || labels[v] != label);
+      out.push_back({v, p, label, differs});
+    }
+  });
+}
+
+/// Plans chunk `w`'s refreshed cubes ahead (plan_cube on each, in order). A vertex already
+/// planned through an earlier cube of the chunk is stamped by the time the plan is followed: it
+/// needs no position. Reads only: runs on any thread.
 void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VertexTable& table,
                                    const VoxelBox& core, ChunkPlan& plan) const {
   const auto& cubes = w.relevant_cubes();
   plan.refreshed.assign(cubes.size(), 0);
   plan.first.resize(cubes.size() + 1);
   plan.refreshes.clear();
-  // A vertex already planned through an earlier cube of the chunk is stamped by then when the
-  // plan is followed: it needs no position (as the serial refresh made each vertex once).
   std::size_t capacity = 64;
   while (capacity < 8 * cubes.size()) capacity *= 2;
   plan.planned.assign(capacity, 0);
@@ -658,51 +715,17 @@ void ImtSurface::State::plan_chunk(const LatticeWindow& w, const VertexTable& ta
       }
     }
   };
-  std::array<unsigned, 64> seen{};  // packed keys of the cube's vertices so far
   for (std::size_t i = 0; i < cubes.size(); ++i) {
-    const LatticeWindow::Cube& cube = cubes[i];
     plan.first[i] = static_cast<std::uint32_t>(plan.refreshes.size());
-    const std::uint32_t rid = find_record(cube.c);
-    if (rid == 0 || records[rid].signature != w.signature(cube.local) ||
-        records[rid].first_triangle == kNone || !core.contains(cube.c.x, cube.c.y, cube.c.z))
-      continue;
+    if (!refreshes_cube(w, cubes[i], core)) continue;
     plan.refreshed[i] = 1;
-    std::size_t n_seen = 0;
-    w.mesh_cube(cube.local, [&](const LatticeRef* keys) {
-      for (int k = 0; k < 3; ++k) {
-        const LatticeRef& ref = keys[k];
-        const unsigned packed = static_cast<unsigned>(ref.offset[0] + 1) |
-                                (static_cast<unsigned>(ref.offset[1] + 1) << 2) |
-                                (static_cast<unsigned>(ref.offset[2] + 1) << 4) |
-                                (static_cast<unsigned>(ref.slot) << 6);
-        if (std::find(seen.begin(), seen.begin() + static_cast<std::ptrdiff_t>(n_seen), packed) !=
-            seen.begin() + static_cast<std::ptrdiff_t>(n_seen))
-          continue;
-        if (n_seen < seen.size()) seen[n_seen++] = packed;
-        const Int3 o{cube.c.x + ref.offset[0], cube.c.y + ref.offset[1], cube.c.z + ref.offset[2]};
-        const std::uint32_t orid = find_record(o);
-        const std::uint32_t v = orid == 0 ? 0 : records[orid].vertex[ref.slot];
-        if (v != 0 && !first_time(v)) {
-          plan.refreshes.push_back({v, Vec3f{}, 0, false});
-          continue;
-        }
-        Vec3f p;
-        std::uint8_t label = 0;
-        if (!table.find(o, ref.slot, p, label)) {
-          Vec3d ip;
-          w.vertex(o, w.local_index(o), ref.slot, ip, label);
-          p = detail::tissue_position(geometry, ip);
-        }
-        const bool differs = v != 0 && (!(positions[v] == p) || labels[v] != label);
-        plan.refreshes.push_back({v, p, label, differs});
-      }
-    });
+    plan_cube(w, table, cubes[i], plan.refreshes, first_time);
   }
   plan.first[cubes.size()] = static_cast<std::uint32_t>(plan.refreshes.size());
 }
 
 void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const ChunkPlan& plan,
-                                    std::size_t index) {
+                                    std::size_t index, const VoxelBox& core) {
   const std::uint32_t signature = window->signature(cube.local);
   const std::uint32_t rid = record_of(cube.c, false);
   if (rid != 0) {
@@ -713,10 +736,23 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Chunk
     // Same triangles (as lattice keys, so as vertex ids). Only near the change can their
     // vertices have moved: refresh those (planned with the window); the cube's fan is redone
     // when one moved, now or earlier in this update through another cube.
-    if (!plan.refreshed[index]) return;
+    const Refresh* begin = nullptr;
+    const Refresh* end = nullptr;
+    if (plan.ready) {
+      if (!plan.refreshed[index]) return;
+      begin = plan.refreshes.data() + plan.first[index];
+      end = plan.refreshes.data() + plan.first[index + 1];
+    } else {
+      if (!refreshes_cube(*window, cube, core)) return;
+      cube_refreshes.clear();
+      plan_cube(*window, work->table, cube, cube_refreshes,
+                [&](std::uint32_t v) { return stamp[v] != generation; });
+      begin = cube_refreshes.data();
+      end = begin + cube_refreshes.size();
+    }
     bool any_moved = false;
-    for (std::uint32_t e = plan.first[index]; e < plan.first[index + 1]; ++e) {
-      const Refresh& r = plan.refreshes[e];
+    for (const Refresh* e = begin; e != end; ++e) {
+      const Refresh& r = *e;
       if (r.vertex == 0)
         throw Error(
             "ImtSurface::update: an unchanged cube's triangle uses a vertex its cube "
