@@ -743,7 +743,8 @@ void ImtSurface::State::remesh_cube(const LatticeWindow::Cube& cube, const Chunk
       begin = plan.refreshes.data() + plan.first[index];
       end = plan.refreshes.data() + plan.first[index + 1];
     } else {
-      if (!refreshes_cube(*window, cube, core)) return;
+      if (records[rid].first_triangle == kNone || !core.contains(cube.c.x, cube.c.y, cube.c.z))
+        return;  // refreshes_cube, with the record and signature known
       cube_refreshes.clear();
       plan_cube(*window, work->table, cube, cube_refreshes,
                 [&](std::uint32_t v) { return stamp[v] != generation; });
