@@ -55,6 +55,24 @@ __global__ void volume_terms_kernel(LatticeView lat, ConstStateView s, EffectArr
   cube_volume_terms(lat, s, p.volume, n, i, j, k, a.volume_terms);
 }
 
+/// Σ over the cubes of cube_volume_energy, one block's share added to *sum (double).
+__global__ void volume_energy_kernel(LatticeView lat, ConstStateView s, EffectParameters p,
+                                     double* sum) {
+  __shared__ double partial[kBlock];
+  std::int64_t n;
+  int i, j, k;
+  double e = 0.0;
+  if (node_of_thread(lat, n, i, j, k)) e = cube_volume_energy(lat, s, p.volume, n, i, j, k);
+  partial[threadIdx.x] = e;
+  __syncthreads();
+  for (int stride = kBlock / 2; stride > 0; stride >>= 1) {
+    if (static_cast<int>(threadIdx.x) < stride)
+      partial[threadIdx.x] += partial[threadIdx.x + stride];
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) atomicAdd(sum, partial[0]);
+}
+
 __global__ void kick_kernel(LatticeView lat, StateView s, EffectArrays a, EffectParameters p) {
   std::int64_t n;
   int i, j, k;
@@ -124,8 +142,11 @@ class CudaEffects final : public EffectsEngine {
       mask_.resize(count_);
       mask_.fill_zero(stream_);
     }
-    if (enabled & effect_bits::kVolumetric)
+    if (enabled & effect_bits::kVolumetric) {
       for (auto& c : volume_terms_) allocate_zeroed(c);
+      energy_sum_.resize(1);
+      energy_host_.resize(1);
+    }
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));  // the host keyframes may go out of scope
   }
   ~CudaEffects() override {
@@ -145,6 +166,18 @@ class CudaEffects final : public EffectsEngine {
       r.fluid_pressure = copy(pressure_);
     }
     return r;
+  }
+
+  std::optional<double> volume_energy_here(const LatticeView& lat, const ConstStateView& s,
+                                           const EffectParameters& p) const override {
+    if ((enabled() & effect_bits::kVolumetric) == 0) return 0.0;
+    TSF_CUDA_CHECK(cudaMemsetAsync(energy_sum_.data(), 0, sizeof(double), stream_));
+    volume_energy_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, energy_sum_.data());
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_.data(), energy_sum_.data(), sizeof(double),
+                                   cudaMemcpyDeviceToHost, stream_));
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    return *energy_host_.data();
   }
 
   std::vector<std::uint8_t> read_flags(const LatticeView& lat) const override {
@@ -228,6 +261,8 @@ class CudaEffects final : public EffectsEngine {
   std::vector<std::array<DeviceBuffer<float>, 3>> keyframes_;  // device rest offsets
   DeviceBuffer<std::uint8_t> mask_;
   std::array<DeviceBuffer<float>, 9> volume_terms_;
+  mutable DeviceBuffer<double> energy_sum_;  // volume_energy_here's reduction
+  mutable PinnedBuffer<double> energy_host_;
 };
 
 }  // namespace

@@ -7,16 +7,9 @@ namespace tsf::crms {
 
 double volume_energy_nj(const LatticeView& lat, const ConstStateView& st,
                         const VolumeParameters& p) {
-  const double v0 = cube_rest_volume(lat);
   double energy = 0.0;
-  for_each_volume_cube(lat, p, [&](std::int64_t c, int, int, int, float stiffness, float) {
-    Vec3d u[8];
-    for (int q = 0; q < 8; ++q) {
-      const std::int64_t m = cube_corner(lat, c, q);
-      u[q] = {st.u[0][m], st.u[1][m], st.u[2][m]};
-    }
-    const CubeShape<double> shape = cube_shape(u, lat.rest_length);
-    energy += static_cast<double>(stiffness) * v0 * volume_energy_shape(shape.strain);
+  for_each_volume_cube(lat, p, [&](std::int64_t c, int i, int j, int k, float, float) {
+    energy += cube_volume_energy(lat, st, p, c, i, j, k);
   });
   return energy;
 }

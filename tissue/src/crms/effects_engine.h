@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "tsf/crms/animation_timeline.h"
@@ -75,6 +76,14 @@ class EffectsEngine {
   virtual EffectsState read() const = 0;
   /// Copies the lattice flags (#nodes) from where the backend keeps them.
   virtual std::vector<std::uint8_t> read_flags(const LatticeView& lattice) const = 0;
+  /// The volumetric term's energy (nJ) summed where the state lives, or nothing when this engine
+  /// does not sum it there (the CPU's: its host sum is as cheap). Waits for queued work.
+  virtual std::optional<double> volume_energy_here(const LatticeView& lattice,
+                                                   const ConstStateView& state,
+                                                   const EffectParameters& p) const {
+    (void)lattice, (void)state, (void)p;
+    return std::nullopt;
+  }
   /// Bytes kept per node by the enabled effects.
   double bytes_per_node() const {
     double b = 0;

@@ -193,7 +193,13 @@ StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSig
   signals = StepSignals{};
   signals.velocities = with_velocities;
   const double k_sys = config_.stability.kinetic_damping;
-  if (on_cuda_ && !effects_ && config_.integrator != Integrator::kImplicitEuler) {
+  // On CUDA the signals are summed on the device; with effects only where the effects' energy is
+  // too (the volumetric term alone: the term the shipped soft tissue runs with), else the host
+  // measurement below copies the state out every call.
+  const bool device_signals =
+      on_cuda_ && config_.integrator != Integrator::kImplicitEuler &&
+      (!effects_ || effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric));
+  if (device_signals) {
     const std::int64_t before = steps_done_;
     StepReport report = step(n, dt);
     report.steps_run = steps_done_ - before;
@@ -201,9 +207,14 @@ StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSig
     EnergySums sums;
     // v0 is the other state buffer: the state before the last step, if there was one.
     const bool have_v0 = with_velocities && report.steps_run > 0;
-    if (backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
+    std::optional<double> effect_energy = 0.0;
+    if (effects_)
+      effect_energy = effects_->volume_energy_here(backend_->lattice_view(), backend_->state_view(),
+                                                   effect_parameters(1.0));
+    if (effect_energy &&
+        backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
       signals.energy.kinetic_nj = sums.kinetic;
-      signals.energy.elastic_nj = sums.elastic;
+      signals.energy.elastic_nj = sums.elastic + *effect_energy;
       signals.energy.gravitational_nj = sums.gravitational;
       signals.energy.load_nj = load_energy_nj();
       if (with_velocities && !have_v0) {  // nothing stepped: no v0, no period-2 products

@@ -126,10 +126,14 @@ TSF_HD_INLINE S volume_pressure(const S& strain, const S& rate, float stiffness,
   return -S(stiffness) * strain * inv - S(damping) * inv * inv * rate;
 }
 
-/// φ(J) of the energy U = k·V0·φ(J), from J − 1 (host, double).
-inline double volume_energy_shape(double strain) {
+/// φ(J) of the energy U = k·V0·φ(J), from J − 1 (double).
+TSF_HD_INLINE double volume_energy_shape(double strain) {
   if (strain <= 0.0) return 0.5 * strain * strain;
+#ifdef __CUDA_ARCH__
+  return strain - ::log1p(strain);
+#else
   return strain - std::log1p(strain);
+#endif
 }
 
 /// A palette table blended over a node's material (weighted mean of its entries).
@@ -214,9 +218,27 @@ inline void for_each_volume_cube(const LatticeView& lat, const VolumeParameters&
 }
 
 /// V0 = h_x·h_y·h_z, mm³.
-inline double cube_rest_volume(const LatticeView& lat) {
+TSF_HD_INLINE double cube_rest_volume(const LatticeView& lat) {
   return static_cast<double>(lat.rest_length[0]) * static_cast<double>(lat.rest_length[1]) *
          static_cast<double>(lat.rest_length[2]);
+}
+
+/// The term's energy k·V0·φ(J) in the cube with lower corner c = (i, j, k), nJ (double; 0 when
+/// the cube is not intact or has no term): the host's energy sum and the CUDA reduction alike.
+TSF_HD_INLINE double cube_volume_energy(const LatticeView& lat, const ConstStateView& s,
+                                        const VolumeParameters& p, std::int64_t c, int i, int j,
+                                        int k) {
+  if (!cube_intact(lat, i, j, k)) return 0.0;
+  float stiffness = 0.0f, damping = 0.0f;
+  cube_moduli(lat, p, c, stiffness, damping);
+  if (!(stiffness > 0.0f)) return 0.0;
+  Vec3<double> u[8];
+  for (int q = 0; q < 8; ++q) {
+    const std::int64_t m = cube_corner(lat, c, q);
+    u[q] = {s.u[0][m], s.u[1][m], s.u[2][m]};
+  }
+  const CubeShape<double> shape = cube_shape(u, lat.rest_length);
+  return static_cast<double>(stiffness) * cube_rest_volume(lat) * volume_energy_shape(shape.strain);
 }
 
 /// The volumetric force on node n = (i, j, k), µN: Σ over its (up to 8) cubes of π·∂V/∂x_n from
