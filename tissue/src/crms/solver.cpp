@@ -207,14 +207,9 @@ StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSig
     EnergySums sums;
     // v0 is the other state buffer: the state before the last step, if there was one.
     const bool have_v0 = with_velocities && report.steps_run > 0;
-    std::optional<double> effect_energy = 0.0;
-    if (effects_)
-      effect_energy = effects_->volume_energy_here(backend_->lattice_view(), backend_->state_view(),
-                                                   effect_parameters(1.0));
-    if (effect_energy &&
-        backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
+    if (backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
       signals.energy.kinetic_nj = sums.kinetic;
-      signals.energy.elastic_nj = sums.elastic + *effect_energy;
+      signals.energy.elastic_nj = sums.elastic + effects_energy_nj();  // on the device (above)
       signals.energy.gravitational_nj = sums.gravitational;
       signals.energy.load_nj = load_energy_nj();
       if (with_velocities && !have_v0) {  // nothing stepped: no v0, no period-2 products
@@ -382,6 +377,11 @@ double Solver::effects_energy_nj() const {
   if ((effect_bits_ &
        (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) == 0)
     return 0.0;
+  // The volumetric term alone is summed where the state lives (no copy to the host on CUDA).
+  if (effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric))
+    if (const std::optional<double> e = effects_->volume_energy_here(
+            backend_->lattice_view(), backend_->state_view(), effect_parameters(1.0)))
+      return *e;
   EffectEnergyInputs in;
   backend_->read_state(&in.displacement_mm, nullptr);
   in.flags = (effect_bits_ & effect_bits::kTearing) ? effects_->read_flags(backend_->lattice_view())
