@@ -378,7 +378,8 @@ double Solver::effects_energy_nj() const {
        (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) == 0)
     return 0.0;
   // The volumetric term alone is summed where the state lives (no copy to the host on CUDA).
-  if (effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric))
+  // (implicit Euler keeps the term in its own system and has no effects engine).
+  if (effects_ && effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric))
     if (const std::optional<double> e = effects_->volume_energy_here(
             backend_->lattice_view(), backend_->state_view(), effect_parameters(1.0)))
       return *e;
