@@ -235,6 +235,27 @@ TEST(CrmsVolumeTerm, CutOrTornCubesLoseTheirTerm) {
   EXPECT_NEAR(elastic(0.45, cut), elastic(0.0, cut) * (1 / 1.45), 1e-5 * elastic(0.0, cut));
 }
 
+/// The term's energy is the same whoever sums it: implicit Euler (the term in its Newton system,
+/// no effects engine), the explicit CPU passes (a host sum) and CUDA (a device reduction, which
+/// the stability monitor reads every frame).
+TEST(CrmsVolumeTerm, EveryIntegratorAndBackendReportsTheSameTermEnergy) {
+  auto elastic = [](Integrator integrator, Backend backend) {
+    SolverConfig c;
+    c.backend = backend;
+    c.integrator = integrator;
+    c.materials = {poisson_material(0.45)};
+    Solver s(box({4, 3, 3}, 1), c);
+    test::deform(s, [](Vec3d p) { return Vec3d{p.x, p.y, 0.5 + 0.8 * (p.z - 0.5)}; });
+    return s.energy().elastic_nj;
+  };
+  const double implicit = elastic(Integrator::kImplicitEuler, Backend::kCpu);
+  EXPECT_TRUE(std::isfinite(implicit));
+  EXPECT_GT(implicit, 0.0);
+  for (Backend backend : available_backends())
+    EXPECT_NEAR(elastic(Integrator::kSymplecticEuler, backend), implicit, 1e-5 * implicit)
+        << to_string(backend);
+}
+
 TEST(CrmsVolumeTerm, ACutDuringTheRunMovesLikeTheLatticeBuiltCut) {
   // Cubes that a cut removes lose their term at once (intactness is read from the flags every
   // step): a bar cut during the run moves exactly like the same bar built without the cut
