@@ -8,8 +8,8 @@ namespace tsf::crms {
 double volume_energy_nj(const LatticeView& lat, const ConstStateView& st,
                         const VolumeParameters& p) {
   double energy = 0.0;
-  for_each_volume_cube(lat, p, [&](std::int64_t c, int i, int j, int k, float, float) {
-    energy += cube_volume_energy(lat, st, p, c, i, j, k);
+  for_each_volume_cube(lat, p, [&](std::int64_t c, int, int, int, float stiffness, float) {
+    energy += intact_cube_volume_energy(lat, st, c, stiffness);
   });
   return energy;
 }

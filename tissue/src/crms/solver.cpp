@@ -194,12 +194,9 @@ StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSig
   signals.velocities = with_velocities;
   const double k_sys = config_.stability.kinetic_damping;
   // On CUDA the signals are summed on the device; with effects only where the effects' energy is
-  // too (the volumetric term alone: the term the shipped soft tissue runs with), else the host
-  // measurement below copies the state out every call.
-  const bool device_signals =
-      on_cuda_ && config_.integrator != Integrator::kImplicitEuler &&
-      (!effects_ || effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric));
-  if (device_signals) {
+  // too, else the host measurement below copies the state out every call.
+  if (on_cuda_ && config_.integrator != Integrator::kImplicitEuler &&
+      (!effects_ || effects_energy_on_device())) {
     const std::int64_t before = steps_done_;
     StepReport report = step(n, dt);
     report.steps_run = steps_done_ - before;
@@ -209,7 +206,7 @@ StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSig
     const bool have_v0 = with_velocities && report.steps_run > 0;
     if (backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
       signals.energy.kinetic_nj = sums.kinetic;
-      signals.energy.elastic_nj = sums.elastic + effects_energy_nj();  // on the device (above)
+      signals.energy.elastic_nj = sums.elastic + effects_energy_nj();
       signals.energy.gravitational_nj = sums.gravitational;
       signals.energy.load_nj = load_energy_nj();
       if (with_velocities && !have_v0) {  // nothing stepped: no v0, no period-2 products
@@ -373,16 +370,19 @@ std::size_t Solver::raise_event(const std::string& event) {
   return timeline_.fire_event_triggers(event, lattice_, backend_material_update());
 }
 
+bool Solver::effects_energy_on_device() const {
+  // The volumetric term alone (the term the shipped soft tissue runs with); implicit Euler keeps
+  // the term in its own Newton system and has no effects engine.
+  return on_cuda_ && effects_ && effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric);
+}
+
 double Solver::effects_energy_nj() const {
   if ((effect_bits_ &
        (effect_bits::kSpringEffects | effect_bits::kFluid | effect_bits::kVolumetric)) == 0)
     return 0.0;
-  // The volumetric term alone is summed where the state lives (no copy to the host on CUDA).
-  // (implicit Euler keeps the term in its own system and has no effects engine).
-  if (effects_ && effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric))
-    if (const std::optional<double> e = effects_->volume_energy_here(
-            backend_->lattice_view(), backend_->state_view(), effect_parameters(1.0)))
-      return *e;
+  if (effects_energy_on_device())
+    return *effects_->volume_energy_here(backend_->lattice_view(), backend_->state_view(),
+                                         effect_parameters(1.0));
   EffectEnergyInputs in;
   backend_->read_state(&in.displacement_mm, nullptr);
   in.flags = (effect_bits_ & effect_bits::kTearing) ? effects_->read_flags(backend_->lattice_view())

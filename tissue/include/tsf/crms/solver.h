@@ -219,6 +219,9 @@ class Solver {
   void sync_torn_links();
   /// Elastic energy the effects add to the core's (effect_energy.h), nJ.
   double effects_energy_nj() const;
+  /// True when the effects' energy is summed where the state lives (the volumetric term alone on
+  /// CUDA), so measuring it copies nothing to the host.
+  bool effects_energy_on_device() const;
   /// Where the timeline sends material changes: the host lattice is edited by the timeline, the
   /// backend's copy here.
   MaterialUpdate backend_material_update();

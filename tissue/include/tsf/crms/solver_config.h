@@ -57,7 +57,7 @@ enum class CudaLaunch {
   /// One cooperative launch runs all the steps, each alive node's angles spread over three
   /// threads (one per angle plane), two grid barriers per step (docs/crms.md "Small lattices").
   kNodes,
-  /// One cooperative launch runs all the steps; each thread block steps bricks of 8 × 8 × 4 nodes
+  /// One cooperative launch runs all the steps; each thread block steps bricks of 4 × 4 × 4 nodes
   /// from a shared-memory copy of the brick and the layer around it, computing the reactions of
   /// that layer itself: one grid barrier per step (docs/crms.md "Small lattices").
   kBricks,

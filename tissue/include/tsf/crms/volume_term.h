@@ -223,15 +223,10 @@ TSF_HD_INLINE double cube_rest_volume(const LatticeView& lat) {
          static_cast<double>(lat.rest_length[2]);
 }
 
-/// The term's energy k·V0·φ(J) in the cube with lower corner c = (i, j, k), nJ (double; 0 when
-/// the cube is not intact or has no term): the host's energy sum and the CUDA reduction alike.
-TSF_HD_INLINE double cube_volume_energy(const LatticeView& lat, const ConstStateView& s,
-                                        const VolumeParameters& p, std::int64_t c, int i, int j,
-                                        int k) {
-  if (!cube_intact(lat, i, j, k)) return 0.0;
-  float stiffness = 0.0f, damping = 0.0f;
-  cube_moduli(lat, p, c, stiffness, damping);
-  if (!(stiffness > 0.0f)) return 0.0;
+/// The term's energy k·V0·φ(J) in the intact cube with lower corner c and stiffness k, nJ
+/// (double): the host's sum over for_each_volume_cube and the CUDA reduction alike.
+TSF_HD_INLINE double intact_cube_volume_energy(const LatticeView& lat, const ConstStateView& s,
+                                               std::int64_t c, float stiffness) {
   Vec3<double> u[8];
   for (int q = 0; q < 8; ++q) {
     const std::int64_t m = cube_corner(lat, c, q);
@@ -239,6 +234,17 @@ TSF_HD_INLINE double cube_volume_energy(const LatticeView& lat, const ConstState
   }
   const CubeShape<double> shape = cube_shape(u, lat.rest_length);
   return static_cast<double>(stiffness) * cube_rest_volume(lat) * volume_energy_shape(shape.strain);
+}
+
+/// The same for any cube c = (i, j, k): 0 when it is not intact or has no term (the CUDA
+/// reduction runs one thread per cube).
+TSF_HD_INLINE double cube_volume_energy(const LatticeView& lat, const ConstStateView& s,
+                                        const VolumeParameters& p, std::int64_t c, int i, int j,
+                                        int k) {
+  if (!cube_intact(lat, i, j, k)) return 0.0;
+  float stiffness = 0.0f, damping = 0.0f;
+  cube_moduli(lat, p, c, stiffness, damping);
+  return stiffness > 0.0f ? intact_cube_volume_energy(lat, s, c, stiffness) : 0.0;
 }
 
 /// The volumetric force on node n = (i, j, k), µN: Σ over its (up to 8) cubes of π·∂V/∂x_n from
