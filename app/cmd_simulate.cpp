@@ -174,6 +174,7 @@ json lattice_report_json(const Scene& scene, const LatticeRun& built, const Latt
       {"angular_form", crms::to_string(config.angular_form)},
       {"angular_reactions", crms::to_string(config.angular_reactions)},
       {"effects", solver.active_effects()},
+      {"volume_term_folded", solver.volume_term_folded()},
       {"poisson_ratio", poisson_json(scene, 0, solver)},
       {"triggers_fired", solver.fired_triggers()},
       {"lattice",
@@ -221,7 +222,8 @@ void print_lattice_summary(const Scene& scene, const LatticeRun& built, const La
       stable > 0 ? built.dt_s / stable : 0.0, stable);
   std::string effects;
   for (const std::string& e : solver.active_effects()) effects += (effects.empty() ? "" : ", ") + e;
-  std::printf("effects: %s\n", effects.empty() ? "none" : effects.c_str());
+  std::printf("effects: %s%s\n", effects.empty() ? "none" : effects.c_str(),
+              solver.volume_term_folded() ? " (the volumetric term inside the step launch)" : "");
   std::printf("%s\n", poisson_line(poisson_json(scene, 0, solver)).c_str());
   std::printf(
       "%lld steps in %.3f s: %.4g steps/s, %.4g node-steps/s; energy %.6g -> %.6g nJ; max "

@@ -554,6 +554,7 @@ TissueInstance build_tissue_instance(const Scene& scene, std::size_t index) {
                {"backend", solver.backend_name()},
                {"gravity_mm_s2", nlohmann::json::array({g.x, g.y, g.z})},
                {"effects_active", solver.active_effects()},
+               {"volume_term_folded", solver.volume_term_folded()},
                {"poisson_ratio", poisson_json(scene, index, solver)},
                {"removal", removal_summary(scene.instances.at(index).tissue, r.model->options())},
                {"tissue_labels_voxels", label_histogram(r.model->volume())}};

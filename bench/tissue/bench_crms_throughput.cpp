@@ -226,10 +226,14 @@ BENCHMARK(BM_CrmsSmallLatticeStep)
 /// scene's material (turbinate soft tissue: 7.6 kPa, damping time 0.5 ms; gravity). Microseconds
 /// per step and the real-time factor at the scene's automatic dt, per launch form. args: voxels per
 /// node (2: the scene, ~13 k alive nodes; 1: ~100 k), launch (1 graphs, 2 persistent tiles, 3
-/// node-parallel, 4 bricks).
+/// node-parallel, 4 bricks), Poisson ratio (0: ν = 0, the lattice alone; 1: ν = 0.45, the
+/// volumetric term the shipped scenes run, folded into the launch where it can be; the same
+/// lattice with the term's effect passes around one-step launches is timed in the same run:
+/// passes_us_per_step and x_passes, its time over the measured one).
 void BM_CrmsSinusLatticeStep(benchmark::State& state) {
   const int k = static_cast<int>(state.range(0));
   const auto launch = static_cast<CudaLaunch>(state.range(1));
+  const bool volumetric = state.range(2) != 0;
   if (!cuda_status().available) {
     state.SkipWithError(("no CUDA: " + cuda_status().reason).c_str());
     return;
@@ -252,36 +256,58 @@ void BM_CrmsSinusLatticeStep(benchmark::State& state) {
         }
     return out;
   }();
-  VolumeLatticeOptions o;
-  o.node_spacing_voxels = k;
-  Lattice l = build_lattice_from_volume(face, o);
-  fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
-  fix_nodes_behind_plane(l, {122.4, 231.2 - 47.0, 34.3}, {0, 1, 0});
-  SolverConfig c;
-  c.backend = Backend::kCuda;
-  c.cuda_launch = launch;
-  c.materials[0].youngs_modulus_pa = 7.6e3;  // turbinate_soft_tissue, materials/tissues.yaml
-  c.materials[0].viscosity_pa_s = 7.6e3 * 0.5e-3;
-  c.materials[0].density_g_per_mm3 = 1.05e-3;
-  c.gravity = {0, 0, -9810};
-  c.stability.kinetic_damping = 0.01;
-  Solver solver(std::move(l), c);
-  const double dt = 0.9 * solver.stable_dt();
+  auto make = [&](bool fold) {
+    VolumeLatticeOptions o;
+    o.node_spacing_voxels = k;
+    Lattice l = build_lattice_from_volume(face, o);
+    fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
+    fix_nodes_behind_plane(l, {122.4, 231.2 - 47.0, 34.3}, {0, 1, 0});
+    SolverConfig c;
+    c.backend = Backend::kCuda;
+    c.cuda_launch = launch;
+    c.cuda_fold_volume_term = fold;
+    c.materials[0].youngs_modulus_pa = 7.6e3;  // turbinate_soft_tissue, materials/tissues.yaml
+    c.materials[0].viscosity_pa_s = 7.6e3 * 0.5e-3;
+    c.materials[0].density_g_per_mm3 = 1.05e-3;
+    if (volumetric) c.materials[0].poisson_ratio = 0.45;
+    c.gravity = {0, 0, -9810};
+    c.stability.kinetic_damping = 0.01;
+    return std::make_unique<Solver>(std::move(l), c);
+  };
+  std::unique_ptr<Solver> solver = make(true);
+  const double dt = 0.9 * solver->stable_dt();
   const int steps = 1024;
-  solver.step(steps, dt);
-  for (auto _ : state) solver.step(steps, dt);
+  double passes_us = 0;
+  if (volumetric) {  // the effect passes around one-step launches, in the same run
+    std::unique_ptr<Solver> passes = make(false);
+    passes->step(steps, dt);
+    const auto t0 = std::chrono::steady_clock::now();
+    passes->step(steps, dt);
+    passes_us =
+        std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() /
+        steps;
+  }
+  solver->step(steps, dt);
+  for (auto _ : state) solver->step(steps, dt);
   const double total = double(steps) * double(state.iterations());
   state.counters["steps_per_s"] = benchmark::Counter(total, benchmark::Counter::kIsRate);
   state.counters["us_per_step"] =
       benchmark::Counter(total * 1e-6, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["real_time_factor"] = benchmark::Counter(total * dt, benchmark::Counter::kIsRate);
-  state.counters["alive_nodes"] = double(solver.lattice().alive_count());
-  state.counters["nodes"] = double(solver.lattice().node_count());
+  state.counters["alive_nodes"] = double(solver->lattice().alive_count());
+  state.counters["nodes"] = double(solver->lattice().node_count());
   state.counters["dt_us"] = dt * 1e6;
-  state.SetLabel(solver.backend_name());
+  if (volumetric) {
+    state.counters["passes_us_per_step"] = passes_us;
+    state.counters["x_passes"] =
+        benchmark::Counter(passes_us * total * 1e-6, benchmark::Counter::kIsRate);
+  }
+  state.SetLabel(
+      solver->backend_name() +
+      (volumetric ? (solver->volume_term_folded() ? ", nu 0.45 folded" : ", nu 0.45 passes") : ""));
 }
 BENCHMARK(BM_CrmsSinusLatticeStep)
-    ->ArgsProduct({{2, 1}, {1, 2, 3, 4}})
+    ->ArgsProduct({{2, 1}, {1, 2, 3, 4}, {0, 1}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime()
     ->MinTime(0.3);

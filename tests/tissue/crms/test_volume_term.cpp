@@ -7,8 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "physics_assertions.h"
+#include "tsf/common/cuda_support.h"
 #include "tsf/common/error.h"
 #include "tsf/reference/fem_hex.h"
 
@@ -286,6 +289,62 @@ TEST(CrmsVolumeTerm, ACutDuringTheRunMovesLikeTheLatticeBuiltCut) {
     EXPECT_TRUE(test::assert_same_positions(built_cut.positions(), cut_later.positions(), 1e-6))
         << to_string(backend);
   }
+}
+
+/// CUDA folds the term into its brick and node-parallel launches (the cube pass and the kick inside
+/// every step, one launch for a call's steps): the same motion as the effect passes around
+/// one-step launches, to float rounding, through odd step counts, a pushed region (external
+/// forces), a cut during the run (cubes whose corner died must lose their term at once) and a
+/// two-material bar with the term damped in one material.
+TEST(CrmsVolumeTerm, FoldedIntoTheCudaLaunchesItMovesAsTheEffectPassesDo) {
+  if (!cuda_status().available) GTEST_SKIP() << "CUDA launches not run: " << cuda_status().reason;
+  for (CudaLaunch launch : {CudaLaunch::kBricks, CudaLaunch::kNodes})
+    for (bool two_materials : {false, true}) {
+      struct Run {
+        bool folded = false;
+        std::vector<Vec3f> u, v;
+      };
+      auto run = [&](bool fold) {
+        SolverConfig c;
+        c.backend = Backend::kCuda;
+        c.cuda_launch = launch;
+        c.cuda_fold_volume_term = fold;
+        c.materials = {poisson_material(0.45, 10e3, 1e-3)};
+        Lattice l = box({9, 5, 4}, 1);
+        fix_nodes_behind_plane(l, {0.6, 0, 0}, {1, 0, 0});
+        if (two_materials) {
+          Material stiff = poisson_material(0.3, 30e3, 1e-3);
+          stiff.volume_damping_time_s = 2e-4;
+          c.materials.push_back(stiff);
+          for (auto n : nodes_where(l, [](Vec3d p) { return p.x > 5; })) l.set_material(n, 1);
+        }
+        Solver s(std::move(l), c);
+        Run r;
+        r.folded = s.volume_term_folded();
+        const double dt = 0.5 * s.stable_dt();
+        test::deform(s, [](Vec3d p) {
+          return Vec3d{0.5 + 0.9 * (p.x - 0.5), p.y, p.z + 0.05 * p.x};
+        });
+        s.step(7, dt);
+        const auto end = nodes_where(s.lattice(), [](Vec3d p) { return p.x > 7.5; });
+        s.set_external_forces(end, std::vector<Vec3f>(end.size(), Vec3f{0, 0, -20}));
+        s.step(53, dt);
+        s.delete_nodes(
+            nodes_where(s.lattice(), [](Vec3d p) { return std::fabs(p.x - 4) < 0.1 && p.y < 3; }));
+        s.step(141, dt);
+        EXPECT_TRUE(assert_finite(s));
+        r.u = s.displacements();
+        r.v = s.velocities();
+        return r;
+      };
+      const Run passes = run(false), folded = run(true);
+      const std::string what =
+          std::string(to_string(launch)) + (two_materials ? ", two materials" : "");
+      EXPECT_FALSE(passes.folded) << what;
+      EXPECT_TRUE(folded.folded) << what;
+      EXPECT_TRUE(test::assert_same_positions(passes.u, folded.u, 1e-4)) << what;
+      EXPECT_TRUE(test::assert_same_positions(passes.v, folded.v, 1e-3)) << what;
+    }
 }
 
 TEST(CrmsVolumeTerm, TheTermIsElasticUnlessGivenADampingTimeOfItsOwn) {

@@ -68,6 +68,7 @@
 #include "tsf/crms/node_force_planes.h"
 #include "tsf/crms/node_update.h"
 #include "tsf/crms/stencil.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 namespace {
@@ -98,6 +99,29 @@ __device__ __forceinline__ void store_node_step(const StateView& out, std::int64
   if (!r.finite) {
     guard->bad_step = step;
     atomicMin(&guard->bad_node, static_cast<unsigned long long>(n));
+  }
+}
+
+/// The volumetric term as the brick and node-parallel kernels see it (FoldedVolumeTerm): off, or
+/// folded into every step of the launch.
+struct VolumeFold {
+  bool on = false;
+  FoldedVolumeTerm term;
+};
+
+/// The folded volumetric term's kick (kick_after_step) on a moving node's step result r, whose
+/// state before the step had displacement u_before; a non-finite result is kept out as
+/// integrate_node keeps one (u kept, v = 0) and reported by store_node_step.
+__device__ __forceinline__ void kick_step_result(NodeStepResult& r, const Vec3f& u_before,
+                                                 const Vec3f& force, float inv_mass,
+                                                 const StepParameters& p) {
+  if (!r.finite) return;
+  kick_after_step(r.u, r.v, force, inv_mass, p.dt, p.velocity_limit,
+                  p.scheme != static_cast<int>(ExplicitScheme::kExplicitEuler));
+  r.finite = crms_finite(r.u) & crms_finite(r.v);
+  if (!r.finite) {
+    r.u = u_before;
+    r.v = {0.0f, 0.0f, 0.0f};
   }
 }
 
@@ -759,7 +783,8 @@ template <unsigned F>
 __device__ __forceinline__ void node_integrate(const LatticeView& lat, const ConstStateView& in,
                                                const StateView& out, const StepParameters& p,
                                                Guard* guard, long long step, bool halted,
-                                               const float* terms, std::int64_t n) {
+                                               const float* terms, const VolumeFold& fold,
+                                               std::int64_t n) {
   const unsigned fl = lat.flags[n];
   const Vec3f u{in.u[0][n], in.u[1][n], in.u[2][n]};
   const Vec3f v{in.v[0][n], in.v[1][n], in.v[2][n]};
@@ -788,27 +813,43 @@ __device__ __forceinline__ void node_integrate(const LatticeView& lat, const Con
   Vec3f external{0.0f, 0.0f, 0.0f};
   if constexpr ((F & features::kExternalForces) != 0)
     external = {lat.external_force[0][n], lat.external_force[1][n], lat.external_force[2][n]};
-  const NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[n], external, f, p);
+  NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[n], external, f, p);
+  if (fold.on) {
+    const int i = static_cast<int>(n % lat.dims.x),
+              j = static_cast<int>((n / lat.dims.x) % lat.dims.y);
+    const int k = static_cast<int>(n / lat.stride_z);
+    kick_step_result(r, u, volume_force(lat, fold.term.terms, n, i, j, k), lat.inv_mass[n], p);
+  }
   store_node_step(out, n, r, guard, step);
 }
 
 template <unsigned F>
 __global__ void __launch_bounds__(256, 3)
     node_step_kernel(LatticeView lat, StateView a, StateView b, StepParameters p, Guard* guard,
-                     int steps, NodePlan plan) {
+                     int steps, NodePlan plan, VolumeFold fold) {
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
   const long long base = guard->step_base;
   const int threads = gridDim.x * blockDim.x;
   const int tid = blockIdx.x * blockDim.x + threadIdx.x;
-  // Phase 1 items: per group of 32 alive nodes, three plane-uniform warps.
+  // Phase 1 items: per group of 32 alive nodes, three plane-uniform warps; then, with the folded
+  // volumetric term, the cube pass of every cube whose lower corner is alive (the others' terms
+  // stay zero: launch_nodes clears them when the alive list changes).
   const int items = ((plan.alive_count + 31) / 32) * 96;
+  const int all_items = items + (fold.on ? plan.alive_count : 0);
   for (int s = 0; s < steps; ++s) {
     const ConstStateView in = (s & 1) ? b : a;
     const StateView out = (s & 1) ? a : b;
     const long long step = base + s;
     const bool halted = halted_before(guard, step);
     if (!halted)
-      for (int t = tid; t < items; t += threads) {
+      for (int t = tid; t < all_items; t += threads) {
+        if (t >= items) {
+          const int n = plan.alive[t - items];
+          const int i = n % lat.dims.x, j = (n / lat.dims.x) % lat.dims.y,
+                    k = n / (lat.dims.x * lat.dims.y);
+          cube_volume_terms(lat, in, fold.term.parameters, n, i, j, k, fold.term.terms);
+          continue;
+        }
         const int index = (t / 96) * 32 + (t & 31);
         if (index >= plan.alive_count) continue;
         const int n = plan.alive[index];
@@ -827,10 +868,10 @@ __global__ void __launch_bounds__(256, 3)
     grid.sync();
     if (s < 2 || halted) {
       for (std::int64_t n = tid; n < lat.count; n += threads)
-        node_integrate<F>(lat, in, out, p, guard, step, halted, plan.terms, n);
+        node_integrate<F>(lat, in, out, p, guard, step, halted, plan.terms, fold, n);
     } else {
       for (int t = tid; t < plan.alive_count; t += threads)
-        node_integrate<F>(lat, in, out, p, guard, step, halted, plan.terms, plan.alive[t]);
+        node_integrate<F>(lat, in, out, p, guard, step, halted, plan.terms, fold, plan.alive[t]);
     }
     grid.sync();
   }
@@ -956,7 +997,8 @@ class CudaBackend final : public SolverBackend {
         count_(g.node_count()),
         steps_per_graph_(options.cuda_steps_per_graph),
         evaluation_(options.evaluation),
-        tile_kernel_(options.cuda_tile_kernel) {
+        tile_kernel_(options.cuda_tile_kernel),
+        fold_volume_term_(options.cuda_fold_volume_term) {
     // Every resource is an RAII member (device_buffer.h): a throw below frees what was made.
     const auto n = static_cast<std::size_t>(count_);
     stream_ = make_stream();
@@ -1141,25 +1183,26 @@ class CudaBackend final : public SolverBackend {
     }
   }
 
+  bool folds_volume_term(unsigned features) const override {
+    return fold_volume_term_ && (bricks_ || nodes_) && cooperative_step(features);
+  }
+
+  void step_folded(int n, const StepParameters& p, unsigned features,
+                   const FoldedVolumeTerm& volume) override {
+    require(folds_volume_term(features), "step_folded: this launch does not fold the term");
+    require(bricks_ || volume.terms[0] != nullptr, "step_folded: no cube-pass arrays");
+    require_compiled_feature_set(features);
+    VolumeFold fold;
+    fold.on = true;
+    fold.term = volume;
+    if (n > 0) step_cooperative(n, p, features, fold);
+  }
+
   void step(int n, const StepParameters& p, unsigned features) override {
     require_compiled_feature_set(features);
     const LatticeView lat = lattice_view();
-    if ((bricks_ || nodes_ || persistent_) && n > 0 &&
-        (features & features::kSymmetricReactions) != 0 &&
-        evaluation_ == ForceEvaluation::kShared) {  // every step in one cooperative launch
-      dispatch_features(features, [&](auto f) {
-        if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0) {
-          if (bricks_)
-            launch_bricks<decltype(f)::value>(lat, p, n);
-          else if (nodes_)
-            launch_nodes<decltype(f)::value>(lat, p, n);
-          else
-            launch_persistent<decltype(f)::value>(lat, p, n);
-        }
-      });
-      advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(), n);
-      TSF_CUDA_CHECK_LAUNCH();
-      steps_started_ += n;
+    if ((bricks_ || nodes_ || persistent_) && n > 0 && cooperative_step(features)) {
+      step_cooperative(n, p, features, VolumeFold{});
       return;
     }
     int done = 0;
@@ -1176,6 +1219,31 @@ class CudaBackend final : public SolverBackend {
                                                        rest);  // launch_step swapped buffers
       TSF_CUDA_CHECK_LAUNCH();
     }
+    steps_started_ += n;
+  }
+
+  /// The cooperative launches (bricks, node-parallel, persistent tiles) run the symmetric shared
+  /// evaluation only.
+  bool cooperative_step(unsigned features) const {
+    return (features & features::kSymmetricReactions) != 0 &&
+           evaluation_ == ForceEvaluation::kShared;
+  }
+
+  /// Every step of the call in one cooperative launch (the folded term: bricks and nodes only).
+  void step_cooperative(int n, const StepParameters& p, unsigned features, const VolumeFold& fold) {
+    const LatticeView lat = lattice_view();
+    dispatch_features(features, [&](auto f) {
+      if constexpr ((decltype(f)::value & features::kSymmetricReactions) != 0) {
+        if (bricks_)
+          launch_bricks<decltype(f)::value>(lat, p, n, fold);
+        else if (nodes_)
+          launch_nodes<decltype(f)::value>(lat, p, n, fold);
+        else
+          launch_persistent<decltype(f)::value>(lat, p, n);
+      }
+    });
+    advance_steps_kernel<<<1, 1, 0, stream_.get()>>>(guard_.data(), n);
+    TSF_CUDA_CHECK_LAUNCH();
     steps_started_ += n;
   }
 
@@ -1359,7 +1427,7 @@ class CudaBackend final : public SolverBackend {
       brick_kernel_attributes<features::kSymmetricReactions>();
       TSF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
           &per_sm, brick_step_kernel<features::kSymmetricReactions>, Brick::kThreads,
-          sizeof(Brick::Shared)));
+          Brick::kFoldedSharedBytes));  // the larger launch: its blocks are resident too
       brick_resident_blocks_ = per_sm * multiprocessors;
       if (brick_resident_blocks_ < 1) bricks_ = false;
       bricks_x_ = (nx + Brick::kX - 1) / Brick::kX;
@@ -1495,13 +1563,14 @@ class CudaBackend final : public SolverBackend {
     static const bool done = [] {
       TSF_CUDA_CHECK(cudaFuncSetAttribute(reinterpret_cast<const void*>(&brick_step_kernel<F>),
                                           cudaFuncAttributeMaxDynamicSharedMemorySize,
-                                          static_cast<int>(sizeof(Brick::Shared))));
+                                          static_cast<int>(Brick::kFoldedSharedBytes)));
       return true;
     }();
     (void)done;
   }
   template <unsigned F>
-  void launch_bricks(const LatticeView& lat, const StepParameters& p, int n) {
+  void launch_bricks(const LatticeView& lat, const StepParameters& p, int n,
+                     const VolumeFold& fold) {
     brick_kernel_attributes<F>();
     StateView a = buffer_view(current_), b = buffer_view(1 - current_);
     StepParameters parameters = p;
@@ -1514,10 +1583,12 @@ class CudaBackend final : public SolverBackend {
     plan.active = active_bricks_;
     plan.count = static_cast<int>(brick_moving_.size());
     const int blocks = std::max(1, std::min(plan.count, brick_resident_blocks_));
-    void* args[] = {const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan};
-    TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&brick_step_kernel<F>),
-                                               dim3(blocks), dim3(Brick::kThreads), args,
-                                               sizeof(Brick::Shared), stream_.get()));
+    VolumeFold folded = fold;
+    void* args[] = {
+        const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan, &folded};
+    TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(
+        reinterpret_cast<const void*>(&brick_step_kernel<F>), dim3(blocks), dim3(Brick::kThreads),
+        args, fold.on ? Brick::kFoldedSharedBytes : Brick::kSharedBytes, stream_.get()));
     if (n & 1) current_ = 1 - current_;
   }
 
@@ -1537,11 +1608,21 @@ class CudaBackend final : public SolverBackend {
                                      stream_.get()));
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));  // `alive` goes out of scope
     alive_count_ = static_cast<int>(alive.size());
+    fold_terms_cleared_ = nullptr;  // cubes whose lower corner died keep their last terms
     if (node_terms_.empty()) node_terms_.resize(static_cast<std::size_t>(45 * count_));
   }
 
   template <unsigned F>
-  void launch_nodes(const LatticeView& lat, const StepParameters& p, int n) {
+  void launch_nodes(const LatticeView& lat, const StepParameters& p, int n,
+                    const VolumeFold& fold) {
+    if (fold.on && fold_terms_cleared_ != fold.term.terms[0]) {
+      // The kernel runs the cube pass of the cubes with an alive lower corner only: the others'
+      // terms must read zero (as the cube pass leaves a cube that is not intact).
+      for (float* t : fold.term.terms)
+        TSF_CUDA_CHECK(
+            cudaMemsetAsync(t, 0, static_cast<std::size_t>(count_) * sizeof(float), stream_.get()));
+      fold_terms_cleared_ = fold.term.terms[0];
+    }
     StateView a = buffer_view(current_), b = buffer_view(1 - current_);
     StepParameters parameters = p;
     Guard* guard = guard_.data();
@@ -1549,10 +1630,13 @@ class CudaBackend final : public SolverBackend {
     plan.alive = alive_list_.data();
     plan.alive_count = alive_count_;
     plan.terms = node_terms_.data();
-    const std::int64_t items = (static_cast<std::int64_t>(alive_count_) + 31) / 32 * 96;
+    const std::int64_t items =
+        (static_cast<std::int64_t>(alive_count_) + 31) / 32 * 96 + (fold.on ? alive_count_ : 0);
     const std::int64_t wanted = (std::max<std::int64_t>(items, count_) + 255) / 256;
     const int blocks = static_cast<int>(std::min<std::int64_t>(wanted, node_resident_blocks_));
-    void* args[] = {const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan};
+    VolumeFold folded = fold;
+    void* args[] = {
+        const_cast<LatticeView*>(&lat), &a, &b, &parameters, &guard, &n, &plan, &folded};
     TSF_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&node_step_kernel<F>),
                                                dim3(std::max(blocks, 1)), dim3(256), args, 0,
                                                stream_.get()));
@@ -1667,6 +1751,7 @@ class CudaBackend final : public SolverBackend {
   int steps_per_graph_;
   ForceEvaluation evaluation_;
   CudaTileKernel tile_kernel_;
+  bool fold_volume_term_;  // BackendOptions::cuda_fold_volume_term
   int tile_rows_ = 4;
   int planes_per_block_ = 1;
   int tiles_x_ = 1, tiles_y_ = 1, tiles_z_ = 1;
@@ -1674,6 +1759,7 @@ class CudaBackend final : public SolverBackend {
   int persistent_blocks_ = 0;
   bool nodes_ = false;
   bool bricks_ = false;
+  const float* fold_terms_cleared_ = nullptr;  // node launch: the term arrays last cleared
   int brick_resident_blocks_ = 0;
   int bricks_x_ = 1, bricks_y_ = 1, bricks_z_ = 1;
   std::vector<int> brick_moving_;  // moving nodes per brick (brick launch)

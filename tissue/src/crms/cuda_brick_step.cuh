@@ -19,6 +19,11 @@
 //      fixed order (deterministic, no atomics) and integrates (integrate_node), writing its new
 //      state to global memory;
 //   4. one grid barrier, then the next step reads the other ping-pong buffer.
+// With the volumetric term folded in (VolumeFold), step 2 also runs the cube pass of the 5 × 5 × 5
+// cubes that have a brick node as a corner (cube_volume_faces on the shared extended brick, into
+// shared memory: a cube on a brick's border is computed by each brick it touches instead of
+// exchanged), and step 3 kicks each
+// moving node by its cubes' forces (volume_force_from, kick_after_step): still one barrier a step.
 // Every piece of physics is the one copy in node_force.h / node_force_planes.h / node_update.h,
 // read through a shared-memory stencil accessor. Bricks with no moving node are not stepped: they
 // are copied in the launch's first two steps (u kept, v = 0), so that both ping-pong buffers hold
@@ -95,6 +100,19 @@ struct BrickShape {
     float external[3][kNodes];
     std::uint8_t flags[kExtNodes];
   };
+
+  /// The cubes with a brick node as a corner (lower corners −1 … BX − 1 from the brick's first
+  /// node, likewise y and z) and, with the folded volumetric term, their cube-pass terms, kept in
+  /// shared memory after Shared.
+  static constexpr int kCubesX = BX + 1, kCubesY = BY + 1, kCubesZ = BZ + 1;
+  static constexpr int kCubes = kCubesX * kCubesY * kCubesZ;
+  static_assert(kCubes <= kThreads, "one cube per thread");
+  struct CubeShared {
+    float face[3][3][kCubes];  ///< [face a][component][cube]
+  };
+  /// Dynamic shared memory of a launch with and without the folded volumetric term.
+  static constexpr std::size_t kSharedBytes = sizeof(Shared);
+  static constexpr std::size_t kFoldedSharedBytes = sizeof(Shared) + sizeof(CubeShared);
 };
 /// The brick of the default launch: 4 × 4 × 4 nodes, 288 threads (measured against 8 × 8 × 4 on
 /// an H200: a step's time is one brick's chain, so smaller bricks spread a lattice over more of
@@ -135,6 +153,55 @@ struct BrickStencil {
     return b;
   }
 };
+
+/// The folded cube terms as volume_force_from's source: the cube with lower corner (ci, cj, ck) of
+/// the brick whose extended box starts at (x0, y0, z0).
+template <class B>
+struct BrickCubeTerms {
+  const typename B::CubeShared& s;
+  int x0, y0, z0;
+  TSF_HD_INLINE CubeTerms operator()(std::int64_t, int ci, int cj, int ck) const {
+    const int q = (ci - x0) + B::kCubesX * ((cj - y0) + B::kCubesY * (ck - z0));
+    CubeTerms t;
+    for (int a = 0; a < 3; ++a) t.face[a] = {s.face[a][0][q], s.face[a][1][q], s.face[a][2][q]};
+    return t;
+  }
+};
+
+/// Cube q of the brick: its cube pass (cube_volume_faces), into `cubes`. The cube's corners lie in
+/// the extended brick, so the pass reads the shared copy through a lattice and state view of the
+/// extended brick (its own dims and strides; nodes outside the lattice were loaded unlinked, so a
+/// cube that leaves the lattice is not intact there either).
+template <unsigned F, class B>
+__device__ __forceinline__ void brick_cube_terms(const LatticeView& lat,
+                                                 const typename B::Shared& s,
+                                                 const VolumeParameters& volume, int q,
+                                                 typename B::CubeShared& cubes) {
+  LatticeView ext;
+  ext.dims = {B::kExtX, B::kExtY, B::kExtZ};
+  ext.count = B::kExtNodes;
+  ext.stride_y = B::kExtX;
+  ext.stride_z = B::kExtX * B::kExtY;
+  for (int a = 0; a < 3; ++a) ext.rest_length[a] = lat.rest_length[a];
+  ext.flags = s.flags;
+  if constexpr ((F & features::kHeterogeneous) != 0) {
+    ext.material_index = s.material_index;
+    ext.material_weight = s.material_weight;
+  }
+  ConstStateView state;
+  for (int a = 0; a < 3; ++a) {
+    state.u[a] = s.u[a];
+    state.v[a] = s.v[a];
+  }
+  const int i = q % B::kCubesX, j = (q / B::kCubesX) % B::kCubesY,
+            k = q / (B::kCubesX * B::kCubesY);
+  const CubeTerms t =
+      cube_volume_faces(ext, state, volume, i + j * ext.stride_y + k * ext.stride_z, i, j, k);
+#pragma unroll
+  for (int a = 0; a < 3; ++a)
+#pragma unroll
+    for (int comp = 0; comp < 3; ++comp) cubes.face[a][comp][q] = t.face[a][comp];
+}
 
 /// Plane P's terms of brick node b into the shared terms (nothing for a node that is not alive:
 /// no linked neighbour reads them, and integrate_node ignores a non-moving node's force).
@@ -179,7 +246,8 @@ __device__ __forceinline__ void brick_halo_terms(typename B::Shared& s, int h,
 template <unsigned F, class B>
 __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, const StateView& out,
                            const StepParameters& p, Guard* guard, long long step, int bx, int by,
-                           int bz, typename B::Shared& s) {
+                           int bz, typename B::Shared& s, const VolumeFold& fold,
+                           typename B::CubeShared& cubes) {
   constexpr bool kHetero = (F & features::kHeterogeneous) != 0;
   const int t = threadIdx.x;
   const int x0 = bx * B::kX - 1, y0 = by * B::kY - 1, z0 = bz * B::kZ - 1;
@@ -221,6 +289,9 @@ __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, con
     brick_plane_terms<F, 2, B>(s, t - 2 * B::kNodes, lat.rest_length, p.palette);
   else if (t < 3 * B::kNodes + B::kHalo)
     brick_halo_terms<F, B>(s, t - 3 * B::kNodes, lat.rest_length, p.palette);
+  // The folded volumetric term's cubes, on the last kCubes threads (the lighter halo items).
+  if (fold.on && t >= B::kThreads - B::kCubes)
+    brick_cube_terms<F, B>(lat, s, fold.term.parameters, t - (B::kThreads - B::kCubes), cubes);
   __syncthreads();
   // 3. Sum in a fixed order and integrate, one thread per brick node.
   if (t < B::kNodes) {
@@ -264,6 +335,10 @@ __device__ void brick_step(const LatticeView& lat, const ConstStateView& in, con
         if constexpr ((F & features::kExternalForces) != 0)
           external = {s.external[0][t], s.external[1][t], s.external[2][t]};
         r = integrate_node<F>(fl, u, v, s.inv_mass[t], external, f, p);
+        if (fold.on)
+          kick_step_result(r, u,
+                           volume_force_from(lat, n, x, y, z, BrickCubeTerms<B>{cubes, x0, y0, z0}),
+                           s.inv_mass[t], p);
       }
       store_node_step(out, n, r, guard, step);
     }
@@ -293,9 +368,12 @@ __device__ void brick_copy(const LatticeView& lat, const ConstStateView& in, con
 template <unsigned F, class B = Brick>
 __global__ void __launch_bounds__(B::kThreads, 2)
     brick_step_kernel(LatticeView lat, StateView a, StateView b, StepParameters p, Guard* guard,
-                      int steps, BrickPlan plan) {
+                      int steps, BrickPlan plan, VolumeFold fold) {
   extern __shared__ __align__(16) unsigned char brick_smem[];
   typename B::Shared& s = *reinterpret_cast<typename B::Shared*>(brick_smem);
+  // Only a folded launch allocates the cubes (B::kFoldedSharedBytes).
+  typename B::CubeShared& cubes =
+      *reinterpret_cast<typename B::CubeShared*>(brick_smem + sizeof(typename B::Shared));
   cooperative_groups::grid_group grid = cooperative_groups::this_grid();
   const long long base = guard->step_base;
   for (int st = 0; st < steps; ++st) {
@@ -310,7 +388,7 @@ __global__ void __launch_bounds__(B::kThreads, 2)
       const int bx = brick % plan.bricks_x, by = (brick / plan.bricks_x) % plan.bricks_y,
                 bz = brick / (plan.bricks_x * plan.bricks_y);
       if (q < stepped) {
-        brick_step<F, B>(lat, in, out, p, guard, step, bx, by, bz, s);
+        brick_step<F, B>(lat, in, out, p, guard, step, bx, by, bz, s, fold, cubes);
         __syncthreads();  // the shared brick is reused by the block's next brick
       } else if (q >= plan.active || halted) {
         brick_copy<B>(lat, in, out, bx, by, bz, halted);

@@ -180,6 +180,12 @@ class CudaEffects final : public EffectsEngine {
     return *energy_host_.data();
   }
 
+  float* const* volume_term_arrays() override {
+    if (volume_terms_[0].empty()) return nullptr;
+    for (int c = 0; c < 9; ++c) volume_pointers_[c] = volume_terms_[c].data();
+    return volume_pointers_.data();
+  }
+
   std::vector<std::uint8_t> read_flags(const LatticeView& lat) const override {
     std::vector<std::uint8_t> flags(count_);
     TSF_CUDA_CHECK(
@@ -261,6 +267,7 @@ class CudaEffects final : public EffectsEngine {
   std::vector<std::array<DeviceBuffer<float>, 3>> keyframes_;  // device rest offsets
   DeviceBuffer<std::uint8_t> mask_;
   std::array<DeviceBuffer<float>, 9> volume_terms_;
+  std::array<float*, 9> volume_pointers_{};
   mutable DeviceBuffer<double> energy_sum_;  // volume_energy_here's reduction
   mutable PinnedBuffer<double> energy_host_;
 };

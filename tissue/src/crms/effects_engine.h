@@ -84,6 +84,9 @@ class EffectsEngine {
     (void)lattice, (void)state, (void)p;
     return std::nullopt;
   }
+  /// The volumetric term's cube-pass arrays (9, #nodes each, where the backend keeps its state);
+  /// null without the term.
+  virtual float* const* volume_term_arrays() = 0;
   /// Bytes kept per node by the enabled effects.
   double bytes_per_node() const {
     double b = 0;

@@ -111,6 +111,7 @@ BackendOptions backend_options(const SolverConfig& config) {
   o.cuda_tile_rows = config.cuda_tile_rows;
   o.cuda_launch = config.cuda_launch;
   o.cuda_tile_kernel = config.cuda_tile_kernel;
+  o.cuda_fold_volume_term = config.cuda_fold_volume_term;
   return o;
 }
 
@@ -293,10 +294,21 @@ VolumeParameters Solver::volume_parameters() const {
 }
 
 void Solver::step_with_effects(int n, double dt) {
-  // One core step at a time between the effect passes. The guard is checked every step on the
-  // CPU (free) and every 64 steps on CUDA (a host wait): after a hit the effect passes stop and
-  // the backend, halted, leaves the state as it was.
+  // Folded where the backend can (below); otherwise one core step at a time between the effect
+  // passes. The guard is checked every step on the CPU (free) and every 64 steps on CUDA (a host
+  // wait): after a hit the effect passes stop and the backend, halted, leaves the state as it was.
   const StepParameters p = step_parameters(dt);
+  if (volume_term_folded()) {
+    // The volumetric term alone, folded into the backend's launch: the same passes in the same
+    // order inside every step, one launch for the n steps (docs/crms.md, "The product path with
+    // the volumetric term").
+    FoldedVolumeTerm volume;
+    volume.parameters = volume_parameters();
+    float* const* terms = effects_->volume_term_arrays();
+    for (int c = 0; c < 9; ++c) volume.terms[c] = terms[c];
+    backend_->step_folded(n, p, features(), volume);
+    return;
+  }
   EffectParameters e = effect_parameters(dt);
   const int check_every = on_cuda_ ? 64 : 1;
   int s = 0;
@@ -311,6 +323,11 @@ void Solver::step_with_effects(int n, double dt) {
     }
   }
   if (s < n) backend_->step(n - s, p, features());  // halted: advances the count only
+}
+
+bool Solver::volume_term_folded() const {
+  return effects_ && effect_bits_ == static_cast<unsigned>(effect_bits::kVolumetric) &&
+         backend_->folds_volume_term(features());
 }
 
 std::vector<std::string> Solver::active_effects() const {

@@ -15,6 +15,7 @@
 #include "tsf/crms/node_state_view.h"
 #include "tsf/crms/snapshot_buffer.h"
 #include "tsf/crms/solver_config.h"
+#include "tsf/crms/volume_term.h"
 
 namespace tsf::crms {
 
@@ -26,6 +27,17 @@ struct GuardHit {
 
 struct EnergySums {
   double kinetic = 0, elastic = 0, gravitational = 0;
+};
+
+/// The volumetric term (volume_term.h) folded into the steps of one call: in every step the cube
+/// pass on the state the step reads, and after the core update each moving node's kick by its
+/// cubes' forces (kick_after_step) — what the effect passes kVolumeTerms and kKick do around a
+/// one-step call (effects_engine.h), for all n steps in one launch.
+struct FoldedVolumeTerm {
+  VolumeParameters parameters;
+  /// The cube pass's arrays (#nodes each, where the backend keeps its state): the effects
+  /// engine's, for a launch that exchanges the cubes' terms through memory.
+  float* terms[9] = {};
 };
 
 class SolverBackend {
@@ -59,6 +71,17 @@ class SolverBackend {
   /// Runs n steps (asynchronously where the backend can). After a guard hit every later step
   /// leaves the state unchanged until reset_guard().
   virtual void step(int n, const StepParameters& parameters, unsigned features) = 0;
+  /// True when step_folded() can run n steps with the volumetric term folded in, for these
+  /// features (the CUDA backend's brick and node-parallel launches).
+  virtual bool folds_volume_term(unsigned features) const {
+    (void)features;
+    return false;
+  }
+  /// step() with the volumetric term folded in (only where folds_volume_term()).
+  virtual void step_folded(int n, const StepParameters& parameters, unsigned features,
+                           const FoldedVolumeTerm& volume) {
+    (void)n, (void)parameters, (void)features, (void)volume;
+  }
   /// Waits for queued steps; returns the guard hit if one happened since the last reset.
   virtual std::optional<GuardHit> synchronize() = 0;
   virtual void reset_guard() = 0;
@@ -101,6 +124,7 @@ struct BackendOptions {
   int cuda_tile_rows = 0;
   CudaLaunch cuda_launch = CudaLaunch::kAuto;
   CudaTileKernel cuda_tile_kernel = CudaTileKernel::kStaged;
+  bool cuda_fold_volume_term = true;
 };
 BackendOptions backend_options(const SolverConfig& config);
 

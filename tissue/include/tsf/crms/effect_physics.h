@@ -276,14 +276,12 @@ TSF_HD_INLINE void kick_node(const LatticeView& lat, const StateView& s, const E
     f = {arrays.force[0][n], arrays.force[1][n], arrays.force[2][n]};
   if ((p.enabled & effect_bits::kVolumetric) != 0)
     f += volume_force(lat, arrays.volume_terms, n, i, j, k);
-  const Vec3f before{s.v[0][n], s.v[1][n], s.v[2][n]};
-  // The velocity limit holds the whole update, as it holds the core's (no kinetic drag: the core
-  // step applied it).
-  const Vec3f after =
-      limit_velocity(before + f * (p.dt * lat.inv_mass[n]), p.dt, 0.0f, p.velocity_limit);
-  for (int a = 0; a < 3; ++a) s.v[a][n] = after[a];
-  if (p.symplectic)
-    for (int a = 0; a < 3; ++a) s.u[a][n] += p.dt * (after[a] - before[a]);
+  Vec3f u{s.u[0][n], s.u[1][n], s.u[2][n]}, v{s.v[0][n], s.v[1][n], s.v[2][n]};
+  kick_after_step(u, v, f, lat.inv_mass[n], p.dt, p.velocity_limit, p.symplectic);
+  for (int a = 0; a < 3; ++a) {
+    s.u[a][n] = u[a];
+    s.v[a][n] = v[a];
+  }
 }
 
 /// Pass 5, plasticity: node n's 3 springs towards +axis (their offsets live at n).

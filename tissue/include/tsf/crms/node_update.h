@@ -71,6 +71,19 @@ TSF_HD_INLINE NodeStepResult integrate_node(unsigned flags, const Vec3f& u, cons
   return r;
 }
 
+/// A force f (µN) applied after a step, to a moving node's new state (u, v): the effects' kick
+/// (docs/effects.md, pass 4). v += dt·f/m within the velocity limit (no kinetic drag: the step
+/// applied it) and, with symplectic Euler, u += dt·Δv (the position update the step made with its
+/// own part of v). One copy for the effect passes and the CUDA launches that fold the kick into
+/// their step.
+TSF_HD_INLINE void kick_after_step(Vec3f& u, Vec3f& v, const Vec3f& f, float inv_mass, float dt,
+                                   float velocity_limit, bool symplectic) {
+  const Vec3f before = v;
+  v = limit_velocity(before + f * (dt * inv_mass), dt, 0.0f, velocity_limit);
+  if (symplectic)
+    for (int a = 0; a < 3; ++a) u[a] += dt * (v[a] - before[a]);
+}
+
 /// One whole step of the stencil's centre node from its whole stencil (per-node evaluation).
 template <unsigned kF, class St>
 TSF_HD_INLINE NodeStepResult step_node(const St& st, const float rest_length[3],

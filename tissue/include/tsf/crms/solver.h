@@ -180,6 +180,10 @@ class Solver {
   /// Names of the enabled effects, e.g. {"plasticity", "fluid"}; empty when none is on.
   /// "volumetric" when a material has ν > 0 (its volumetric term, volume_term.h).
   std::vector<std::string> active_effects() const;
+  /// True when the volumetric term is the only active effect and runs inside the backend's step
+  /// launch (CUDA's brick and node-parallel launches, SolverConfig::cuda_fold_volume_term): one
+  /// launch per call instead of the effect passes around one-step launches.
+  bool volume_term_folded() const;
   /// Host copies of the effects' arrays (synchronises; empty for effects that are off).
   EffectsState effects_state() const;
   /// Springs broken by tearing since construction (synchronises).

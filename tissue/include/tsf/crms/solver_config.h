@@ -131,6 +131,11 @@ struct SolverConfig {
   CudaLaunch cuda_launch = CudaLaunch::kAuto;
   /// CUDA: which tile kernel the graphs launch runs (see CudaTileKernel). A benchmark knob.
   CudaTileKernel cuda_tile_kernel = CudaTileKernel::kStaged;
+  /// CUDA: fold the volumetric term into the brick and node-parallel launches (one launch for a
+  /// call's steps, the term's cube pass and kick inside each step) when it is the only active
+  /// effect; false runs the effect passes around one-step launches. A benchmark and test knob; the
+  /// results agree to float rounding.
+  bool cuda_fold_volume_term = true;
   /// Implicit Euler: Newton iterations per step (1 = linearised backward Euler) and the relative
   /// residual at which they stop early. Ranges [1, 50] and [0, 1).
   int implicit_newton_iterations = 8;

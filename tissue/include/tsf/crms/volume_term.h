@@ -170,13 +170,18 @@ TSF_HD_INLINE void cube_moduli(const LatticeView& lat, const VolumeParameters& p
   damping = any_zero || damping_zero ? 0.0f : 8.0f / inv_damping;
 }
 
-/// The cube pass: for the cube with lower corner c = (i, j, k), terms[3a + component][c] =
-/// (π·face[a])[component] (µN; the force on corner q is Σ_a s_a·π·face[a]); zeros when the cube is
-/// not intact or has no term.
-TSF_HD_INLINE void cube_volume_terms(const LatticeView& lat, const ConstStateView& s,
-                                     const VolumeParameters& p, std::int64_t c, int i, int j, int k,
-                                     float* const terms[9]) {
-  Vec3f t[3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};
+/// The cube pass's result for one cube: π·face[a] (µN) for the three face vectors; the force on
+/// corner q is Σ_a s_a·π·face[a] (volume_force_from).
+struct CubeTerms {
+  Vec3f face[3];
+};
+
+/// The cube pass for the cube with lower corner c = (i, j, k): zeros when the cube is not intact or
+/// has no term. Reads the lattice and the state where they live (any backend, any memory).
+TSF_HD_INLINE CubeTerms cube_volume_faces(const LatticeView& lat, const ConstStateView& s,
+                                          const VolumeParameters& p, std::int64_t c, int i, int j,
+                                          int k) {
+  CubeTerms t{{{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}}};
   float stiffness = 0.0f, damping = 0.0f;
   if (cube_intact(lat, i, j, k)) cube_moduli(lat, p, c, stiffness, damping);
   if (stiffness > 0.0f) {
@@ -195,10 +200,18 @@ TSF_HD_INLINE void cube_volume_terms(const LatticeView& lat, const ConstStateVie
       rate /= lat.rest_length[0] * lat.rest_length[1] * lat.rest_length[2];
     }
     const float pressure = volume_pressure(shape.strain, rate, stiffness, damping);
-    for (int a = 0; a < 3; ++a) t[a] = shape.face[a] * pressure;
+    for (int a = 0; a < 3; ++a) t.face[a] = shape.face[a] * pressure;
   }
+  return t;
+}
+
+/// The cube pass into arrays: terms[3a + component][c] = cube_volume_faces(…).face[a][component].
+TSF_HD_INLINE void cube_volume_terms(const LatticeView& lat, const ConstStateView& s,
+                                     const VolumeParameters& p, std::int64_t c, int i, int j, int k,
+                                     float* const terms[9]) {
+  const CubeTerms t = cube_volume_faces(lat, s, p, c, i, j, k);
   for (int a = 0; a < 3; ++a)
-    for (int comp = 0; comp < 3; ++comp) terms[3 * a + comp][c] = t[a][comp];
+    for (int comp = 0; comp < 3; ++comp) terms[3 * a + comp][c] = t.face[a][comp];
 }
 
 /// Host loops over the cubes that carry the term (the energy, the implicit integrator's
@@ -247,10 +260,12 @@ TSF_HD_INLINE double cube_volume_energy(const LatticeView& lat, const ConstState
   return stiffness > 0.0f ? intact_cube_volume_energy(lat, s, c, stiffness) : 0.0;
 }
 
-/// The volumetric force on node n = (i, j, k), µN: Σ over its (up to 8) cubes of π·∂V/∂x_n from
-/// the cube pass's terms (3 arrays of Vec3 components each: terms[3a + component]).
-TSF_HD_INLINE Vec3f volume_force(const LatticeView& lat, float* const terms[9], std::int64_t n,
-                                 int i, int j, int k) {
+/// The volumetric force on node n = (i, j, k), µN: Σ over its (up to 8) cubes of π·∂V/∂x_n, in a
+/// fixed order. `terms(c, ci, cj, ck)` gives the cube pass's CubeTerms of the cube with lower
+/// corner c = (ci, cj, ck) wherever they are kept (arrays, a thread block's shared memory).
+template <class Terms>
+TSF_HD_INLINE Vec3f volume_force_from(const LatticeView& lat, std::int64_t n, int i, int j, int k,
+                                      const Terms& terms) {
   Vec3f f{0.0f, 0.0f, 0.0f};
   for (int q = 0; q < 8; ++q) {  // n is corner (a, b, c) of the cube at (i − a, j − b, k − c)
     const int a = q & 1, b = (q >> 1) & 1, cz = q >> 2;
@@ -258,11 +273,29 @@ TSF_HD_INLINE Vec3f volume_force(const LatticeView& lat, float* const terms[9], 
         j - b + 1 >= lat.dims.y || k - cz + 1 >= lat.dims.z)
       continue;
     const std::int64_t c = n - a - b * lat.stride_y - cz * lat.stride_z;
+    const CubeTerms t = terms(c, i - a, j - b, k - cz);
     const float sa = a ? 1.0f : -1.0f, sb = b ? 1.0f : -1.0f, sc = cz ? 1.0f : -1.0f;
     for (int comp = 0; comp < 3; ++comp)
-      f[comp] += sa * terms[comp][c] + sb * terms[3 + comp][c] + sc * terms[6 + comp][c];
+      f[comp] += sa * t.face[0][comp] + sb * t.face[1][comp] + sc * t.face[2][comp];
   }
   return f;
+}
+
+/// The cube pass's arrays as volume_force_from's source (terms[3a + component][c]).
+struct ArrayCubeTerms {
+  float* const* terms;
+  TSF_HD_INLINE CubeTerms operator()(std::int64_t c, int, int, int) const {
+    CubeTerms t;
+    for (int a = 0; a < 3; ++a)
+      t.face[a] = {terms[3 * a][c], terms[3 * a + 1][c], terms[3 * a + 2][c]};
+    return t;
+  }
+};
+
+/// The same from the cube pass's arrays.
+TSF_HD_INLINE Vec3f volume_force(const LatticeView& lat, float* const terms[9], std::int64_t n,
+                                 int i, int j, int k) {
+  return volume_force_from(lat, n, i, j, k, ArrayCubeTerms{terms});
 }
 
 }  // namespace tsf::crms
