@@ -13,6 +13,9 @@ LiveHaptics::LiveHaptics(std::unique_ptr<haptics::HapticDevice> device,
   options_.force.validate();
   options_.loop.validate();
   model_ = haptics::make_force_model(options_.model, options_.force);
+  // The simulation thread captures only what the model reads: every part is a pass over the
+  // tissue near the stylus (or, for the triangles, over the whole surface) each frame.
+  capture_.set_parts(model_->reads());
   loop_ = std::make_unique<haptics::HapticLoop>(*device_, *model_, frames_, options_.loop);
 }
 

@@ -201,39 +201,53 @@ void TissueFrameCapture::capture(interaction::TissueModel& model, const StylusPo
                                  const Vec3d& contact_force_un, std::int64_t contact_nodes,
                                  double time_s, HapticFrame& out) {
   const double extent = options_.reach_mm + options_.margin_mm;
+  const FrameParts& parts = parts_;
   crms::Solver& solver = model.solver();
-  solver.request_snapshot();
-  solver.poll_snapshot();
-  solver.snapshots().copy_latest(snapshot_);
+  out.displacement.clear();
+  out.alive.clear();
+  out.lattice_dims = {0, 0, 0};
+  out.density.clear();
+  out.density_cells.clear();
+  out.density_dims = {0, 0, 0};
+  bool warped = false;
+  if (parts.lattice) {
+    solver.request_snapshot();
+    solver.poll_snapshot();
+    solver.snapshots().copy_latest(snapshot_);
+  }
   const crms::Lattice& lattice = solver.lattice();
-  if (snapshot_.size() == static_cast<std::size_t>(lattice.node_count()) * 3) {
+  if (parts.lattice && snapshot_.size() == static_cast<std::size_t>(lattice.node_count()) * 3) {
     // The window is centred on the rest point of the stylus centre (through the lattice as it is
     // now), so a tissue displaced by more than the margin is still found.
     const interaction::RestPoint rest = model.map_to_rest(pose.position, extent);
     const Vec3d rest_centre = rest.found ? rest.rest : pose.position;
     capture_lattice(lattice, snapshot_.data(), rest_centre, extent + lattice.geometry().spacing.x,
                     out);
-    const LocalWarp warp = inverse_warp(out.view().lattice, pose.position);
-    // A stretched neighbourhood needs a larger rest window: scale by the largest |F⁻¹| row sum.
-    double stretch = 1.0;
-    for (int r = 0; r < 3; ++r)
-      stretch = std::max(stretch, std::fabs(warp.F_inv[3 * r]) + std::fabs(warp.F_inv[3 * r + 1]) +
-                                      std::fabs(warp.F_inv[3 * r + 2]));
-    capture_density(model.volume(), warp.rest_centre, extent * std::min(stretch, 3.0), out);
-  } else {
-    out.displacement.clear();
-    out.alive.clear();
-    out.lattice_dims = {0, 0, 0};
-    capture_density(model.volume(), pose.position, extent, out);
+    if (parts.density) {
+      const LocalWarp warp = inverse_warp(out.view().lattice, pose.position);
+      // A stretched neighbourhood needs a larger rest window: scale by the largest |F⁻¹| row sum.
+      double stretch = 1.0;
+      for (int r = 0; r < 3; ++r)
+        stretch =
+            std::max(stretch, std::fabs(warp.F_inv[3 * r]) + std::fabs(warp.F_inv[3 * r + 1]) +
+                                  std::fabs(warp.F_inv[3 * r + 2]));
+      capture_density(model.volume(), warp.rest_centre, extent * std::min(stretch, 3.0), out);
+      warped = true;
+    }
   }
-  const imt::ImtSurface& surface = model.surface();
-  const std::uint32_t tri_slots = surface.triangle_slot_count();
-  triangle_live_.resize(surface.triangles().size());
-  for (std::size_t t = 0; t < triangle_live_.size(); ++t)
-    triangle_live_[t] =
-        t < tri_slots && surface.triangle_live(static_cast<std::uint32_t>(t)) ? 1 : 0;
-  capture_triangles(model.coupler().positions(), model.coupler().normals(), surface.triangles(),
-                    &triangle_live_, pose.position, extent, out);
+  if (parts.density && !warped) capture_density(model.volume(), pose.position, extent, out);
+  out.corners.clear();
+  out.normals.clear();
+  if (parts.triangles) {
+    const imt::ImtSurface& surface = model.surface();
+    const std::uint32_t tri_slots = surface.triangle_slot_count();
+    triangle_live_.resize(surface.triangles().size());
+    for (std::size_t t = 0; t < triangle_live_.size(); ++t)
+      triangle_live_[t] =
+          t < tri_slots && surface.triangle_live(static_cast<std::uint32_t>(t)) ? 1 : 0;
+    capture_triangles(model.coupler().positions(), model.coupler().normals(), surface.triangles(),
+                      &triangle_live_, pose.position, extent, out);
+  }
   out.contact_force_un = contact_force_un;
   out.contact_nodes = contact_nodes;
   out.time_s = time_s;

@@ -44,6 +44,8 @@ class ForceModel {
   virtual ~ForceModel() = default;
   virtual ForceModelKind kind() const = 0;
   virtual HapticForce evaluate(const HapticFrameView& frame, const StylusPose& pose) const = 0;
+  /// The parts of a frame evaluate() reads (see the table above); by default all of them.
+  virtual FrameParts reads() const { return {}; }
 };
 
 /// How the voxel model reads the tissue density at a stylus cell.
@@ -71,6 +73,7 @@ class VoxelForceModel final : public ForceModel {
   explicit VoxelForceModel(const ForceModelOptions& options);
   ForceModelKind kind() const override { return ForceModelKind::kVoxel; }
   HapticForce evaluate(const HapticFrameView& frame, const StylusPose& pose) const override;
+  FrameParts reads() const override { return {true, true, false}; }
   const SphereStylus& stylus() const { return stylus_; }
   const ForceLaw& law() const { return law_; }
 
@@ -85,6 +88,7 @@ class LatticeForceModel final : public ForceModel {
   explicit LatticeForceModel(const ForceModelOptions& options);
   ForceModelKind kind() const override { return ForceModelKind::kLattice; }
   HapticForce evaluate(const HapticFrameView& frame, const StylusPose& pose) const override;
+  FrameParts reads() const override { return {false, false, false}; }
 
  private:
   double gain_;
@@ -95,6 +99,7 @@ class MeshForceModel final : public ForceModel {
   explicit MeshForceModel(const ForceModelOptions& options);
   ForceModelKind kind() const override { return ForceModelKind::kMesh; }
   HapticForce evaluate(const HapticFrameView& frame, const StylusPose& pose) const override;
+  FrameParts reads() const override { return {false, false, true}; }
   const SphereStylus& stylus() const { return stylus_; }
 
  private:

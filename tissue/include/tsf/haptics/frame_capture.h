@@ -48,7 +48,9 @@ void capture_triangles(const std::vector<Vec3f>& positions, const std::vector<Ve
 /// thread after it stepped (TissueFrameSource below, and a viewer's simulation thread): the
 /// lattice window from the solver's latest snapshot centred on the stylus's rest point, the
 /// density window through the local warp, the coupled triangles near it, and the reaction of the
-/// nodes the stylus holds (given: the owner knows which tool slot is the stylus).
+/// nodes the stylus holds (given: the owner knows which tool slot is the stylus). Only the parts
+/// given to set_parts() are captured (default: all): each of the others is a pass over the lattice
+/// window, the voxels or every triangle of the surface, every simulation frame.
 class TissueFrameCapture {
  public:
   explicit TissueFrameCapture(const CaptureOptions& options);
@@ -58,9 +60,12 @@ class TissueFrameCapture {
                const Vec3d& contact_force_un, std::int64_t contact_nodes, double time_s,
                HapticFrame& out);
   const CaptureOptions& options() const { return options_; }
+  /// The parts later captures fill (a force model's reads()); the others are left empty.
+  void set_parts(const FrameParts& parts) { parts_ = parts; }
 
  private:
   CaptureOptions options_;
+  FrameParts parts_;
   std::uint64_t sequence_ = 0;
   std::vector<float> snapshot_;
   std::vector<std::uint8_t> triangle_live_;

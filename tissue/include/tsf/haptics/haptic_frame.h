@@ -28,6 +28,15 @@ namespace tsf::haptics {
 
 constexpr std::uint8_t kCellEmpty = 0, kCellFull = 1, kCellMixed = 2;
 
+/// The parts of a frame a force model reads (ForceModel::reads()): a capture fills only those,
+/// so a model that needs no window (lattice: the summed reactions) costs the simulation thread
+/// nothing per frame beyond the contact force.
+struct FrameParts {
+  bool lattice = true;    ///< the lattice window (displacements, alive)
+  bool density = true;    ///< the density window
+  bool triangles = true;  ///< the coupled triangles near the stylus
+};
+
 struct DensityWindowView {
   const float* density = nullptr;
   const std::uint8_t* cells = nullptr;  ///< optional classification (see above)
