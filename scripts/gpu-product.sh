@@ -23,6 +23,8 @@
 #                                         (__GLX_VENDOR_LIBRARY_NAME=nvidia), and run
 #     tsf run --backend cuda             the sinus scene on the sample CT (scenes/sinus.yaml)
 #     tsf view --offscreen --backend cuda  a view script on the segmented cranium, saving frames
+#     tsf view --backend cuda --frames 300  the live window, with and without the haptic loop
+#                  (TSF_PRODUCT_WINDOW="default haptics-off cpu" adds the CPU backend)
 #                  writing under $OUT: product-summary.txt (real-time factors, steps/s, frames per
 #                  second, edit latencies), the run and view reports, and frames (PNG).
 #   Parts and steps can be picked: TSF_PRODUCT_PARTS="tsf x11 mesa" (bundle; default all),
@@ -90,7 +92,7 @@ bundle_tsf() {
     TSF_BUILD_TARGETS="tsf" "$ROOT/scripts/setup.sh"
   fi
   local build="${TSF_BUILD_DIR:-$ROOT/build}"
-  grep -q 'CMAKE_CUDA_ARCHITECTURES:STRING=.*90' "$build/CMakeCache.txt" ||
+  grep -qE '^CMAKE_CUDA_ARCHITECTURES:[A-Z]+=.*90' "$build/CMakeCache.txt" ||
     { echo "gpu-product: $build is not configured with CUDA for arch 90" >&2; exit 1; }
 
   # tsf: the installation minus what the checkout carries anyway.
@@ -122,9 +124,17 @@ bundle_x11() {
   mkdir -p "$x/bin" "$x/lib" "$x/share/X11"
   cp -L /usr/bin/Xvfb /usr/bin/xkbcomp "$x/bin/"
   cp -rL /usr/share/X11/xkb "$x/share/X11/"
+  # glxinfo (Debian's mesa-utils) is how `run` finds out whether the driver's GLX answers: without
+  # it the run cannot tell and renders with Mesa's llvmpipe (2-3x slower frames).
   local glxinfo
   glxinfo=$(command -v glxinfo.x86_64-linux-gnu || command -v glxinfo || true)
-  [ -n "$glxinfo" ] && cp -L "$glxinfo" "$x/bin/glxinfo"
+  if [ -z "$glxinfo" ] && [ "${TSF_SKIP_INSTALL:-0}" != "1" ]; then
+    DEBIAN_FRONTEND=noninteractive apt-get -q -y -o DPkg::Lock::Timeout=600 install \
+      --no-install-recommends mesa-utils >/dev/null || true
+    glxinfo=$(command -v glxinfo.x86_64-linux-gnu || command -v glxinfo || true)
+  fi
+  [ -n "$glxinfo" ] || { echo "gpu-product: no glxinfo (Debian's mesa-utils) to bundle" >&2; exit 1; }
+  cp -L "$glxinfo" "$x/bin/glxinfo"
   for l in libGL.so.1 libGLX.so.0 libGLdispatch.so.0 libOpenGL.so.0; do
     cp -L "/usr/lib/x86_64-linux-gnu/$l" "$x/lib/" 2>/dev/null || true
   done
@@ -174,6 +184,7 @@ start_x() {
   echo "== Xvfb :$n started"
   export DISPLAY=":$n"
   GLX_VENDOR=mesa  # the driver's GLX when it answers, else Mesa's (llvmpipe)
+  [ -x "$x/bin/glxinfo" ] || echo "== no glxinfo in the X bundle: the driver's GLX is not tried"
   if [ -x "$x/bin/glxinfo" ]; then
     for vendor in nvidia mesa; do
       echo "== glxinfo -B, GLX vendor $vendor"
@@ -268,12 +279,23 @@ print('   %d frames, %.1f ms render + %.1f ms simulation per frame: %.1f frames/
     } >>"$summary"
     cp "$r" "$OUT/view-report.json" 2>/dev/null || true
     for f in 0016 0060; do cp "$work/view/frame-$f.png" "$OUT/frame-$f.png" 2>/dev/null || true; done
-    # The live window (not offscreen) for 300 frames: its real-time factor and frame rate.
-    (cd "$work" && timeout 120 "$tsf" view "$share/scenes/cut-cranium.yaml" --backend "$BACKEND" \
-       --frames 300 --out "$work/window") >"$OUT/window.log" 2>&1 ||
-      echo "tsf view (window) exited $?" >>"$summary"
-    { echo "== tsf view scenes/cut-cranium.yaml --backend $BACKEND --frames 300 (window on Xvfb)";
-      grep "closed after" "$OUT/window.log"; } >>"$summary"
+    # The live window (not offscreen) for 300 frames: its real-time factor and frame rate, as it
+    # opens (the haptic loop at 1 kHz on the lattice model) and in variants that tell what the
+    # simulation thread waits for (TSF_PRODUCT_WINDOW: "default", "haptics-off": no haptic
+    # loop, "cpu": the CPU backend on the host's threads, the render still on the GPU).
+    local variant
+    for variant in ${TSF_PRODUCT_WINDOW:-default haptics-off}; do
+      local extra=() backend=$BACKEND
+      case "$variant" in
+        haptics-off) extra=(--haptics off) ;;
+        cpu) backend=cpu ;;
+      esac
+      (cd "$work" && timeout 120 "$tsf" view "$share/scenes/cut-cranium.yaml" --backend "$backend" \
+         --frames 300 "${extra[@]}" --report "$OUT/window-$variant.json" --out "$work/window-$variant") \
+        >"$OUT/window-$variant.log" 2>&1 || echo "tsf view (window, $variant) exited $?" >>"$summary"
+      { echo "== tsf view scenes/cut-cranium.yaml --backend $backend --frames 300 ${extra[*]} (window on Xvfb)";
+        grep -E "closed after|haptics .* at" "$OUT/window-$variant.log"; } >>"$summary"
+    done
   fi
   [ -n "${XVFB_PID:-}" ] && kill "$XVFB_PID" 2>/dev/null || true
   # The summary and the frames as files, the logs and reports in one archive (a device call
