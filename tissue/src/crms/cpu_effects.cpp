@@ -118,12 +118,6 @@ class CpuEffects final : public EffectsEngine {
     }
   }
 
-  float* const* volume_term_arrays() override {
-    if (volume_terms_[0].empty()) return nullptr;
-    for (int c = 0; c < 9; ++c) volume_pointers_[c] = volume_terms_[c].data();
-    return volume_pointers_.data();
-  }
-
  private:
   EffectArrays arrays(const EffectParameters& p) const {
     EffectArrays a;
@@ -152,7 +146,6 @@ class CpuEffects final : public EffectsEngine {
   std::vector<RestOffsets> keyframes_;
   std::vector<std::uint8_t> mask_;
   std::array<std::vector<float>, 9> volume_terms_;
-  std::array<float*, 9> volume_pointers_{};
 };
 
 }  // namespace

@@ -815,10 +815,9 @@ __device__ __forceinline__ void node_integrate(const LatticeView& lat, const Con
     external = {lat.external_force[0][n], lat.external_force[1][n], lat.external_force[2][n]};
   NodeStepResult r = integrate_node<F>(fl, u, v, lat.inv_mass[n], external, f, p);
   if (fold.on) {
-    const int i = static_cast<int>(n % lat.dims.x),
-              j = static_cast<int>((n / lat.dims.x) % lat.dims.y);
-    const int k = static_cast<int>(n / lat.stride_z);
-    kick_step_result(r, u, volume_force(lat, fold.term.terms, n, i, j, k), lat.inv_mass[n], p);
+    const Int3 c = node_coords(lat, n);
+    kick_step_result(r, u, volume_force(lat, fold.term.terms, n, c.x, c.y, c.z), lat.inv_mass[n],
+                     p);
   }
   store_node_step(out, n, r, guard, step);
 }
@@ -845,9 +844,8 @@ __global__ void __launch_bounds__(256, 3)
       for (int t = tid; t < all_items; t += threads) {
         if (t >= items) {
           const int n = plan.alive[t - items];
-          const int i = n % lat.dims.x, j = (n / lat.dims.x) % lat.dims.y,
-                    k = n / (lat.dims.x * lat.dims.y);
-          cube_volume_terms(lat, in, fold.term.parameters, n, i, j, k, fold.term.terms);
+          const Int3 c = node_coords(lat, n);
+          cube_volume_terms(lat, in, fold.term.parameters, n, c.x, c.y, c.z, fold.term.terms);
           continue;
         }
         const int index = (t / 96) * 32 + (t & 31);

@@ -21,10 +21,8 @@ __device__ inline bool node_of_thread(const LatticeView& lat, std::int64_t& n, i
                                       int& k) {
   n = static_cast<std::int64_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   if (n >= lat.count) return false;
-  i = static_cast<int>(n % lat.dims.x);
-  const std::int64_t row = n / lat.dims.x;
-  j = static_cast<int>(row % lat.dims.y);
-  k = static_cast<int>(row / lat.dims.y);
+  const Int3 c = node_coords(lat, n);
+  i = c.x, j = c.y, k = c.z;
   return true;
 }
 

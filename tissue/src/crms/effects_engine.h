@@ -84,9 +84,10 @@ class EffectsEngine {
     (void)lattice, (void)state, (void)p;
     return std::nullopt;
   }
-  /// The volumetric term's cube-pass arrays (9, #nodes each, where the backend keeps its state);
-  /// null without the term.
-  virtual float* const* volume_term_arrays() = 0;
+  /// The volumetric term's cube-pass arrays (9, #nodes each, where the backend keeps its state)
+  /// for a backend that folds the term into its launch (SolverBackend::step_folded); null
+  /// without the term or where no backend folds it (the CPU).
+  virtual float* const* volume_term_arrays() { return nullptr; }
   /// Bytes kept per node by the enabled effects.
   double bytes_per_node() const {
     double b = 0;

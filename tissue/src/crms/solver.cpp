@@ -304,8 +304,8 @@ void Solver::step_with_effects(int n, double dt) {
     // the volumetric term").
     FoldedVolumeTerm volume;
     volume.parameters = volume_parameters();
-    float* const* terms = effects_->volume_term_arrays();
-    for (int c = 0; c < 9; ++c) volume.terms[c] = terms[c];
+    if (float* const* terms = effects_->volume_term_arrays())
+      for (int c = 0; c < 9; ++c) volume.terms[c] = terms[c];
     backend_->step_folded(n, p, features(), volume);
     return;
   }

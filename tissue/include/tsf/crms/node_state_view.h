@@ -40,6 +40,13 @@ struct LatticeView {
   const float* external_force[3] = {nullptr, nullptr, nullptr};
 };
 
+/// The grid coordinates (i, j, k) of node n = i + j·nx + k·nx·ny.
+TSF_HD_INLINE Int3 node_coords(const LatticeView& lattice, std::int64_t n) {
+  const std::int64_t row = n / lattice.dims.x;
+  return {static_cast<int>(n % lattice.dims.x), static_cast<int>(row % lattice.dims.y),
+          static_cast<int>(row / lattice.dims.y)};
+}
+
 /// Node n's material blend (heterogeneous lattices: material_index/weight are set).
 TSF_HD_INLINE MaterialBlend node_material(const LatticeView& lattice, std::int64_t n) {
   MaterialBlend b;
