@@ -26,7 +26,8 @@
 #        TSF_CMAKE_ARGS=-DCMAKE_CUDA_ARCHITECTURES=90), stripped, with the shared libraries ldd
 #        names for them beyond glibc's, libstdc++ and libgcc_s, into DIR/gpu-binaries.tar.xz
 #        (default .gpu/, ignored by git: carry it); TSF_GPU_PACK="bench_crms_throughput" packs
-#        only the executables it names
+#        only the executables it names; TSF_GPU_PACK_TSF=BUILD2 adds BUILD2/bin/tsf (a CUDA
+#        arch-90 build with ITK, VTK and assimp off) and the run there then runs the scenes
 #   TSF_GPU_PREBUILT=DIR scripts/gpu-check.sh  there: unpack them instead of configuring and
 #        building, run the suite in TSF_GPU_SHARDS parallel shards (default 8; gtest sharding),
 #        the benchmarks and, with a tsf at TSF_GPU_TSF (e.g. the product's,
@@ -49,6 +50,14 @@ if [ "${1:-}" = "pack" ]; then
   wanted=" ${TSF_GPU_PACK:-all} "
   if [[ "$wanted" == " all " || "$wanted" == *" tsf_tissue_tests "* ]]; then
     cp "$build/tests/tsf_tissue_tests" "$stage/p/bin/"
+  fi
+  # TSF_GPU_PACK_TSF=DIR: also DIR/bin/tsf, from a CUDA arch-90 build without ITK, VTK and
+  # assimp (it needs no library the GPU machine lacks but yaml-cpp, packed below), so that the
+  # scenes on the segmented sample run there too (the whole product: scripts/gpu-product.sh).
+  if [ -n "${TSF_GPU_PACK_TSF:-}" ]; then
+    grep -qE '^TSF_WITH_ITK:BOOL=OFF' "$TSF_GPU_PACK_TSF/CMakeCache.txt" ||
+      { echo "gpu-check pack: $TSF_GPU_PACK_TSF is not a build without ITK" >&2; exit 1; }
+    cp "$TSF_GPU_PACK_TSF/bin/tsf" "$stage/p/bin/"
   fi
   for b in "$build"/bench/bench_*; do
     [ -x "$b" ] && [ -f "$b" ] || continue

@@ -306,9 +306,22 @@ json by_label_json(const std::vector<std::pair<std::uint8_t, double>>& v) {
 }
 
 json layer_timings_json(const interaction::EditReport& r) {
-  return {{"map", r.map_us},           {"voxel_edit", r.edit_us}, {"remesh", r.remesh_us},
-          {"topology", r.topology_us}, {"rebind", r.rebind_us},   {"couple", r.couple_us},
-          {"total", r.total_us}};
+  json remesh = json::object();
+  for (int i = 0; i < imt::SurfaceUpdateStats::kPhases; ++i)
+    remesh[imt::kUpdatePhases[i]] = r.remesh_phase_us[i];
+  return {{"map", r.map_us},
+          {"voxel_edit", r.edit_us},
+          {"remesh", r.remesh_us},
+          {"topology", r.topology_us},
+          {"rebind", r.rebind_us},
+          {"couple", r.couple_us},
+          {"total", r.total_us},
+          {"remesh_phases", remesh},
+          {"rebind_phases",
+           {{"collect", r.rebind_collect_us},
+            {"locate", r.rebind_locate_us},
+            {"bind", r.rebind_bind_us},
+            {"link", r.rebind_link_us}}}};
 }
 
 json tear_json(const TearRecord& t) {
@@ -358,6 +371,7 @@ json edit_json(const EditRecord& e) {
           {"vertices_added", r.vertices_added},
           {"vertices_freed", r.vertices_freed},
           {"triangles_changed", r.triangles_changed},
+          {"voxel_edit_on_device", r.edit_on_device},
           {"timings_us", layer_timings_json(r)}};
 }
 

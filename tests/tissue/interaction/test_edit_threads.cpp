@@ -6,13 +6,17 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "support/test_data.h"
+#include "tsf/common/cuda_support.h"
+#include "tsf/common/error.h"
 #include "tsf/crms/lattice_builders.h"
 #include "tsf/interaction/tissue_model.h"
 #include "tsf/io/nrrd_volume.h"
@@ -33,18 +37,19 @@ struct EditOutcome {
   std::vector<std::uint32_t> sources;
   std::size_t cut_rebound = 0;
   VoxelBox cut_voxels{};
+  bool cut_on_device = false;
 };
 
 /// The sinus scene's kind of edits on the segmented sample with `threads` OpenMP threads: a wand
 /// stroke into the nose, then a 40 mm blade swept 70 mm down through the face in its own plane.
-EditOutcome edit_sample(int threads) {
+EditOutcome edit_sample(int threads, crms::Backend backend = crms::Backend::kCpu) {
   const VoxelVolume volume = io::read_tissue_volume_nrrd(
       tsf::test::samples_dir() / "ct-head-cranium" / "segmented" / "cranium-density.nrrd");
   TissueModelOptions o;
   o.lattice.node_spacing_voxels = 2;
   o.solver.materials[0].youngs_modulus_pa = 20e3;
   o.solver.materials[0].density_g_per_mm3 = 1e-3;
-  o.solver.backend = crms::Backend::kCpu;
+  o.solver.backend = backend;
   o.anchor = [](crms::Lattice& l) {
     crms::fix_nodes_with_labels(l, {kLabelCancellousBone, kLabelCorticalBone});
   };
@@ -74,6 +79,7 @@ EditOutcome edit_sample(int threads) {
   EditOutcome out;
   out.cut_rebound = cut.vertices_rebound;
   out.cut_voxels = cut.changed_voxels;
+  out.cut_on_device = cut.edit_on_device;
   const float* d = model.volume().density_data().data();
   out.density.assign(d, d + model.volume().geometry().voxel_count());
   const imt::ImtSurface& s = model.surface();
@@ -117,6 +123,87 @@ TEST(EditThreads, TheSampleFaceIsCutAndAblatedAlikeOnOneAndSeveralThreads) {
     EXPECT_TRUE(many.coupled == one.coupled && many.coupled_normals == one.coupled_normals)
         << "the coupled positions differ";
   }
+}
+
+/// The BladeSweeper contract written out on the host, serially, voxel by voxel (the reverse of
+/// the stroke's own loop order, sub-step by sub-step): what the CUDA sweeper must compute.
+class VoxelOrderSweeper final : public BladeSweeper {
+ public:
+  int calls = 0;
+  void sweep(const BladeTool& blade, const std::vector<BladeSweepStep>& steps, const VoxelBox& box,
+             const VolumeGeometry& g, double h, std::vector<float>& weight) override {
+    ++calls;
+    weight.assign(static_cast<std::size_t>(box.voxel_count()), 0.0f);
+    std::size_t v = 0;
+    for (int k = box.lo.z; k < box.hi.z; ++k)
+      for (int j = box.lo.y; j < box.hi.y; ++j)
+        for (int i = box.lo.x; i < box.hi.x; ++i, ++v)
+          for (const BladeSweepStep& s : steps) {
+            if (!s.box.contains(i, j, k)) continue;
+            const double d =
+                blade_distance(blade, s.pose, g.index_to_tissue({double(i), double(j), double(k)}));
+            weight[v] = std::max(weight[v], d < h ? falloff_weight(d, h) : 0.0f);
+          }
+  }
+};
+
+TEST(BladeSweeper, ASweeperKeepingTheContractMakesTheStrokesOwnCut) {
+  const VoxelVolume sample = io::read_tissue_volume_nrrd(
+      tsf::test::samples_dir() / "ct-head-cranium" / "segmented" / "cranium-density.nrrd");
+  const VolumeGeometry& g = sample.geometry();
+  const BladeTool blade{{20, 20, 0.5}};
+  const Rotation along_y = Rotation::about_axis({1, 0, 0}, M_PI / 2);
+  const Vec3d c = g.index_to_tissue({g.dims.x * 0.5, g.dims.y * 0.3, g.dims.z * 0.5});
+  const ToolPose from{c + Vec3d{0, 0, 40}, along_y}, to{c + Vec3d{0, 0, -30}, along_y};
+  RemovalOptions o;
+  VoxelVolume host(sample), swept(sample);
+  ToolStroke a, b;
+  VoxelOrderSweeper sweeper;
+  const VoxelBox ha = a.cut_blade(host, blade, from, to, o);
+  const VoxelBox hb = b.cut_blade(swept, blade, from, to, o, &sweeper);
+  EXPECT_EQ(sweeper.calls, 1);
+  ASSERT_GT(ha.voxel_count(), 1000);
+  EXPECT_TRUE(ha == hb);
+  EXPECT_TRUE(std::as_const(host).density_data() == std::as_const(swept).density_data())
+      << "the voxels differ";
+  EXPECT_TRUE(a.last_reached() == b.last_reached());
+  if (!cuda_status().available) {
+    try {
+      (void)make_cuda_blade_sweeper();
+      ADD_FAILURE() << "a CUDA blade sweeper was made without CUDA";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("not available"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// On the CUDA backend the cut's blade sweep runs on the device (BladeSweeper) and the coupling of
+// the re-bound vertices goes through the coupler's staging on the device: the same voxels, the
+// same surface and bindings as the CPU backend's edits, bit for bit (the sweep is compiled
+// without FMA, as the host's is), and the coupled positions to float rounding (the coupler's
+// CUDA parity). Nothing has stepped, so both solvers hold the rest positions.
+TEST(EditsOnTheDevice, TheSampleFaceIsCutAndAblatedOnCudaAsOnTheCpu) {
+  if (!cuda_status().available) GTEST_SKIP() << "CUDA edits not run: " << cuda_status().reason;
+  const EditOutcome cpu = edit_sample(1, crms::Backend::kCpu);
+  const EditOutcome gpu = edit_sample(1, crms::Backend::kCuda);
+  EXPECT_FALSE(cpu.cut_on_device);
+  EXPECT_TRUE(gpu.cut_on_device);
+  ASSERT_GT(cpu.cut_voxels.extent().x, 40);
+  EXPECT_TRUE(gpu.cut_voxels == cpu.cut_voxels);
+  EXPECT_EQ(gpu.cut_rebound, cpu.cut_rebound);
+  EXPECT_TRUE(gpu.density == cpu.density) << "the voxels differ";
+  ASSERT_TRUE(gpu.live == cpu.live) << "the live vertex slots differ";
+  EXPECT_TRUE(gpu.triangles == cpu.triangles) << "the triangles differ";
+  EXPECT_TRUE(gpu.positions == cpu.positions && gpu.normals == cpu.normals)
+      << "the surface's vertices differ";
+  EXPECT_TRUE(gpu.cells == cpu.cells && gpu.w == cpu.w && gpu.sources == cpu.sources)
+      << "the bindings differ";
+  ASSERT_EQ(gpu.coupled.size(), cpu.coupled.size());
+  double worst = 0;
+  for (std::size_t v = 0; v < cpu.coupled.size(); ++v)
+    worst = std::max(
+        worst, static_cast<double>(length(to_double(gpu.coupled[v]) - to_double(cpu.coupled[v]))));
+  EXPECT_LT(worst, 1e-3) << "mm, the largest difference of a coupled position";
 }
 
 }  // namespace

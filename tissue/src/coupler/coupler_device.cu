@@ -132,65 +132,91 @@ class CudaCouplerDevice final : public CouplerDevice {
     TSF_CUDA_CHECK(cudaMemsetAsync(rest_normals_.data(), 0, n * sizeof(Vec3f), stream_.get()));
     TSF_CUDA_CHECK(cudaMemsetAsync(positions_.data(), 0, n * sizeof(Vec3f), stream_.get()));
     TSF_CUDA_CHECK(cudaMemsetAsync(normals_.data(), 0, n * sizeof(Vec3f), stream_.get()));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    wait();
     capacity_ = slots;
     frame_capacity_ = frames;
+    // The edit staging, sized here for an eighth of the slots and frames (a cut through the
+    // sinus scene re-binds ~5 % of its slots; the full uploads after a reserve grow the upload
+    // staging to every slot anyway): an edit that fits allocates nothing. An allocation of
+    // page-locked memory (and the free before it, which waits for the device) costs more than
+    // the copies it serves.
+    const std::size_t v = std::max<std::size_t>(16384, slots / 8);
+    const std::size_t f = std::max<std::size_t>(4096, frames / 8);
+    vertex_index_.grow_to(v);
+    frame_index_.grow_to(f);
+    stage_bindings_.grow_to(v);
+    stage_normals_.grow_to(v);
+    stage_frames_.grow_to(f);
+    lists_.grow_to(v + f);
+    out_.grow_to(2 * v);
+    vertex_index_host_.grow_to(v);
+    frame_index_host_.grow_to(f);
+    lists_host_.grow_to(v + f);
+    bindings_host_.grow_to(v);
+    frames_host_.grow_to(f);
+    normals_host_.grow_to(v);
+    out_host_.grow_to(2 * v);
   }
 
+  // The edit path (upload_frames, upload_vertices, couple_slots, as Coupler::sync_device and
+  // couple_slots call them) packs into page-locked staging and queues its copies and kernels on
+  // the one stream without waiting: the stream orders them, and couple_slots waits once at its
+  // end. Staging grows by doubling (grow_to), so an edit larger than the last allocates a few
+  // times in a run, not every call (cudaFree waits for the whole device). A packing call waits
+  // first only when its own staging may still be in flight (no wait since it was last queued).
   void upload_vertices(const std::uint32_t* slots, std::size_t count,
                        const VertexFrameBinding* bindings, const Vec3f* rest_normals) override {
     if (count == 0) return;
-    packed_bindings_.resize(count);
-    packed_normals_.resize(count);
+    settle(vertices_queued_);
+    vertex_index_host_.grow_to(count);
+    bindings_host_.grow_to(count);
+    normals_host_.grow_to(count);
     for (std::size_t i = 0; i < count; ++i) {
       if (slots[i] >= capacity_)
         throw Error("coupler: upload of slot " + std::to_string(slots[i]) +
                     " beyond the device capacity " + std::to_string(capacity_));
-      packed_bindings_[i] = bindings[slots[i]];
-      packed_normals_[i] = rest_normals[slots[i]];
+      vertex_index_host_.data()[i] = slots[i];
+      bindings_host_.data()[i] = bindings[slots[i]];
+      normals_host_.data()[i] = rest_normals[slots[i]];
     }
-    stage_index_.resize(count);
-    stage_bindings_.resize(count);
-    stage_normals_.resize(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.data(), slots, count * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_.get()));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_bindings_.data(), packed_bindings_.data(),
-                                   count * sizeof(VertexFrameBinding), cudaMemcpyHostToDevice,
-                                   stream_.get()));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_normals_.data(), packed_normals_.data(),
-                                   count * sizeof(Vec3f), cudaMemcpyHostToDevice, stream_.get()));
+    vertex_index_.grow_to(count);
+    stage_bindings_.grow_to(count);
+    stage_normals_.grow_to(count);
+    vertex_index_.upload(vertex_index_host_.data(), count, stream_.get());
+    stage_bindings_.upload(bindings_host_.data(), count, stream_.get());
+    stage_normals_.upload(normals_host_.data(), count, stream_.get());
     const auto n = static_cast<std::uint32_t>(count);
     scatter_kernel<VertexFrameBinding><<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
-        stage_index_.data(), n, capacity_, stage_bindings_.data(), bindings_.data());
+        vertex_index_.data(), n, capacity_, stage_bindings_.data(), bindings_.data());
     TSF_CUDA_CHECK_LAUNCH();
     scatter_kernel<Vec3f><<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
-        stage_index_.data(), n, capacity_, stage_normals_.data(), rest_normals_.data());
+        vertex_index_.data(), n, capacity_, stage_normals_.data(), rest_normals_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    vertices_queued_ = true;
   }
 
   void upload_frames(const std::uint32_t* frames, std::size_t count,
                      const CubeFrame* table) override {
     if (count == 0) return;
-    packed_frames_.resize(count);
+    settle(frames_queued_);
+    frame_index_host_.grow_to(count);
+    frames_host_.grow_to(count);
     for (std::size_t i = 0; i < count; ++i) {
       if (frames[i] >= frame_capacity_)
         throw Error("coupler: upload of frame " + std::to_string(frames[i]) +
                     " beyond the device capacity " + std::to_string(frame_capacity_));
-      packed_frames_[i] = table[frames[i]];
+      frame_index_host_.data()[i] = frames[i];
+      frames_host_.data()[i] = table[frames[i]];
     }
-    stage_index_.resize(count);
-    stage_frames_.resize(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.data(), frames, count * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_.get()));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_frames_.data(), packed_frames_.data(),
-                                   count * sizeof(CubeFrame), cudaMemcpyHostToDevice,
-                                   stream_.get()));
+    frame_index_.grow_to(count);
+    stage_frames_.grow_to(count);
+    frame_index_.upload(frame_index_host_.data(), count, stream_.get());
+    stage_frames_.upload(frames_host_.data(), count, stream_.get());
     scatter_kernel<CubeFrame><<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
-        stage_index_.data(), static_cast<std::uint32_t>(count), frame_capacity_,
+        frame_index_.data(), static_cast<std::uint32_t>(count), frame_capacity_,
         stage_frames_.data(), frames_.data());
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    frames_queued_ = true;
   }
 
   void couple_all(const DeformedLatticeView& lattice, std::uint32_t frame_count,
@@ -206,7 +232,7 @@ class CudaCouplerDevice final : public CouplerDevice {
       TSF_CUDA_CHECK_LAUNCH();
     }
     if (blocks == 0) {
-      TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+      wait();
       return;
     }
     couple_all_kernel<<<blocks, kDirtyBlockSlots, 0, stream_.get()>>>(
@@ -215,44 +241,44 @@ class CudaCouplerDevice final : public CouplerDevice {
     TSF_CUDA_CHECK_LAUNCH();
     TSF_CUDA_CHECK(cudaMemcpyAsync(dirty_blocks.data(), dirty_.data(), blocks,
                                    cudaMemcpyDeviceToHost, stream_.get()));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    wait();
   }
 
   void couple_slots(const DeformedLatticeView& lattice, const std::uint32_t* frames,
                     std::size_t frame_count, const std::uint32_t* slots, std::size_t count,
                     CouplerMode mode, Vec3f* positions, Vec3f* normals) override {
     if (count == 0) return;
+    // One upload of the frame list and the slot list, one kernel each, one download of the
+    // positions and normals (count of each), one wait.
+    settle(lists_queued_);
+    const std::size_t listed = frame_count + count;
+    lists_host_.grow_to(listed);
+    std::copy(frames, frames + frame_count, lists_host_.data());
+    std::copy(slots, slots + count, lists_host_.data() + frame_count);
+    lists_.grow_to(listed);
+    lists_.upload(lists_host_.data(), listed, stream_.get());
     if (frame_count > 0) {
-      stage_list_.resize(frame_count);
-      TSF_CUDA_CHECK(cudaMemcpyAsync(stage_list_.data(), frames,
-                                     frame_count * sizeof(std::uint32_t), cudaMemcpyHostToDevice,
-                                     stream_.get()));
       resolve_listed_frames_kernel<<<blocks_for(frame_count, 128), 128, 0, stream_.get()>>>(
-          lattice, frames_.data(), stage_list_.data(), static_cast<std::uint32_t>(frame_count),
+          lattice, frames_.data(), lists_.data(), static_cast<std::uint32_t>(frame_count),
           frame_capacity_, static_cast<int>(mode), corners_.data());
       TSF_CUDA_CHECK_LAUNCH();
     }
-    stage_index_.resize(count);
-    out_positions_.resize(count);
-    out_normals_.resize(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(stage_index_.data(), slots, count * sizeof(std::uint32_t),
-                                   cudaMemcpyHostToDevice, stream_.get()));
+    out_.grow_to(2 * count);
     couple_slots_kernel<<<blocks_for(count, 256), 256, 0, stream_.get()>>>(
         lattice, bindings_.data(), corners_.data(), frame_capacity_, rest_normals_.data(),
-        positions_.data(), normals_.data(), stage_index_.data(), static_cast<std::uint32_t>(count),
-        capacity_, static_cast<int>(mode), out_positions_.data(), out_normals_.data());
+        positions_.data(), normals_.data(), lists_.data() + frame_count,
+        static_cast<std::uint32_t>(count), capacity_, static_cast<int>(mode), out_.data(),
+        out_.data() + count);
     TSF_CUDA_CHECK_LAUNCH();
-    packed_positions_.resize(count);
-    packed_out_normals_.resize(count);
-    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_positions_.data(), out_positions_.data(),
-                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_.get()));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(packed_out_normals_.data(), out_normals_.data(),
-                                   count * sizeof(Vec3f), cudaMemcpyDeviceToHost, stream_.get()));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    out_host_.grow_to(2 * count);
+    out_.download(out_host_.data(), 2 * count, stream_.get());
+    wait();
+    const Vec3f* p = out_host_.data();
+    const Vec3f* nrm = out_host_.data() + count;
     for (std::size_t i = 0; i < count; ++i) {
       if (slots[i] >= capacity_) continue;
-      positions[slots[i]] = packed_positions_[i];
-      normals[slots[i]] = packed_out_normals_[i];
+      positions[slots[i]] = p[i];
+      normals[slots[i]] = nrm[i];
     }
   }
 
@@ -267,7 +293,7 @@ class CudaCouplerDevice final : public CouplerDevice {
       TSF_CUDA_CHECK(cudaMemcpyAsync(normals + first, normals_.data() + first, bytes,
                                      cudaMemcpyDeviceToHost, stream_.get()));
     }
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    wait();
   }
 
   void register_host(Vec3f* positions, Vec3f* normals, std::size_t count) override {
@@ -285,7 +311,7 @@ class CudaCouplerDevice final : public CouplerDevice {
   }
 
   void release_host() override {
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    wait();
     for (Vec3f* p : registered_) TSF_CUDA_CHECK(cudaHostUnregister(p));
     registered_.clear();
   }
@@ -299,6 +325,16 @@ class CudaCouplerDevice final : public CouplerDevice {
   CudaCouplerDevice& operator=(const CudaCouplerDevice&) = delete;
 
  private:
+  /// Waits for the stream; no staging is in flight afterwards.
+  void wait() {
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    vertices_queued_ = frames_queued_ = lists_queued_ = false;
+  }
+  /// Waits only when `queued` says this staging's last copies may not have run yet.
+  void settle(bool queued) {
+    if (queued) wait();
+  }
+
   void release_all() {
     bindings_.release();
     rest_normals_.release();
@@ -316,15 +352,17 @@ class CudaCouplerDevice final : public CouplerDevice {
   DeviceBuffer<std::uint8_t> dirty_;
   DeviceBuffer<CubeFrame> frames_;
   DeviceBuffer<FrameCorners> corners_;
-  DeviceBuffer<std::uint32_t> stage_index_, stage_list_;
+  // Edit staging: device side and its page-locked host side, per call that queues copies.
+  DeviceBuffer<std::uint32_t> vertex_index_, frame_index_, lists_;
   DeviceBuffer<VertexFrameBinding> stage_bindings_;
   DeviceBuffer<CubeFrame> stage_frames_;
-  DeviceBuffer<Vec3f> stage_normals_, out_positions_, out_normals_;
-  std::vector<VertexFrameBinding> packed_bindings_;
-  std::vector<CubeFrame> packed_frames_;
-  std::vector<Vec3f> packed_normals_, packed_positions_, packed_out_normals_;
+  DeviceBuffer<Vec3f> stage_normals_, out_;
+  PinnedBuffer<std::uint32_t> vertex_index_host_, frame_index_host_, lists_host_;
+  PinnedBuffer<VertexFrameBinding> bindings_host_;
+  PinnedBuffer<CubeFrame> frames_host_;
+  PinnedBuffer<Vec3f> normals_host_, out_host_;
+  bool vertices_queued_ = false, frames_queued_ = false, lists_queued_ = false;
   std::vector<Vec3f*> registered_;  // host arrays page-locked by register_host
-  // Last: destroyed first, after waiting for the work that uses the buffers above.
   UniqueStream stream_;
 };
 

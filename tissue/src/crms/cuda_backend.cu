@@ -1271,10 +1271,22 @@ class CudaBackend final : public SolverBackend {
   }
 
   bool step_signals(const StepParameters& p, unsigned features, bool velocities,
-                    double kinetic_damping, EnergySums& energy, VelocitySignals& v) override {
+                    double kinetic_damping, EnergySums& energy, VelocitySignals& v,
+                    std::optional<GuardHit>* guard) override {
+    if (guard)  // queued before the sums: both copies land in the one wait of measure()
+      TSF_CUDA_CHECK(cudaMemcpyAsync(guard_host_.data(), guard_.data(), sizeof(Guard),
+                                     cudaMemcpyDeviceToHost, stream_.get()));
     energy = measure(p, features, velocities, kinetic_damping, v);
+    if (guard) {
+      if (guard_host_.data()->bad_step == kNoStep)
+        guard->reset();
+      else
+        *guard = GuardHit{static_cast<std::int64_t>(guard_host_.data()->bad_node),
+                          guard_host_.data()->bad_step};
+    }
     return true;
   }
+  bool has_step_signals() const override { return true; }
 
   void spring_forces(const StepParameters& p, unsigned features,
                      std::vector<Vec3f>& forces) override {

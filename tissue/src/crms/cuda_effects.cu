@@ -178,6 +178,21 @@ class CudaEffects final : public EffectsEngine {
     return *energy_host_.data();
   }
 
+  bool queue_volume_energy(const LatticeView& lat, const ConstStateView& s,
+                           const EffectParameters& p) override {
+    if ((enabled() & effect_bits::kVolumetric) == 0) {
+      *energy_host_.data() = 0.0;
+      return true;
+    }
+    TSF_CUDA_CHECK(cudaMemsetAsync(energy_sum_.data(), 0, sizeof(double), stream_));
+    volume_energy_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, energy_sum_.data());
+    TSF_CUDA_CHECK_LAUNCH();
+    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_.data(), energy_sum_.data(), sizeof(double),
+                                   cudaMemcpyDeviceToHost, stream_));
+    return true;
+  }
+  double queued_volume_energy() const override { return *energy_host_.data(); }
+
   float* const* volume_term_arrays() override {
     if (volume_terms_[0].empty()) return nullptr;
     for (int c = 0; c < 9; ++c) volume_pointers_[c] = volume_terms_[c].data();

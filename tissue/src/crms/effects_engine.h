@@ -84,6 +84,16 @@ class EffectsEngine {
     (void)lattice, (void)state, (void)p;
     return std::nullopt;
   }
+  /// volume_energy_here without the wait: queues the sum on the stream the backend steps on and
+  /// returns true, or false where this engine has no such sum. The value is read by
+  /// queued_volume_energy() once the caller has waited for that stream (the solver's one wait
+  /// per monitored call, SolverBackend::step_signals).
+  virtual bool queue_volume_energy(const LatticeView& lattice, const ConstStateView& state,
+                                   const EffectParameters& p) {
+    (void)lattice, (void)state, (void)p;
+    return false;
+  }
+  virtual double queued_volume_energy() const { return 0.0; }
   /// The volumetric term's cube-pass arrays (9, #nodes each, where the backend keeps its state)
   /// for a backend that folds the term into its launch (SolverBackend::step_folded); null
   /// without the term or where no backend folds it (the CPU).

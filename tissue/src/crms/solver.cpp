@@ -197,26 +197,42 @@ StepReport Solver::step_measured(int n, double dt, bool with_velocities, StepSig
   // On CUDA the signals are summed on the device; with effects only where the effects' energy is
   // too, else the host measurement below copies the state out every call.
   if (on_cuda_ && config_.integrator != Integrator::kImplicitEuler &&
-      (!effects_ || effects_energy_on_device())) {
+      (!effects_ || effects_energy_on_device()) && backend_->has_step_signals()) {
+    // One host wait for the whole call: the steps, the volumetric term's energy, the guard and
+    // the signals are queued on the one stream and read back together (before: a wait for the
+    // steps' guard, one for the sums and one for the term's energy).
     const std::int64_t before = steps_done_;
-    StepReport report = step(n, dt);
-    report.steps_run = steps_done_ - before;
+    const bool stepping = !instability_ && n > 0;
+    step_async(n, dt);
+    const bool term_queued =
+        effects_energy_on_device() &&
+        effects_->queue_volume_energy(backend_->lattice_view(), backend_->state_view(),
+                                      effect_parameters(1.0));
     const StepParameters p = step_parameters(dt);
     EnergySums sums;
     // v0 is the other state buffer: the state before the last step, if there was one.
-    const bool have_v0 = with_velocities && report.steps_run > 0;
-    if (backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity)) {
-      signals.energy.kinetic_nj = sums.kinetic;
-      signals.energy.elastic_nj = sums.elastic + effects_energy_nj();
-      signals.energy.gravitational_nj = sums.gravitational;
-      signals.energy.load_nj = load_energy_nj();
-      if (with_velocities && !have_v0) {  // nothing stepped: no v0, no period-2 products
-        const std::vector<Vec3f> v = velocities();
-        measure_velocities(v, v, dt, signals.velocity);
-        signals.velocity.v0v1 = signals.velocity.v0v0 = 0;
-      }
-      return report;
+    const bool have_v0 = with_velocities && stepping;
+    std::optional<GuardHit> hit;
+    backend_->step_signals(p, features(), have_v0, k_sys, sums, signals.velocity, &hit);
+    backend_->poll_snapshot();
+    if (hit && !instability_) {
+      instability_ = make_instability(hit->node, hit->step);
+      steps_done_ = hit->step + 1;
     }
+    StepReport report;
+    report.instability = instability_;
+    report.steps_run = steps_done_ - before;
+    signals.energy.kinetic_nj = sums.kinetic;
+    signals.energy.elastic_nj =
+        sums.elastic + (term_queued ? effects_->queued_volume_energy() : effects_energy_nj());
+    signals.energy.gravitational_nj = sums.gravitational;
+    signals.energy.load_nj = load_energy_nj();
+    if (with_velocities && !have_v0) {  // nothing stepped: no v0, no period-2 products
+      const std::vector<Vec3f> v = velocities();
+      measure_velocities(v, v, dt, signals.velocity);
+      signals.velocity.v0v1 = signals.velocity.v0v0 = 0;
+    }
+    return report;
   }
   // Host measurement: the last step alone, the velocities copied before and after it.
   StepReport report;

@@ -91,13 +91,19 @@ class SolverBackend {
   /// (node_energy.h), v0 being the state before the last step (the other ping-pong buffer): in
   /// one pass where the state lives, read back as a few numbers. Valid right after step() with
   /// nothing written in between. Returns false where the backend has no such pass (the solver
-  /// then measures through read_state).
+  /// then measures through read_state). With `guard`, it also reads the guard as synchronize()
+  /// does, in the same wait: a monitored call right after step_async() waits once, not for the
+  /// steps and then again for the sums.
   virtual bool step_signals(const StepParameters& parameters, unsigned features, bool velocities,
-                            double kinetic_damping, EnergySums& energy, VelocitySignals& v) {
+                            double kinetic_damping, EnergySums& energy, VelocitySignals& v,
+                            std::optional<GuardHit>* guard = nullptr) {
     (void)parameters, (void)features, (void)velocities, (void)kinetic_damping, (void)energy,
-        (void)v;
+        (void)v, (void)guard;
     return false;
   }
+  /// Whether step_signals() has its pass here (it may then be called with `guard` right after
+  /// step_async() instead of synchronize()).
+  virtual bool has_step_signals() const { return false; }
   /// Spring force on every node at the current state, µN (external loads and gravity excluded).
   virtual void spring_forces(const StepParameters& parameters, unsigned features,
                              std::vector<Vec3f>& forces) = 0;

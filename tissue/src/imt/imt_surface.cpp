@@ -910,11 +910,21 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
   // end value, and the tetrahedra holding those edges belong to these cubes.
   const VoxelBox core = changed.dilated(1, 1);
 
+  Stopwatch phase;
+  auto lap = [&](int i) {
+    s.stats.phase_seconds[i] = phase.seconds();
+    phase.restart();
+  };
   s.remesh_region(volume, region, core, margin);  // 1. what each cube holds now
-  s.take_off_changed_normals();                   // 2. with the old positions
-  s.move_vertices_and_make_triangles();           // 3. new positions, new triangles
-  s.free_unused_vertices();                       // 4. vertices no triangle uses; tidy records
-  s.refresh_dirty_normals();                      // 5. normals of the vertices whose fans changed
+  lap(0);
+  s.take_off_changed_normals();  // 2. with the old positions
+  lap(1);
+  s.move_vertices_and_make_triangles();  // 3. new positions, new triangles
+  lap(2);
+  s.free_unused_vertices();  // 4. vertices no triangle uses; tidy records
+  lap(3);
+  s.refresh_dirty_normals();  // 5. normals of the vertices whose fans changed
+  lap(4);
   s.stats.seconds = clock.seconds();
   return s.stats;
 }

@@ -101,7 +101,7 @@ double density_at(const VoxelVolume& v, const Vec3d& p) {
     if (i < 0 || j < 0 || k < 0 || i >= g.dims.x || j >= g.dims.y || k >= g.dims.z) continue;
     const double w = (corner & 1 ? t[0] : 1 - t[0]) * ((corner >> 1) & 1 ? t[1] : 1 - t[1]) *
                      (corner >> 2 ? t[2] : 1 - t[2]);
-    sum += w * v.density(i, j, k);
+    sum += w * static_cast<double>(v.density(i, j, k));
   }
   return sum;
 }

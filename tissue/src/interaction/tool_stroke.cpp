@@ -140,17 +140,29 @@ VoxelBox ToolStroke::ablate_wand(VoxelVolume& volume, const CapsuleTool& from,
   });
 }
 
-VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, const ToolPose& from,
-                               const ToolPose& to, const RemovalOptions& o) {
+namespace {
+
+/// A blade sweep's sub-steps (position linear, orientation slerp; no point moving more than half
+/// a voxel between them), each with its world-axis half extent |R|·e, and the box of voxels
+/// within the fall-off of any of them: all that cut_blade() may change.
+struct BladePlan {
+  std::vector<ToolPose> poses;
+  std::vector<Vec3d> reach;
+  VoxelBox box{};
+  double h = 0;
+};
+
+BladePlan plan_blade_sweep(const VolumeGeometry& g, const BladeTool& blade, const ToolPose& from,
+                           const ToolPose& to, const RemovalOptions& o) {
   check(o, "cut");
   const Vec3d& e = blade.half_extents;
   require(all_finite(e) && e.x >= 0 && e.y >= 0 && e.z >= 0,
           "cut: blade half extents must be finite and >= 0 (mm)");
   require(all_finite(from.position) && all_finite(to.position),
           "cut: blade poses must have finite positions");
-  const VolumeGeometry& g = volume.geometry();
   const double voxel = min_spacing(g);
-  const double h = o.falloff_mm < 0 ? voxel : o.falloff_mm;
+  BladePlan plan;
+  plan.h = o.falloff_mm < 0 ? voxel : o.falloff_mm;
   const ToolPose a{from.position, from.orientation.normalized()};
   const ToolPose b{to.position, to.orientation.normalized()};
   const double corner = length(e);
@@ -159,8 +171,8 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
                 voxel, "cut");
   // Each sub-step's box is bounded by its world-axis extent |R|·e (a thin blade's is thin), not
   // by the sphere through its corners: a 40 mm blade sweeping 70 mm visits ~60× fewer voxels.
-  std::vector<ToolPose> poses(static_cast<std::size_t>(steps) + 1);
-  std::vector<Vec3d> reach(poses.size());
+  plan.poses.resize(static_cast<std::size_t>(steps) + 1);
+  plan.reach.resize(plan.poses.size());
   Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (int s = 0; s <= steps; ++s) {
     const double t = static_cast<double>(s) / steps;
@@ -173,14 +185,32 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
       const Vec3d w = p.orientation.apply(v);
       ext += Vec3d{std::fabs(w.x), std::fabs(w.y), std::fabs(w.z)};
     }
-    poses[static_cast<std::size_t>(s)] = p;
-    reach[static_cast<std::size_t>(s)] = ext;
+    plan.poses[static_cast<std::size_t>(s)] = p;
+    plan.reach[static_cast<std::size_t>(s)] = ext;
     lo = {std::min(lo.x, p.position.x - ext.x), std::min(lo.y, p.position.y - ext.y),
           std::min(lo.z, p.position.z - ext.z)};
     hi = {std::max(hi.x, p.position.x + ext.x), std::max(hi.y, p.position.y + ext.y),
           std::max(hi.z, p.position.z + ext.z)};
   }
-  const VoxelBox box = voxels_near_box(g, lo, hi, h);
+  plan.box = voxels_near_box(g, lo, hi, plan.h);
+  return plan;
+}
+
+}  // namespace
+
+VoxelBox blade_sweep_box(const VolumeGeometry& geometry, const BladeTool& blade,
+                         const ToolPose& from, const ToolPose& to, const RemovalOptions& options) {
+  return plan_blade_sweep(geometry, blade, from, to, options).box;
+}
+
+VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, const ToolPose& from,
+                               const ToolPose& to, const RemovalOptions& o, BladeSweeper* sweeper) {
+  const VolumeGeometry& g = volume.geometry();
+  const BladePlan plan = plan_blade_sweep(g, blade, from, to, o);
+  const std::vector<ToolPose>& poses = plan.poses;
+  const std::vector<Vec3d>& reach = plan.reach;
+  const VoxelBox& box = plan.box;
+  const double h = plan.h;
   if (box.empty()) return {};
   // Largest weight over the sub-steps, per voxel of the box.
   const Int3 ext = box.extent();
@@ -201,6 +231,14 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
     const Vec3d& c = poses[n].position;
     boxes[n] = voxels_near_box(g, c - reach[n], c + reach[n], h).intersected(box);
     visits += boxes[n].voxel_count();
+  }
+  if (sweeper) {
+    std::vector<BladeSweepStep> sweep_steps(poses.size());
+    for (std::size_t n = 0; n < poses.size(); ++n) sweep_steps[n] = {poses[n], boxes[n]};
+    sweeper->sweep(blade, sweep_steps, box, g, h, weight);
+    require(weight.size() == static_cast<std::size_t>(box.voxel_count()),
+            "cut: the blade sweeper returned the wrong number of weights (internal)");
+    return apply(volume, box, o, [&](int i, int j, int k) { return at(i, j, k); });
   }
   auto sweep = [&](std::vector<float>& into, std::size_t first, std::size_t last) {
     for (std::size_t n = first; n < last; ++n) {

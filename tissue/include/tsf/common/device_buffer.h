@@ -83,6 +83,17 @@ class OwnedArray {
     capacity_ = n;
     size_ = count;
   }
+  /// resize(), but growing past the capacity at least doubles it, so that a run of growing
+  /// requests (edit staging, say) allocates O(log n) times rather than on every call. Contents
+  /// are NOT kept when it reallocates.
+  void grow_to(std::size_t count) {
+    if (data_ && count <= capacity_) {
+      size_ = count;
+      return;
+    }
+    resize(count > 2 * capacity_ ? count : 2 * capacity_);
+    size_ = count;
+  }
   /// Frees the memory (the array is empty afterwards).
   void release() noexcept {
     data_.reset();

@@ -75,7 +75,15 @@ struct SurfaceUpdateStats {
   std::size_t vertices_moved = 0;  ///< existing vertices whose position or label changed
   std::size_t vertices_freed = 0;
   double seconds = 0;
+  /// seconds by phase of update(), in its order (kUpdatePhases names them): what each cube holds
+  /// now; the old normals taken off; new positions and triangles; unused vertices freed; the
+  /// changed fans' normals.
+  static constexpr int kPhases = 5;
+  double phase_seconds[kPhases] = {};
 };
+/// Names of SurfaceUpdateStats::phase_seconds, as reports print them.
+inline constexpr const char* kUpdatePhases[SurfaceUpdateStats::kPhases] = {
+    "classify", "normals_off", "vertices_and_triangles", "free_vertices", "normals"};
 
 class ImtSurface {
  public:

@@ -131,11 +131,17 @@ struct EditReport {
   std::size_t vertices_rebound_for_topology =
       0;  ///< of which only because their cube's nodes changed
   std::size_t vertices_added = 0, vertices_freed = 0, triangles_changed = 0;
-  double map_us = 0;                ///< tool pose → rest space (gather + Newton)
-  double edit_us = 0;               ///< voxel edit (with the density snapshot)
-  double remesh_us = 0;             ///< IMT update + change list
-  double topology_us = 0;           ///< lattice deletions and broken springs
-  double rebind_us = 0;             ///< coupler re-binding
+  double map_us = 0;            ///< tool pose → rest space (gather + Newton)
+  double edit_us = 0;           ///< voxel edit (with the density snapshot)
+  bool edit_on_device = false;  ///< the blade sweep's weights came from the CUDA device
+  double remesh_us = 0;         ///< IMT update + change list
+  /// remesh_us by phase of ImtSurface::update (imt::kUpdatePhases names them)
+  double remesh_phase_us[imt::SurfaceUpdateStats::kPhases] = {};
+  double topology_us = 0;  ///< lattice deletions and broken springs
+  double rebind_us = 0;    ///< coupler re-binding
+  /// rebind_us by phase (coupler::RebindReport): the slots collected, their cells found and
+  /// sorted, bound (threads), linked into the cube lists and frames (calling thread)
+  double rebind_collect_us = 0, rebind_locate_us = 0, rebind_bind_us = 0, rebind_link_us = 0;
   double couple_us = 0;             ///< coupling the re-bound vertices
   double total_us = 0;              ///< apply_tool end to end: edit → render buffer
   collision::ContactForce contact;  ///< press mode: the contact resolved at the new pose
@@ -314,6 +320,8 @@ class TissueModel {
   std::unique_ptr<crms::Solver> solver_;
   std::unique_ptr<coupler::Coupler> coupler_;
   std::unique_ptr<collision::NodeGatherer> gatherer_;
+  /// The blade sweep on the device (when the solver runs on CUDA; else none).
+  std::unique_ptr<BladeSweeper> sweeper_;
   std::vector<std::uint8_t> anchored_;
   double dt_ = 0;
   crms::TimeStepChoice dt_choice_;

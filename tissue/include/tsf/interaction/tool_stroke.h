@@ -15,7 +15,9 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <unordered_map>
+#include <vector>
 
 #include "tsf/volume/tool_shapes.h"
 #include "tsf/volume/volume_edits.h"
@@ -23,6 +25,36 @@
 #include "tsf/volume/voxel_volume.h"
 
 namespace tsf::interaction {
+
+/// One sub-step of a blade sweep: the blade's pose and the voxels its world-axis box reaches.
+struct BladeSweepStep {
+  ToolPose pose;
+  VoxelBox box;  ///< within the sweep's box
+};
+
+/// Computes a blade sweep's weights somewhere other than the calling thread (the CUDA backend's
+/// edits: make_cuda_blade_sweeper). Gives exactly what the host's sweep gives: weight[v] over the
+/// voxels of `box` (x fastest) is the largest over the steps whose box holds v of
+/// falloff_weight(blade_distance(v), h) (0 at distance >= h), the same IEEE operations
+/// (tool_shapes.h) in the same order, nothing contracted into FMA.
+class BladeSweeper {
+ public:
+  virtual ~BladeSweeper() = default;
+  virtual void sweep(const BladeTool& blade, const std::vector<BladeSweepStep>& steps,
+                     const VoxelBox& box, const VolumeGeometry& geometry, double h,
+                     std::vector<float>& weight) = 0;
+};
+
+/// The blade sweep on the CUDA device (one thread per voxel of the swept box; the weights come
+/// back to the host, where the stroke applies them). Throws tsf::Error, with the reason, where
+/// CUDA is not built or there is no device.
+std::unique_ptr<BladeSweeper> make_cuda_blade_sweeper();
+
+/// The voxels a blade moving from `from` to `to` may change: all that ToolStroke::cut_blade()
+/// edits at most (the box of its sub-steps' world-axis extents and the fall-off). Throws what
+/// cut_blade() throws for the same input.
+VoxelBox blade_sweep_box(const VolumeGeometry& geometry, const BladeTool& blade,
+                         const ToolPose& from, const ToolPose& to, const RemovalOptions& options);
 
 class ToolStroke {
  public:
@@ -40,9 +72,11 @@ class ToolStroke {
   /// A capsule (wand) moving from one placement to another.
   VoxelBox ablate_wand(VoxelVolume& volume, const CapsuleTool& from, const CapsuleTool& to,
                        const RemovalOptions& options);
-  /// A blade moving between two poses (position linear, orientation slerp).
+  /// A blade moving between two poses (position linear, orientation slerp). With a `sweeper` the
+  /// weights of the sub-steps are computed there (the same weights, so the same edit).
   VoxelBox cut_blade(VoxelVolume& volume, const BladeTool& blade, const ToolPose& from,
-                     const ToolPose& to, const RemovalOptions& options);
+                     const ToolPose& to, const RemovalOptions& options,
+                     BladeSweeper* sweeper = nullptr);
 
  private:
   /// Applies weights w(i,j,k) ∈ [0,1] over `box` with the stroke's memory.

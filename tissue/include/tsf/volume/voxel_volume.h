@@ -42,7 +42,7 @@ struct VolumeGeometry {
   /// Continuous index (i,j,k) -> physical LPS position in mm.
   Vec3d index_to_physical(const Vec3d& ijk) const;
   /// Continuous index -> tissue-space position in mm (axis-aligned; direction not applied).
-  Vec3d index_to_tissue(const Vec3d& ijk) const {
+  TSF_HD_INLINE Vec3d index_to_tissue(const Vec3d& ijk) const {
     return {origin.x + ijk.x * spacing.x, origin.y + ijk.y * spacing.y,
             origin.z + ijk.z * spacing.z};
   }
