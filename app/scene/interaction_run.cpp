@@ -321,7 +321,13 @@ json layer_timings_json(const interaction::EditReport& r) {
            {{"collect", r.rebind_collect_us},
             {"locate", r.rebind_locate_us},
             {"bind", r.rebind_bind_us},
-            {"link", r.rebind_link_us}}}};
+            {"link", r.rebind_link_us}}},
+          {"couple_phases",
+           {{"prepare", r.couple_prepare_us},
+            {"upload", r.couple_upload_us},
+            {"couple", r.couple_device_us},
+            {"stamp", r.couple_stamp_us}}},
+          {"voxel_edit_sweep", r.edit_sweep_us}};
 }
 
 json tear_json(const TearRecord& t) {

@@ -492,7 +492,13 @@ void Coupler::couple(const crms::Solver& solver) {
 }
 
 void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::uint32_t>& slots) {
+  last_couple_timing_ = {};
   if (slots.empty()) return;
+  Stopwatch clock;
+  auto lap = [&clock](double& into) {
+    into = clock.seconds();
+    clock.restart();
+  };
   const DeformedLatticeView view = deformed_lattice_view(solver);
   ++version_;
   const CouplerMode mode = options_.mode;
@@ -506,12 +512,17 @@ void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::ui
   scratch_frames_.erase(std::unique(scratch_frames_.begin(), scratch_frames_.end()),
                         scratch_frames_.end());
   if (solver.on_cuda()) {
+    lap(last_couple_timing_.prepare_s);
     sync_device(solver);
+    lap(last_couple_timing_.upload_s);
     device_->couple_slots(view, scratch_frames_.data(), scratch_frames_.size(), slots.data(),
                           slots.size(), mode, positions_.data(), normals_.data());
+    lap(last_couple_timing_.couple_s);
     for (std::uint32_t s : slots) stamp_block(s / kDirtyBlockSlots);
+    lap(last_couple_timing_.stamp_s);
     return;
   }
+  lap(last_couple_timing_.prepare_s);
   const LatticeReader reader{view};
   // A cut's thousands of vertices on the threads (distinct frames, distinct slots); a stroke's
   // few hundred on the calling thread.
@@ -533,8 +544,10 @@ void Coupler::couple_slots(const crms::Solver& solver, const std::vector<std::ui
     positions_[s] = v.position;
     normals_[s] = v.normal;
   }
+  lap(last_couple_timing_.couple_s);
   for (std::uint32_t s : slots)
     if (vertex_frames_[s].frame != kNoFrame) stamp_block(s / kDirtyBlockSlots);
+  lap(last_couple_timing_.stamp_s);
 }
 
 std::vector<std::pair<std::uint32_t, std::uint32_t>> Coupler::changed_ranges(

@@ -426,6 +426,7 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
     // back and the stroke applies them here, the same edit (BladeSweeper).
     r.edit_on_device = sweeper_ != nullptr;
     changed = slot.stroke.cut_blade(volume_, blade, pose_from, pose_to, removal, sweeper_.get());
+    r.edit_sweep_us = slot.stroke.last_sweep_seconds() * 1e6;
   } else if (tool.shape == collision::ToolShape::kSphere) {
     changed = slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, removal);
   } else {
@@ -511,6 +512,13 @@ void TissueModel::propagate_voxel_change(const DensitySnapshot& before, const Vo
   else
     coupler_->couple_slots(*solver_, coupler_->last_rebound());
   r.couple_us = micros(clock);
+  if (!rebind.full_rebind) {
+    const coupler::Coupler::CoupleTiming& ct = coupler_->last_couple_timing();
+    r.couple_prepare_us = ct.prepare_s * 1e6;
+    r.couple_upload_us = ct.upload_s * 1e6;
+    r.couple_device_us = ct.couple_s * 1e6;
+    r.couple_stamp_us = ct.stamp_s * 1e6;
+  }
 }
 
 void TissueModel::record_exposures(const DensitySnapshot& before, EditReport& r) {

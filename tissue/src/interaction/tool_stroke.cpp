@@ -8,6 +8,7 @@
 #include <omp.h>
 
 #include "tsf/common/error.h"
+#include "tsf/common/stopwatch.h"
 
 namespace tsf::interaction {
 namespace {
@@ -205,6 +206,8 @@ VoxelBox blade_sweep_box(const VolumeGeometry& geometry, const BladeTool& blade,
 
 VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, const ToolPose& from,
                                const ToolPose& to, const RemovalOptions& o, BladeSweeper* sweeper) {
+  sweep_seconds_ = 0;
+  const Stopwatch clock;
   const VolumeGeometry& g = volume.geometry();
   const BladePlan plan = plan_blade_sweep(g, blade, from, to, o);
   const std::vector<ToolPose>& poses = plan.poses;
@@ -238,6 +241,7 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
     sweeper->sweep(blade, sweep_steps, box, g, h, weight);
     require(weight.size() == static_cast<std::size_t>(box.voxel_count()),
             "cut: the blade sweeper returned the wrong number of weights (internal)");
+    sweep_seconds_ = clock.seconds();
     return apply(volume, box, o, [&](int i, int j, int k) { return at(i, j, k); });
   }
   auto sweep = [&](std::vector<float>& into, std::size_t first, std::size_t last) {
@@ -263,6 +267,7 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
       for (std::size_t v = 0; v < own.size(); ++v) weight[v] = std::max(weight[v], own[v]);
     }
   }
+  sweep_seconds_ = clock.seconds();
   return apply(volume, box, o, [&](int i, int j, int k) { return at(i, j, k); });
 }
 

@@ -97,6 +97,13 @@ class Coupler {
   void couple(const crms::Solver& solver);
   /// Only `slots` (e.g. the vertices an edit just re-bound, so they show deformed at once).
   void couple_slots(const crms::Solver& solver, const std::vector<std::uint32_t>& slots);
+  /// Seconds by phase of the last couple_slots(): the frame list made (host); the changed
+  /// bindings and frames sent to the device (CUDA: packing, copies queued); the coupling and the
+  /// copy back, to the end of the wait (CPU: the coupling); the outputs stamped.
+  struct CoupleTiming {
+    double prepare_s = 0, upload_s = 0, couple_s = 0, stamp_s = 0;
+  };
+  const CoupleTiming& last_couple_timing() const { return last_couple_timing_; }
 
   // ---- outputs (host) ----
   const std::vector<Vec3f>& positions() const { return positions_; }
@@ -151,6 +158,7 @@ class Coupler {
   std::vector<std::int32_t> head_;
   std::vector<std::int32_t> next_, prev_;
   std::vector<std::uint32_t> last_rebound_;
+  CoupleTiming last_couple_timing_;
   // Frames: slots [0, frames_.size()) with reference counts, a free list and an index by key.
   std::vector<VertexFrameBinding> vertex_frames_;  ///< per vertex slot
   std::vector<CubeFrame> frames_;

@@ -142,7 +142,11 @@ struct EditReport {
   /// rebind_us by phase (coupler::RebindReport): the slots collected, their cells found and
   /// sorted, bound (threads), linked into the cube lists and frames (calling thread)
   double rebind_collect_us = 0, rebind_locate_us = 0, rebind_bind_us = 0, rebind_link_us = 0;
-  double couple_us = 0;             ///< coupling the re-bound vertices
+  double couple_us = 0;  ///< coupling the re-bound vertices
+  /// couple_us by phase (coupler::Coupler::CoupleTiming): the frame list, the uploads, the
+  /// coupling with its copy back, the output stamps
+  double couple_prepare_us = 0, couple_upload_us = 0, couple_device_us = 0, couple_stamp_us = 0;
+  double edit_sweep_us = 0;         ///< of edit_us, a blade's sweep (host threads or device)
   double total_us = 0;              ///< apply_tool end to end: edit → render buffer
   collision::ContactForce contact;  ///< press mode: the contact resolved at the new pose
 };

@@ -65,6 +65,8 @@ class ToolStroke {
   /// voxels of min(density, s·w − already applied)): with the density it did remove, the
   /// effective rate of each label (removed / reached).
   const std::array<double, 256>& last_reached() const { return reached_; }
+  /// Seconds the last cut_blade() spent on its sweep's weights (before applying them).
+  double last_sweep_seconds() const { return sweep_seconds_; }
 
   /// A ball of `radius` moving from `from` to `to` (mm). Returns the changed voxels.
   VoxelBox ablate_ball(VoxelVolume& volume, const Vec3d& from, const Vec3d& to, double radius,
@@ -86,6 +88,7 @@ class ToolStroke {
 
   std::unordered_map<std::size_t, float> applied_;
   std::array<double, 256> reached_{};
+  double sweep_seconds_ = 0;
 };
 
 }  // namespace tsf::interaction
