@@ -170,7 +170,8 @@ class Coupler {
   std::vector<std::uint32_t> pending_frames_;  ///< frames changed since the last device upload
   std::vector<std::uint32_t> scratch_frames_;
   std::vector<std::uint64_t> scratch_order_, scratch_sort_;
-  std::vector<std::uint8_t> cell_marks_;  ///< #nodes, all 0 between calls (apply_changes)
+  std::vector<std::uint32_t> scratch_slots_;  ///< sort_unique's second buffer
+  std::vector<std::uint8_t> cell_marks_;      ///< #nodes, all 0 between calls (apply_changes)
   /// A re-bound vertex's new binding (by its place in the sorted order) and its old cube.
   struct Rebinding {
     BindingResult result;
