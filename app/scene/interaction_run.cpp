@@ -327,6 +327,10 @@ json layer_timings_json(const interaction::EditReport& r) {
             {"upload", r.couple_upload_us},
             {"couple", r.couple_device_us},
             {"stamp", r.couple_stamp_us}}},
+          {"topology_phases",
+           {{"find", r.topology_find_us},
+            {"break_springs", r.topology_springs_us},
+            {"delete_nodes", r.topology_us - r.topology_find_us - r.topology_springs_us}}},
           {"voxel_edit_sweep", r.edit_sweep_us}};
 }
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <set>
 #include <string>
 
 #include "effects_engine.h"
@@ -602,15 +601,28 @@ void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {
   // Tearing cleared links on the backend only: bring them to the host lattice first so that
   // the flags uploaded below do not restore them.
   if (effect_bits_ & effect_bits::kTearing) sync_torn_links();
-  std::set<std::int64_t> affected;
+  // The nodes and their neighbours, each once, ascending: marked, then read off the marked
+  // range (a cut's ~3,600 touched nodes name ~100 k with repeats; a std::set of them took 1.2 ms).
+  flag_marks_.resize(static_cast<std::size_t>(lattice_.node_count()), 0);
+  std::int64_t lo = lattice_.node_count(), hi = -1;
+  auto mark = [&](std::int64_t n) {
+    flag_marks_[static_cast<std::size_t>(n)] = 1;
+    lo = std::min(lo, n);
+    hi = std::max(hi, n);
+  };
   for (std::int64_t n : nodes) {
-    affected.insert(n);
+    mark(n);
     for (int d = 0; d < kFaceDirections; ++d) {
       const std::int64_t m = lattice_.neighbour(n, d);
-      if (m >= 0) affected.insert(m);
+      if (m >= 0) mark(m);
     }
   }
-  std::vector<std::int64_t> list(affected.begin(), affected.end());
+  std::vector<std::int64_t> list;
+  for (std::int64_t n = lo; n <= hi; ++n)
+    if (flag_marks_[static_cast<std::size_t>(n)]) {
+      flag_marks_[static_cast<std::size_t>(n)] = 0;
+      list.push_back(n);
+    }
   std::vector<std::uint8_t> flags(list.size());
   for (std::size_t i = 0; i < list.size(); ++i) flags[i] = lattice_.packed_flags(list[i]);
   backend_->update_flags(list, flags);

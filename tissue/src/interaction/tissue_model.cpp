@@ -480,7 +480,9 @@ void TissueModel::propagate_voxel_change(const DensitySnapshot& before, const Vo
   const LatticeTopologyEdit topo = find_lattice_topology_edit(
       volume_, before, changed, solver_->lattice(), options_.lattice.node_spacing_voxels,
       options_.deletion_threshold, options_.surface.iso);
+  r.topology_find_us = micros(clock);
   if (!topo.broken_springs.empty()) solver_->break_springs(topo.broken_springs);
+  r.topology_springs_us = micros(clock) - r.topology_find_us;
   if (!topo.deleted_nodes.empty()) {
     solver_->delete_nodes(topo.deleted_nodes);
     for (ToolSlot& s : slots_)

@@ -237,7 +237,8 @@ class Solver {
   std::unique_ptr<SolverBackend> backend_;
   bool on_cuda_ = false;
   bool external_forces_ = false;
-  std::vector<Vec3f> external_host_;  // host copy of the external forces (load energy)
+  std::vector<Vec3f> external_host_;      // host copy of the external forces (load energy)
+  std::vector<std::uint8_t> flag_marks_;  // refresh_flags' scratch: #nodes, all 0 between calls
   std::int64_t steps_done_ = 0;
   std::optional<Instability> instability_;
   unsigned effect_bits_ = 0;

@@ -138,7 +138,10 @@ struct EditReport {
   /// remesh_us by phase of ImtSurface::update (imt::kUpdatePhases names them)
   double remesh_phase_us[imt::SurfaceUpdateStats::kPhases] = {};
   double topology_us = 0;  ///< lattice deletions and broken springs
-  double rebind_us = 0;    ///< coupler re-binding
+  /// of topology_us: finding them (host), the solver breaking the springs (its flags and launch
+  /// plans); the rest is the nodes' deletion there and the contacts forgetting them
+  double topology_find_us = 0, topology_springs_us = 0;
+  double rebind_us = 0;  ///< coupler re-binding
   /// rebind_us by phase (coupler::RebindReport): the slots collected, their cells found and
   /// sorted, bound (threads), linked into the cube lists and frames (calling thread)
   double rebind_collect_us = 0, rebind_locate_us = 0, rebind_bind_us = 0, rebind_link_us = 0;
