@@ -62,30 +62,38 @@ void Coupler::ensure_capacity(std::uint32_t capacity) {
 
 namespace {
 
+/// Stable LSD radix sort of `keys` by their bits [first_bit, end_bit), 11-bit digits.
+template <typename Key>
+void radix_sort_bits(std::vector<Key>& keys, std::vector<Key>& tmp, int first_bit, int end_bit) {
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
+  tmp.resize(keys.size());
+  std::size_t count[kBuckets];
+  for (int shift = first_bit; shift < end_bit; shift += kDigitBits) {
+    std::fill(std::begin(count), std::end(count), std::size_t{0});
+    for (Key k : keys) ++count[(k >> shift) & (kBuckets - 1)];
+    std::size_t sum = 0;
+    for (std::size_t& c : count) {
+      const std::size_t n = c;
+      c = sum;
+      sum += n;
+    }
+    for (Key k : keys) tmp[count[(k >> shift) & (kBuckets - 1)]++] = k;
+    keys.swap(tmp);
+  }
+}
+
 /// Sorts `v` ascending and drops repeats. A cut's change lists are ~10 k slots and frames, where
-/// std::sort took ~0.5 ms on the GPU machine's host for each list: an LSD radix sort over 11-bit
-/// digits (as many as the largest value needs: two for a few million slots) takes a tenth.
+/// std::sort took ~0.5 ms on the GPU machine's host for each list: the radix sort over as many
+/// digits as the largest value needs (two for a few million slots) takes a tenth.
 void sort_unique(std::vector<std::uint32_t>& v, std::vector<std::uint32_t>& tmp) {
   if (v.size() < 512) {
     std::sort(v.begin(), v.end());
   } else {
-    constexpr int kDigitBits = 11;
-    constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
     const std::uint32_t largest = *std::max_element(v.begin(), v.end());
-    tmp.resize(v.size());
-    std::size_t count[kBuckets];
-    for (int shift = 0; shift < 32 && (largest >> shift) != 0; shift += kDigitBits) {
-      std::fill(count, count + kBuckets, std::size_t{0});
-      for (std::uint32_t x : v) ++count[(x >> shift) & (kBuckets - 1)];
-      std::size_t sum = 0;
-      for (std::size_t& c : count) {
-        const std::size_t n = c;
-        c = sum;
-        sum += n;
-      }
-      for (std::uint32_t x : v) tmp[count[(x >> shift) & (kBuckets - 1)]++] = x;
-      v.swap(tmp);
-    }
+    int bits = 0;
+    while (bits < 32 && (largest >> bits) != 0) ++bits;
+    radix_sort_bits(v, tmp, 0, bits);
   }
   v.erase(std::unique(v.begin(), v.end()), v.end());
 }
@@ -191,24 +199,9 @@ constexpr std::int64_t kParallelVertices = 2048;
 /// entry, that is the order of the keys themselves.
 void sort_by_cell(std::vector<std::uint64_t>& keys, std::vector<std::uint64_t>& tmp,
                   std::int64_t cell_count) {
-  constexpr int kDigitBits = 11;
-  constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
   int bits = 0;
   while (bits < 32 && (std::int64_t{1} << bits) < cell_count) ++bits;
-  tmp.resize(keys.size());
-  std::size_t count[kBuckets];
-  for (int shift = 32; shift < 32 + bits; shift += kDigitBits) {
-    std::fill(std::begin(count), std::end(count), std::size_t{0});
-    for (std::uint64_t k : keys) ++count[(k >> shift) & (kBuckets - 1)];
-    std::size_t sum = 0;
-    for (std::size_t& c : count) {
-      const std::size_t n = c;
-      c = sum;
-      sum += n;
-    }
-    for (std::uint64_t k : keys) tmp[count[(k >> shift) & (kBuckets - 1)]++] = k;
-    keys.swap(tmp);
-  }
+  radix_sort_bits(keys, tmp, 32, 32 + bits);
 }
 
 }  // namespace
