@@ -249,8 +249,7 @@ class CudaCouplerDevice final : public CouplerDevice {
                     CouplerMode mode, Vec3f* positions, Vec3f* normals) override {
     if (count == 0) return;
     // One upload of the frame list and the slot list, one kernel each, one download of the
-    // positions and normals (count of each), one wait.
-    settle(lists_queued_);
+    // positions and normals (count of each), one wait (so its staging is free when it returns).
     const std::size_t listed = frame_count + count;
     lists_host_.grow_to(listed);
     std::copy(frames, frames + frame_count, lists_host_.data());
@@ -328,7 +327,7 @@ class CudaCouplerDevice final : public CouplerDevice {
   /// Waits for the stream; no staging is in flight afterwards.
   void wait() {
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    vertices_queued_ = frames_queued_ = lists_queued_ = false;
+    vertices_queued_ = frames_queued_ = false;
   }
   /// Waits only when `queued` says this staging's last copies may not have run yet.
   void settle(bool queued) {
@@ -361,7 +360,7 @@ class CudaCouplerDevice final : public CouplerDevice {
   PinnedBuffer<VertexFrameBinding> bindings_host_;
   PinnedBuffer<CubeFrame> frames_host_;
   PinnedBuffer<Vec3f> normals_host_, out_host_;
-  bool vertices_queued_ = false, frames_queued_ = false, lists_queued_ = false;
+  bool vertices_queued_ = false, frames_queued_ = false;
   std::vector<Vec3f*> registered_;  // host arrays page-locked by register_host
   UniqueStream stream_;
 };

@@ -168,18 +168,13 @@ class CudaEffects final : public EffectsEngine {
 
   std::optional<double> volume_energy_here(const LatticeView& lat, const ConstStateView& s,
                                            const EffectParameters& p) const override {
-    if ((enabled() & effect_bits::kVolumetric) == 0) return 0.0;
-    TSF_CUDA_CHECK(cudaMemsetAsync(energy_sum_.data(), 0, sizeof(double), stream_));
-    volume_energy_kernel<<<grid(), kBlock, 0, stream_>>>(lat, s, p, energy_sum_.data());
-    TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaMemcpyAsync(energy_host_.data(), energy_sum_.data(), sizeof(double),
-                                   cudaMemcpyDeviceToHost, stream_));
+    queue_volume_energy(lat, s, p);
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_));
-    return *energy_host_.data();
+    return queued_volume_energy();
   }
 
   bool queue_volume_energy(const LatticeView& lat, const ConstStateView& s,
-                           const EffectParameters& p) override {
+                           const EffectParameters& p) const override {
     if ((enabled() & effect_bits::kVolumetric) == 0) {
       *energy_host_.data() = 0.0;
       return true;

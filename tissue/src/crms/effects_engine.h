@@ -89,7 +89,7 @@ class EffectsEngine {
   /// queued_volume_energy() once the caller has waited for that stream (the solver's one wait
   /// per monitored call, SolverBackend::step_signals).
   virtual bool queue_volume_energy(const LatticeView& lattice, const ConstStateView& state,
-                                   const EffectParameters& p) {
+                                   const EffectParameters& p) const {
     (void)lattice, (void)state, (void)p;
     return false;
   }

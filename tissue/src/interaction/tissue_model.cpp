@@ -416,16 +416,19 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
   if (tool.shape == collision::ToolShape::kBlade) removal.rates = options_.cut_rates;
   // A blade's own sweep box (its sub-steps' world-axis extents), not the sphere through its
   // corners: for the sinus scene's 40 mm blade ~20× fewer voxels to copy.
+  BladeSweepPlan plan;
+  if (tool.shape == collision::ToolShape::kBlade)
+    plan = plan_blade_sweep(vg, blade, pose_from, pose_to, removal);
   DensitySnapshot before;
   before.capture(volume_, tool.shape == collision::ToolShape::kBlade
-                              ? blade_sweep_box(vg, blade, pose_from, pose_to, removal)
+                              ? plan.box
                               : voxels_near_box(vg, rest_lo, rest_hi, reach));
   VoxelBox changed{};
   if (tool.shape == collision::ToolShape::kBlade) {
     // On CUDA the sweep's blade distances (a cut's million) run on the device; the weights come
     // back and the stroke applies them here, the same edit (BladeSweeper).
     r.edit_on_device = sweeper_ != nullptr;
-    changed = slot.stroke.cut_blade(volume_, blade, pose_from, pose_to, removal, sweeper_.get());
+    changed = slot.stroke.cut_blade(volume_, plan, removal, sweeper_.get());
     r.edit_sweep_us = slot.stroke.last_sweep_seconds() * 1e6;
   } else if (tool.shape == collision::ToolShape::kSphere) {
     changed = slot.stroke.ablate_ball(volume_, cap_from.a, cap_to.a, tool.radius_mm, removal);

@@ -141,20 +141,8 @@ VoxelBox ToolStroke::ablate_wand(VoxelVolume& volume, const CapsuleTool& from,
   });
 }
 
-namespace {
-
-/// A blade sweep's sub-steps (position linear, orientation slerp; no point moving more than half
-/// a voxel between them), each with its world-axis half extent |R|·e, and the box of voxels
-/// within the fall-off of any of them: all that cut_blade() may change.
-struct BladePlan {
-  std::vector<ToolPose> poses;
-  std::vector<Vec3d> reach;
-  VoxelBox box{};
-  double h = 0;
-};
-
-BladePlan plan_blade_sweep(const VolumeGeometry& g, const BladeTool& blade, const ToolPose& from,
-                           const ToolPose& to, const RemovalOptions& o) {
+BladeSweepPlan plan_blade_sweep(const VolumeGeometry& g, const BladeTool& blade,
+                                const ToolPose& from, const ToolPose& to, const RemovalOptions& o) {
   check(o, "cut");
   const Vec3d& e = blade.half_extents;
   require(all_finite(e) && e.x >= 0 && e.y >= 0 && e.z >= 0,
@@ -162,7 +150,8 @@ BladePlan plan_blade_sweep(const VolumeGeometry& g, const BladeTool& blade, cons
   require(all_finite(from.position) && all_finite(to.position),
           "cut: blade poses must have finite positions");
   const double voxel = min_spacing(g);
-  BladePlan plan;
+  BladeSweepPlan plan;
+  plan.blade = blade;
   plan.h = o.falloff_mm < 0 ? voxel : o.falloff_mm;
   const ToolPose a{from.position, from.orientation.normalized()};
   const ToolPose b{to.position, to.orientation.normalized()};
@@ -172,8 +161,8 @@ BladePlan plan_blade_sweep(const VolumeGeometry& g, const BladeTool& blade, cons
                 voxel, "cut");
   // Each sub-step's box is bounded by its world-axis extent |R|·e (a thin blade's is thin), not
   // by the sphere through its corners: a 40 mm blade sweeping 70 mm visits ~60× fewer voxels.
-  plan.poses.resize(static_cast<std::size_t>(steps) + 1);
-  plan.reach.resize(plan.poses.size());
+  plan.steps.resize(static_cast<std::size_t>(steps) + 1);
+  std::vector<Vec3d> reach(plan.steps.size());
   Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (int s = 0; s <= steps; ++s) {
     const double t = static_cast<double>(s) / steps;
@@ -186,32 +175,34 @@ BladePlan plan_blade_sweep(const VolumeGeometry& g, const BladeTool& blade, cons
       const Vec3d w = p.orientation.apply(v);
       ext += Vec3d{std::fabs(w.x), std::fabs(w.y), std::fabs(w.z)};
     }
-    plan.poses[static_cast<std::size_t>(s)] = p;
-    plan.reach[static_cast<std::size_t>(s)] = ext;
+    plan.steps[static_cast<std::size_t>(s)].pose = p;
+    reach[static_cast<std::size_t>(s)] = ext;
     lo = {std::min(lo.x, p.position.x - ext.x), std::min(lo.y, p.position.y - ext.y),
           std::min(lo.z, p.position.z - ext.z)};
     hi = {std::max(hi.x, p.position.x + ext.x), std::max(hi.y, p.position.y + ext.y),
           std::max(hi.z, p.position.z + ext.z)};
   }
   plan.box = voxels_near_box(g, lo, hi, plan.h);
+  for (std::size_t n = 0; n < plan.steps.size(); ++n) {
+    BladeSweepStep& st = plan.steps[n];
+    st.box = voxels_near_box(g, st.pose.position - reach[n], st.pose.position + reach[n], plan.h)
+                 .intersected(plan.box);
+    plan.visits += st.box.voxel_count();
+  }
   return plan;
-}
-
-}  // namespace
-
-VoxelBox blade_sweep_box(const VolumeGeometry& geometry, const BladeTool& blade,
-                         const ToolPose& from, const ToolPose& to, const RemovalOptions& options) {
-  return plan_blade_sweep(geometry, blade, from, to, options).box;
 }
 
 VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, const ToolPose& from,
                                const ToolPose& to, const RemovalOptions& o, BladeSweeper* sweeper) {
+  return cut_blade(volume, plan_blade_sweep(volume.geometry(), blade, from, to, o), o, sweeper);
+}
+
+VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeSweepPlan& plan,
+                               const RemovalOptions& o, BladeSweeper* sweeper) {
   sweep_seconds_ = 0;
   const Stopwatch clock;
   const VolumeGeometry& g = volume.geometry();
-  const BladePlan plan = plan_blade_sweep(g, blade, from, to, o);
-  const std::vector<ToolPose>& poses = plan.poses;
-  const std::vector<Vec3d>& reach = plan.reach;
+  const std::vector<BladeSweepStep>& steps = plan.steps;
   const VoxelBox& box = plan.box;
   const double h = plan.h;
   if (box.empty()) return {};
@@ -224,45 +215,36 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeTool& blade, cons
                       (static_cast<std::size_t>(j - box.lo.y) +
                        static_cast<std::size_t>(ext.y) * static_cast<std::size_t>(k - box.lo.z))];
   };
-  // A cut sweeps a large blade through many sub-steps (the sinus scene's: ~150 sub-steps of
-  // ~8 k voxels, each voxel of the box visited ~60 times). Above kParallelCutVisits each thread
-  // takes a share of the sub-steps into a weight buffer of its own, and the buffers are merged by
-  // their maximum (which does not depend on the order): no barrier per sub-step.
-  std::vector<VoxelBox> boxes(poses.size());
-  std::int64_t visits = 0;
-  for (std::size_t n = 0; n < poses.size(); ++n) {
-    const Vec3d& c = poses[n].position;
-    boxes[n] = voxels_near_box(g, c - reach[n], c + reach[n], h).intersected(box);
-    visits += boxes[n].voxel_count();
-  }
   if (sweeper) {
-    std::vector<BladeSweepStep> sweep_steps(poses.size());
-    for (std::size_t n = 0; n < poses.size(); ++n) sweep_steps[n] = {poses[n], boxes[n]};
-    sweeper->sweep(blade, sweep_steps, box, g, h, weight);
+    sweeper->sweep(plan.blade, steps, box, g, h, weight);
     require(weight.size() == static_cast<std::size_t>(box.voxel_count()),
             "cut: the blade sweeper returned the wrong number of weights (internal)");
     sweep_seconds_ = clock.seconds();
     return apply(volume, box, o, [&](int i, int j, int k) { return at(i, j, k); });
   }
+  // A cut sweeps a large blade through many sub-steps (the sinus scene's: ~150 sub-steps of
+  // ~8 k voxels, each voxel of the box visited ~60 times). Above kParallelCutVisits each thread
+  // takes a share of the sub-steps into a weight buffer of its own, and the buffers are merged by
+  // their maximum (which does not depend on the order): no barrier per sub-step.
   auto sweep = [&](std::vector<float>& into, std::size_t first, std::size_t last) {
     for (std::size_t n = first; n < last; ++n) {
-      const VoxelBox& sb = boxes[n];
+      const VoxelBox& sb = steps[n].box;
       for (int k = sb.lo.z; k < sb.hi.z; ++k)
         for (int j = sb.lo.y; j < sb.hi.y; ++j)
-          blade_row(blade, poses[n], g, h, j, k, sb.lo.x, sb.hi.x,
+          blade_row(plan.blade, steps[n].pose, g, h, j, k, sb.lo.x, sb.hi.x,
                     into.data() + (&at(sb.lo.x, j, k) - weight.data()));
     }
   };
-  const int threads = visits >= kParallelCutVisits ? omp_get_max_threads() : 1;
+  const int threads = plan.visits >= kParallelCutVisits ? omp_get_max_threads() : 1;
   if (threads <= 1) {
-    sweep(weight, 0, poses.size());
+    sweep(weight, 0, steps.size());
   } else {
 #pragma omp parallel num_threads(threads)
     {
       const auto t = static_cast<std::size_t>(omp_get_thread_num());
       const auto count = static_cast<std::size_t>(omp_get_num_threads());
       std::vector<float> own(weight.size(), 0.0f);
-      sweep(own, poses.size() * t / count, poses.size() * (t + 1) / count);
+      sweep(own, steps.size() * t / count, steps.size() * (t + 1) / count);
 #pragma omp critical(tsf_cut_sweep_merge)
       for (std::size_t v = 0; v < own.size(); ++v) weight[v] = std::max(weight[v], own[v]);
     }

@@ -50,11 +50,23 @@ class BladeSweeper {
 /// CUDA is not built or there is no device.
 std::unique_ptr<BladeSweeper> make_cuda_blade_sweeper();
 
-/// The voxels a blade moving from `from` to `to` may change: all that ToolStroke::cut_blade()
-/// edits at most (the box of its sub-steps' world-axis extents and the fall-off). Throws what
-/// cut_blade() throws for the same input.
-VoxelBox blade_sweep_box(const VolumeGeometry& geometry, const BladeTool& blade,
-                         const ToolPose& from, const ToolPose& to, const RemovalOptions& options);
+/// A blade's move from one pose to another as its sweep runs it: the sub-steps (position linear,
+/// orientation slerp, no point moving more than half a voxel between two), each with the voxels
+/// its world-axis extent |R|·e reaches within the fall-off h, and their box: all that
+/// ToolStroke::cut_blade() may change.
+struct BladeSweepPlan {
+  BladeTool blade{};
+  std::vector<BladeSweepStep> steps;
+  VoxelBox box{};
+  double h = 0;             ///< fall-off half-width, mm
+  std::int64_t visits = 0;  ///< Σ of the steps' voxels
+};
+
+/// Throws tsf::Error, naming what is wrong, for non-finite poses, negative extents or options
+/// out of range (what cut_blade() throws for the same input).
+BladeSweepPlan plan_blade_sweep(const VolumeGeometry& geometry, const BladeTool& blade,
+                                const ToolPose& from, const ToolPose& to,
+                                const RemovalOptions& options);
 
 class ToolStroke {
  public:
@@ -78,6 +90,9 @@ class ToolStroke {
   /// weights of the sub-steps are computed there (the same weights, so the same edit).
   VoxelBox cut_blade(VoxelVolume& volume, const BladeTool& blade, const ToolPose& from,
                      const ToolPose& to, const RemovalOptions& options,
+                     BladeSweeper* sweeper = nullptr);
+  /// The same from its plan (plan_blade_sweep on this volume's geometry, with these options).
+  VoxelBox cut_blade(VoxelVolume& volume, const BladeSweepPlan& plan, const RemovalOptions& options,
                      BladeSweeper* sweeper = nullptr);
 
  private:
