@@ -309,12 +309,16 @@ json layer_timings_json(const interaction::EditReport& r) {
   json remesh = json::object();
   for (int i = 0; i < imt::SurfaceUpdateStats::kPhases; ++i)
     remesh[imt::kUpdatePhases[i]] = r.remesh_phase_us[i];
+  remesh["classify_on_threads"] = r.remesh_classify_threads_us;
+  remesh["chunks"] = r.remesh_chunks;
+  remesh["chunks_ahead"] = r.remesh_chunks_ahead;
   return {{"map", r.map_us},
           {"voxel_edit", r.edit_us},
           {"remesh", r.remesh_us},
           {"topology", r.topology_us},
           {"rebind", r.rebind_us},
           {"couple", r.couple_us},
+          {"contact", r.contact_us},
           {"total", r.total_us},
           {"remesh_phases", remesh},
           {"rebind_phases",
@@ -331,6 +335,7 @@ json layer_timings_json(const interaction::EditReport& r) {
            {{"find", r.topology_find_us},
             {"break_springs", r.topology_springs_us},
             {"delete_nodes", r.topology_us - r.topology_find_us - r.topology_springs_us}}},
+          {"remesh_and_topology", r.remesh_and_topology_us},
           {"voxel_edit_sweep", r.edit_sweep_us}};
 }
 
@@ -382,6 +387,7 @@ json edit_json(const EditRecord& e) {
           {"vertices_freed", r.vertices_freed},
           {"triangles_changed", r.triangles_changed},
           {"voxel_edit_on_device", r.edit_on_device},
+          {"topology_beside_remesh", r.topology_beside_remesh},
           {"timings_us", layer_timings_json(r)}};
 }
 

@@ -1,6 +1,7 @@
 #include "tsf/imt/imt_surface.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -292,6 +293,92 @@ TEST(ImtSurface, RejectsAVolumeOfOtherDimensions) {
   EXPECT_THROW(s.update(b, VoxelBox::of_dims(b.dims())), Error);
   ImtSurface unbuilt;
   EXPECT_THROW(unbuilt.update(a, VoxelBox::of_dims(a.dims())), Error);
+}
+
+/// Large edits (regions of many 32-cube chunks) on two surfaces, one updated on one thread (each
+/// batch of chunks is a single chunk, its cubes planned as they are meshed in the serial order)
+/// and one on four (batches of four chunks whose windows, vertex tables and refresh plans are made
+/// ahead on the threads before the serial pass): the same slots, buffers and change lists after
+/// every edit, bit for bit.
+void expect_threads_agree(float eps) {
+  VolumeGeometry g;
+  g.dims = {104, 96, 84};
+  g.spacing = {0.9, 1.0, 1.2};
+  g.origin = {-40.0, 3.0, 40.0};
+  VoxelVolume volume = make_blob_volume(g, 11, 14, 1.2);
+  SurfaceOptions options;
+  options.snap_epsilon = eps;
+  const int before = omp_get_max_threads();
+  ImtSurface one(options), four(options);
+  one.build(volume);
+  four.build(volume);
+  (void)one.take_changes();
+  (void)four.take_changes();
+  std::mt19937 rng(97);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto point = [&] {
+    return g.index_to_tissue({u(rng) * g.dims.x, u(rng) * g.dims.y, u(rng) * g.dims.z});
+  };
+  std::size_t ahead = 0;
+  for (int i = 0; i < 24; ++i) {
+    VoxelBox changed;
+    RemovalOptions o;
+    o.strength = 1.0f;
+    if (i % 3 == 0) {
+      const BladeTool blade{{20.0, 18.0, 0.6}};
+      const ToolPose from{point(), Rotation::about_axis({u(rng), u(rng), 1.0}, 3.0 * u(rng))};
+      const ToolPose to{from.position + Vec3d{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5} * 40.0,
+                        from.orientation};
+      changed = cut_swept_blade(volume, blade, from, to, o);
+    } else if (i % 3 == 1) {
+      changed = ablate_sphere(volume, {point(), 12.0 + 10.0 * u(rng)}, o);
+    } else {
+      const Vec3d lo = point();
+      const bool add = i % 2 == 0;
+      changed =
+          set_box(volume, lo, lo + Vec3d{30 + 30 * u(rng), 30 + 30 * u(rng), 8}, add ? 1.0f : 0.0f,
+                  add ? std::optional<std::uint8_t>(kLabelMucosa) : std::nullopt);
+    }
+    const std::string when = "eps " + std::to_string(eps) + ", edit " + std::to_string(i);
+    omp_set_num_threads(1);
+    const SurfaceUpdateStats s1 = one.update(volume, changed);
+    omp_set_num_threads(4);
+    const SurfaceUpdateStats s4 = four.update(volume, changed);
+    omp_set_num_threads(before);
+    EXPECT_EQ(s1.chunks_ahead, 0u) << when;
+    ahead += s4.chunks_ahead;
+    const SurfaceChanges c1 = one.take_changes(), c4 = four.take_changes();
+    ASSERT_EQ(one.vertex_slot_count(), four.vertex_slot_count()) << when;
+    ASSERT_EQ(one.triangle_slot_count(), four.triangle_slot_count()) << when;
+    EXPECT_TRUE(c1.vertices_added == c4.vertices_added && c1.vertices_freed == c4.vertices_freed &&
+                c1.vertices_modified == c4.vertices_modified &&
+                c1.vertices_normal_changed == c4.vertices_normal_changed &&
+                c1.triangles_added == c4.triangles_added &&
+                c1.triangles_freed == c4.triangles_freed && c1.reallocated == c4.reallocated)
+        << when << ": the change lists differ";
+    std::size_t differ = 0;
+    for (std::uint32_t v = 0; v < one.vertex_slot_count(); ++v)
+      if (one.vertex_live(v) != four.vertex_live(v) ||
+          (one.vertex_live(v) &&
+           (!(one.positions()[v] == four.positions()[v]) ||
+            !(one.normals()[v] == four.normals()[v]) || one.labels()[v] != four.labels()[v] ||
+            one.vertex_key(v) != four.vertex_key(v))))
+        ++differ;
+    for (std::uint32_t t = 0; t < one.triangle_slot_count(); ++t)
+      if (one.triangles()[t] != four.triangles()[t]) ++differ;
+    ASSERT_EQ(differ, 0u) << when << ": slots differ";
+  }
+  ASSERT_NO_THROW(four.check_invariants());
+  // The four-thread surface must have taken the path under test, and often.
+  EXPECT_GE(ahead, 16u);
+}
+
+TEST(ImtSurfaceThreads, LargeEditsGiveTheSameSlotsOnOneAndFourThreadsWithoutMerging) {
+  expect_threads_agree(0.0f);
+}
+
+TEST(ImtSurfaceThreads, LargeEditsGiveTheSameSlotsOnOneAndFourThreadsWithMerging) {
+  expect_threads_agree(0.1f);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // The edit path shares its work among the OpenMP threads: the blade sweep's sub-steps, the IMT
-// re-mesh's lattice windows, vertex tables and refresh plans (a batch of chunks at a time) and
-// the re-binding and coupling of the changed vertices. Each split must give what one thread gives,
-// bit for bit: the same voxels, the same surface in the same slots, the same bindings and coupled
+// re-mesh's lattice windows, vertex tables and refresh plans (a batch of chunks at a time), the
+// lattice's topology edit (beside a stroke's one-chunk re-mesh, on a second thread) and the
+// re-binding and coupling of the changed vertices. Each split must give what one thread gives, bit
+// for bit: the same voxels, the same surface in the same slots, the same bindings and coupled
 // positions (docs/deform-cut.md, "Edit → render buffer latency").
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -36,6 +37,10 @@ struct EditOutcome {
   std::vector<float> w;
   std::vector<std::uint32_t> sources;
   std::size_t cut_rebound = 0;
+  std::size_t cut_topology = 0;  ///< nodes deleted and springs broken by the cut
+  bool cut_topology_beside_remesh = false;
+  bool stroke_topology_beside_remesh = false;  ///< of the second wand stroke
+  std::size_t cut_chunks_ahead = 0;  ///< of the cut's re-mesh, chunks planned ahead on the threads
   VoxelBox cut_voxels{};
   bool cut_on_device = false;
 };
@@ -65,7 +70,8 @@ EditOutcome edit_sample(int threads, crms::Backend backend = crms::Backend::kCpu
   const Rotation along_y = Rotation::about_axis({1, 0, 0}, M_PI / 2);
   const Vec3d nose = g.index_to_tissue({g.dims.x * 0.5, g.dims.y * 0.2, g.dims.z * 0.5});
   model.apply_tool(wand, {nose, along_y}, ToolMode::kAblate);
-  model.apply_tool(wand, {nose + Vec3d{0, 8, 0}, along_y}, ToolMode::kAblate);
+  const EditReport stroke =
+      model.apply_tool(wand, {nose + Vec3d{0, 8, 0}, along_y}, ToolMode::kAblate);
   model.release_tool();
 
   Tool blade;
@@ -78,6 +84,10 @@ EditOutcome edit_sample(int threads, crms::Backend backend = crms::Backend::kCpu
 
   EditOutcome out;
   out.cut_rebound = cut.vertices_rebound;
+  out.cut_chunks_ahead = cut.remesh_chunks_ahead;
+  out.cut_topology = cut.nodes_deleted + cut.springs_broken;
+  out.cut_topology_beside_remesh = cut.topology_beside_remesh;
+  out.stroke_topology_beside_remesh = stroke.edited && stroke.topology_beside_remesh;
   out.cut_voxels = cut.changed_voxels;
   out.cut_on_device = cut.edit_on_device;
   const float* d = model.volume().density_data().data();
@@ -108,10 +118,22 @@ TEST(EditThreads, TheSampleFaceIsCutAndAblatedAlikeOnOneAndSeveralThreads) {
   // one 32-cube chunk, more vertices to re-bind than the parallel threshold.
   ASSERT_GT(one.cut_rebound, 2048u);
   ASSERT_GT(one.cut_voxels.extent().x, 40);
-  for (int threads : {2, 3, 4}) {  // 4: the re-mesh's batches work ahead (kAheadChunks)
+  EXPECT_EQ(one.cut_chunks_ahead, 0u);
+  // ... and a topology edit, always on the calling thread: its re-mesh uses the threads. A
+  // stroke's re-mesh is one chunk: from 4 threads its topology runs beside it.
+  ASSERT_GT(one.cut_topology, 0u);
+  EXPECT_FALSE(one.cut_topology_beside_remesh);
+  EXPECT_FALSE(one.stroke_topology_beside_remesh);
+  for (int threads : {2, 3, 4}) {  // 4: the re-mesh's batches plan ahead; strokes' topology beside
     const EditOutcome many = edit_sample(threads);
     SCOPED_TRACE(std::to_string(threads) + " threads");
     EXPECT_EQ(many.cut_rebound, one.cut_rebound);
+    EXPECT_EQ(many.cut_topology, one.cut_topology);
+    EXPECT_FALSE(many.cut_topology_beside_remesh);
+    EXPECT_EQ(many.stroke_topology_beside_remesh, threads >= 4);
+    if (threads == 4) {
+      EXPECT_GT(many.cut_chunks_ahead, 0u) << "the cut's re-mesh did not plan ahead";
+    }
     EXPECT_TRUE(many.density == one.density) << "the voxels differ";
     ASSERT_TRUE(many.live == one.live) << "the live vertex slots differ";
     EXPECT_TRUE(many.triangles == one.triangles) << "the triangles differ";

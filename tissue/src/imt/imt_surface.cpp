@@ -426,6 +426,16 @@ struct ImtSurface::State {
   std::vector<std::uint32_t> record_stamp;  // per record: generation when last visited
   std::vector<std::uint8_t> pending;        // per vertex slot: moved in this update
 
+  /// Owner cubes whose tetrahedra can see a changed value or a changed merging decision (`changed`
+  /// inside the volume): the changed samples touch cubes [lo − 1, hi − 1] and their centres; a
+  /// tetrahedron of cube c spans cubes c − 1 .. c; merging decisions look two lattice steps (one
+  /// cube) further each way.
+  VoxelBox update_region(const VoxelBox& changed) const {
+    const int margin = LatticeWindow::margin(options.snap_epsilon > 0.0f);
+    return changed.dilated(margin, margin)
+        .intersected({{-1, -1, -1}, {grid.size.x - 1, grid.size.y - 1, grid.size.z - 1}});
+  }
+
   // ---- update passes (ImtSurface::update runs them in this order) ---------------------------
   /// Starts an update: a new generation (stamps of older ones go stale) and empty scratch.
   void begin_update();
@@ -580,6 +590,8 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
     chunk_work.push_back(std::make_unique<ChunkWork>());
   for (std::size_t first = 0; first < chunks.size(); first += batch) {
     const auto count = static_cast<std::int64_t>(std::min(batch, chunks.size() - first));
+    const bool ahead = count >= kAheadChunks;
+    Stopwatch on_threads;
 #pragma omp parallel for schedule(dynamic, 1) if (count > 1)
     for (std::int64_t b = 0; b < count; ++b) {
       const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
@@ -594,12 +606,14 @@ void ImtSurface::State::remesh_region(const VoxelVolume& volume, const VoxelBox&
         cw.window.compute(volume, options, ch.c0, ch.c1);
         // Working ahead (the vertex table, the plan) is ~1.3× the work the serial meshing saves:
         // a batch of fewer than kAheadChunks chunks plans its cubes as they are meshed.
-        const bool ahead = count >= kAheadChunks;
         make_chunk_vertices(cw.window, ch.c0, ch.c1, ahead ? core : VoxelBox{}, cw.table);
         cw.plan.ready = ahead;
         if (cw.plan.ready) plan_chunk(cw.window, cw.table, core, cw.plan);
       }
     }
+    stats.classify_threads_seconds += on_threads.seconds();
+    stats.chunks_meshed += static_cast<std::size_t>(count);
+    if (ahead) stats.chunks_ahead += static_cast<std::size_t>(count);
     batch_size = static_cast<std::size_t>(count);
     for (std::int64_t b = 0; b < count; ++b) {
       const Chunk& ch = chunks[first + static_cast<std::size_t>(b)];
@@ -898,13 +912,8 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
   if (changed.empty()) return s.stats;
   s.begin_update();
 
-  // Owner cubes whose tetrahedra can see a changed value or a changed merging decision: the
-  // changed samples touch cubes [lo − 1, hi − 1] and their centres; a tetrahedron of cube c spans
-  // cubes c − 1 .. c; merging decisions look two lattice steps (one cube) further each way.
   const int margin = LatticeWindow::margin(s.options.snap_epsilon > 0.0f);
-  const VoxelBox region =
-      changed.dilated(margin, margin)
-          .intersected({{-1, -1, -1}, {s.grid.size.x - 1, s.grid.size.y - 1, s.grid.size.z - 1}});
+  const VoxelBox region = s.update_region(changed);
   s.stats.cubes_remeshed = static_cast<std::size_t>(region.voxel_count());
   // Cubes whose triangles can use a vertex that moved: vertices move only on edges with a changed
   // end value, and the tetrahedra holding those edges belong to these cubes.
@@ -927,6 +936,18 @@ SurfaceUpdateStats ImtSurface::update(const VoxelVolume& volume, const VoxelBox&
   lap(4);
   s.stats.seconds = clock.seconds();
   return s.stats;
+}
+
+std::size_t ImtSurface::update_chunks(const VoxelBox& changed_voxels) const {
+  const State& s = *s_;
+  if (!s.built) return 0;
+  const VoxelBox changed = changed_voxels.intersected(VoxelBox::of_dims(s.geometry.dims));
+  if (changed.empty()) return 0;
+  const VoxelBox region = s.update_region(changed);
+  if (region.empty()) return 0;
+  const Int3 e = region.extent();
+  auto per_axis = [](int n) { return static_cast<std::size_t>((n + kChunk - 1) / kChunk); };
+  return per_axis(e.x) * per_axis(e.y) * per_axis(e.z);
 }
 
 std::uint32_t ImtSurface::vertex_slot_count() const {

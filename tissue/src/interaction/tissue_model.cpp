@@ -7,6 +7,9 @@
 #include <limits>
 #include <string>
 
+#include <omp.h>
+
+#include "edit_worker.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/interaction/lattice_components.h"
@@ -15,6 +18,11 @@
 
 namespace tsf::interaction {
 namespace {
+
+/// From this many OpenMP threads on, a stroke's topology runs beside its re-mesh. With fewer, the
+/// team's threads that wait actively after a parallel region (for milliseconds, by default) hold
+/// the cores the worker would need: on 2 cores the two ran one after the other anyway.
+constexpr int kTopologyBesideThreads = 4;
 
 double micros(const Stopwatch& s) {
   return s.seconds() * 1e6;
@@ -341,7 +349,8 @@ EditReport TissueModel::apply_tool(int slot_index, const Tool& tool, const ToolP
     const collision::ContactForce c = publish_contacts();
     report.contact = c;
     report.tissue_near = report.tissue_near || slot.last_contact.nodes_gathered > 0;
-    report.total_us += micros(clock);
+    report.contact_us = micros(clock);
+    report.total_us += report.contact_us;
   }
   return report;
 }
@@ -469,34 +478,58 @@ EditReport TissueModel::edit(ToolSlot& slot, const Tool& tool, const collision::
 
 void TissueModel::propagate_voxel_change(const DensitySnapshot& before, const VoxelBox& changed,
                                          const std::vector<crms::SpringRef>& torn, EditReport& r) {
+  // The lattice's topology edit and the surface's re-mesh read the same voxels and write what
+  // the other does not touch (the solver and the contacts; the surface). When the re-mesh is one
+  // chunk (a stroke: it runs on this thread alone) and OpenMP may use enough threads, the
+  // topology runs on the edit worker meanwhile. Neither reads what the other writes, so the
+  // outcome is the same as one after the other (EditThreads.*).
+  LatticeTopologyEdit topo;
+  auto topology = [&] {
+    Stopwatch t;
+    topo = find_lattice_topology_edit(volume_, before, changed, solver_->lattice(),
+                                      options_.lattice.node_spacing_voxels,
+                                      options_.deletion_threshold, options_.surface.iso);
+    r.topology_find_us = micros(t);
+    if (!topo.broken_springs.empty()) solver_->break_springs(topo.broken_springs);
+    r.topology_springs_us = micros(t) - r.topology_find_us;
+    if (!topo.deleted_nodes.empty()) {
+      solver_->delete_nodes(topo.deleted_nodes);
+      for (ToolSlot& s : slots_)
+        if (s.contact) s.contact->forget(topo.deleted_nodes);
+      for (Pusher& p : pushers_) p.contact->forget(topo.deleted_nodes);
+    }
+    // Deleting nodes and breaking springs moves nothing: the broad phase's boxes stay valid (a
+    // deleted node is skipped by the query), so no refit is needed.
+    r.topology_us = micros(t);
+  };
+  Stopwatch both;
+  r.topology_beside_remesh =
+      omp_get_max_threads() >= kTopologyBesideThreads && surface_.update_chunks(changed) == 1;
+  if (r.topology_beside_remesh && !edit_worker_)
+    edit_worker_ = std::make_unique<detail::EditWorker>();
+  detail::WorkerWait topology_done(r.topology_beside_remesh ? edit_worker_.get() : nullptr);
+  if (r.topology_beside_remesh) edit_worker_->start(topology);
+
   Stopwatch clock;
   const imt::SurfaceUpdateStats remesh = surface_.update(volume_, changed);
   const imt::SurfaceChanges changes = surface_.take_changes();
   r.remesh_us = micros(clock);
   for (int i = 0; i < imt::SurfaceUpdateStats::kPhases; ++i)
     r.remesh_phase_us[i] = remesh.phase_seconds[i] * 1e6;
+  r.remesh_classify_threads_us = remesh.classify_threads_seconds * 1e6;
+  r.remesh_chunks = remesh.chunks_meshed;
+  r.remesh_chunks_ahead = remesh.chunks_ahead;
   r.vertices_added = changes.vertices_added.size();
   r.vertices_freed = changes.vertices_freed.size();
   r.triangles_changed = changes.triangles_added.size() + changes.triangles_freed.size();
 
-  clock.restart();
-  const LatticeTopologyEdit topo = find_lattice_topology_edit(
-      volume_, before, changed, solver_->lattice(), options_.lattice.node_spacing_voxels,
-      options_.deletion_threshold, options_.surface.iso);
-  r.topology_find_us = micros(clock);
-  if (!topo.broken_springs.empty()) solver_->break_springs(topo.broken_springs);
-  r.topology_springs_us = micros(clock) - r.topology_find_us;
-  if (!topo.deleted_nodes.empty()) {
-    solver_->delete_nodes(topo.deleted_nodes);
-    for (ToolSlot& s : slots_)
-      if (s.contact) s.contact->forget(topo.deleted_nodes);
-    for (Pusher& p : pushers_) p.contact->forget(topo.deleted_nodes);
-  }
-  // Deleting nodes and breaking springs moves nothing: the broad phase's boxes stay valid (a
-  // deleted node is skipped by the query), so no refit is needed.
+  if (r.topology_beside_remesh)
+    topology_done.wait();
+  else
+    topology();
+  r.remesh_and_topology_us = micros(both);
   r.nodes_deleted = topo.deleted_nodes.size();
   r.springs_broken = topo.broken_springs.size();
-  r.topology_us = micros(clock);
 
   clock.restart();
   std::vector<crms::SpringRef> broken = topo.broken_springs;

@@ -74,7 +74,12 @@ struct SurfaceUpdateStats {
   std::size_t vertices_made = 0;   ///< new vertices
   std::size_t vertices_moved = 0;  ///< existing vertices whose position or label changed
   std::size_t vertices_freed = 0;
+  std::size_t chunks_meshed = 0;  ///< 32-cube chunks of the re-meshed region
+  std::size_t chunks_ahead = 0;   ///< of them, with their vertices and refreshes planned ahead
   double seconds = 0;
+  /// of phase_seconds[0] (classify): the chunks' windows (and, ahead, their vertex tables and
+  /// refresh plans) on the threads; the rest is the serial pass over the cubes in order
+  double classify_threads_seconds = 0;
   /// seconds by phase of update(), in its order (kUpdatePhases names them): what each cube holds
   /// now; the old normals taken off; new positions and triangles; unused vertices freed; the
   /// changed fans' normals.
@@ -99,8 +104,13 @@ class ImtSurface {
   /// Full surfacing (multithreaded, extract_surface) into fresh buffers.
   void build(const VoxelVolume& volume);
   /// Re-meshes the cubes that `changed_voxels` can affect. The volume must be the one built from
-  /// (same dimensions), edited. Single-threaded: interactive edits are small.
+  /// (same dimensions), edited. The region goes in 32-cube chunks: one chunk is meshed on the
+  /// calling thread alone; several share their lattice windows (and, 4 or more to a batch, their
+  /// vertex tables and refresh plans) among the OpenMP threads, the cubes then taken in the serial
+  /// order, so the outcome does not depend on the thread count.
   SurfaceUpdateStats update(const VoxelVolume& volume, const VoxelBox& changed_voxels);
+  /// The chunks update(volume, changed_voxels) would re-mesh (0 when nothing; 1: no OpenMP team).
+  std::size_t update_chunks(const VoxelBox& changed_voxels) const;
 
   const SurfaceOptions& options() const;
   bool built() const;

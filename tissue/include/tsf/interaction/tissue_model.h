@@ -137,10 +137,23 @@ struct EditReport {
   double remesh_us = 0;         ///< IMT update + change list
   /// remesh_us by phase of ImtSurface::update (imt::kUpdatePhases names them)
   double remesh_phase_us[imt::SurfaceUpdateStats::kPhases] = {};
+  /// of remesh_phase_us[0]: the part on the threads (imt::SurfaceUpdateStats); the region's
+  /// chunks and how many of them were planned ahead there
+  double remesh_classify_threads_us = 0;
+  std::size_t remesh_chunks = 0, remesh_chunks_ahead = 0;
   double topology_us = 0;  ///< lattice deletions and broken springs
+  /// the topology ran on a second thread while this one re-meshed (a re-mesh of one chunk, when
+  /// OpenMP may use 4 threads or more): the edit's total is then less than the sum of its stages
+  bool topology_beside_remesh = false;
+  /// from the re-mesh's start to the end of both it and the topology (the wait for the topology
+  /// included)
+  double remesh_and_topology_us = 0;
   /// of topology_us: finding them (host), the solver breaking the springs (its flags and launch
   /// plans); the rest is the nodes' deletion there and the contacts forgetting them
   double topology_find_us = 0, topology_springs_us = 0;
+  /// the contact pass after an ablation that presses as it ablates (force-dependent removal):
+  /// the tool's contact with the edited tissue, part of total_us
+  double contact_us = 0;
   double rebind_us = 0;  ///< coupler re-binding
   /// rebind_us by phase (coupler::RebindReport): the slots collected, their cells found and
   /// sorted, bound (threads), linked into the cube lists and frames (calling thread)
@@ -189,6 +202,10 @@ struct InteractionTotals {
   std::size_t tear_nodes_deleted = 0, tear_springs_broken = 0;
   double tear_cleared_mm3 = 0;
 };
+
+namespace detail {
+class EditWorker;
+}
 
 class TissueModel {
  public:
@@ -329,6 +346,8 @@ class TissueModel {
   std::unique_ptr<collision::NodeGatherer> gatherer_;
   /// The blade sweep on the device (when the solver runs on CUDA; else none).
   std::unique_ptr<BladeSweeper> sweeper_;
+  /// Runs a stroke's lattice topology beside its re-mesh (made at the first such edit).
+  std::unique_ptr<detail::EditWorker> edit_worker_;
   std::vector<std::uint8_t> anchored_;
   double dt_ = 0;
   crms::TimeStepChoice dt_choice_;
