@@ -100,11 +100,11 @@ json vec(const Vec3d& v) {
 
 // ---- prepare: everything checkable before the long stages ------------------------------------
 
+#ifdef TSF_HAVE_IMPORT
 std::string point_text(const Vec3d& p) {
   return "(" + fixed(p.x, 1) + ", " + fixed(p.y, 1) + ", " + fixed(p.z, 1) + ")";
 }
 
-#ifdef TSF_HAVE_IMPORT
 std::string box_text(const import::Box3& b) {
   return point_text(b.lo) + " to " + point_text(b.hi) + " mm";
 }

@@ -164,6 +164,7 @@ ContactSample advance_instances(const Scene& scene, const InteractionRunOptions&
     r.steps += a.steps;
     r.stepping_s += a.step_us * 1e-6;
     r.contacts_s += a.contact_us * 1e-6;
+    r.contact_phases_us += a.contact_phases_us;
     r.coupling_s += a.couple_us * 1e-6;
     if (a.instability && !result.instability) {
       r.instability = a.instability->describe();
@@ -305,6 +306,15 @@ json by_label_json(const std::vector<std::pair<std::uint8_t, double>>& v) {
   return j;
 }
 
+/// A contact pass's time by step (ToolContact::resolve), scaled from µs by `scale`.
+json contact_phases_json(const collision::ContactForce::Phases& p, double scale) {
+  return {{"gather", p.gather * scale},
+          {"release", p.release * scale},
+          {"narrow", p.narrow * scale},
+          {"hold", p.hold * scale},
+          {"feedback", p.feedback * scale}};
+}
+
 json layer_timings_json(const interaction::EditReport& r) {
   json remesh = json::object();
   for (int i = 0; i < imt::SurfaceUpdateStats::kPhases; ++i)
@@ -319,6 +329,7 @@ json layer_timings_json(const interaction::EditReport& r) {
           {"rebind", r.rebind_us},
           {"couple", r.couple_us},
           {"contact", r.contact_us},
+          {"contact_phases", contact_phases_json(r.contact.phases_us, 1.0)},
           {"total", r.total_us},
           {"remesh_phases", remesh},
           {"rebind_phases",
@@ -573,6 +584,7 @@ json instance_report_json(const Scene& scene, const InteractionResult& result,
                                                 : r.stepping_s + r.contacts_s + r.coupling_s},
         {"stepping", r.stepping_s},
         {"contacts", r.contacts_s},
+        {"contact_phases", contact_phases_json(r.contact_phases_us, 1e-6)},
         {"coupling", r.coupling_s}}},
       {"outputs",
        {{"mesh", path_or_null(r.outputs.mesh)},

@@ -118,7 +118,8 @@ struct InstanceResult {
   std::vector<double> edit_latencies_us;
   double max_tool_force_un = 0;
   double setup_s = 0, stepping_s = 0, contacts_s = 0, coupling_s = 0;
-  InteractionOutputs outputs;  ///< this instance's files, as written
+  collision::ContactForce::Phases contact_phases_us;  ///< contacts_s by step, µs
+  InteractionOutputs outputs;                         ///< this instance's files, as written
   std::size_t states_saved = 0;
   std::optional<std::string> instability;
   crms::StabilitySummary stability;  ///< the instance's verdict (TissueModel::stability)

@@ -16,6 +16,7 @@
 #include <random>
 
 #include <map>
+#include <memory>
 
 #include "bench_cut_scenes.h"
 #include "tsf/collision/node_gatherer.h"
@@ -93,11 +94,16 @@ int main(int argc, char** argv) {
               "tested", "µs", "µs", "µs (baseline)");
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u01(0, 1);
+  struct PhaseRow {
+    double radius, gather, release, narrow, hold, feedback, iterations;
+  };
+  std::vector<PhaseRow> phase_rows;
   for (double radius : {1.0, 2.0, 4.0, 8.0, 16.0}) {
     interaction::Tool ball;
     ball.radius_mm = radius;
     std::vector<double> contact_us, query_us, brute_us;
-    double gathered = 0, inside = 0, held = 0, tested = 0;
+    std::vector<double> ph[5];
+    double gathered = 0, inside = 0, held = 0, tested = 0, iterations = 0;
     for (int p = 0; p < presses; ++p) {
       const auto& s = model.surface();
       std::uint32_t slot = 1 + static_cast<std::uint32_t>(u01(rng) * (s.vertex_slot_count() - 2));
@@ -112,6 +118,13 @@ int main(int argc, char** argv) {
       gathered += static_cast<double>(r.contact.nodes_gathered);
       held += static_cast<double>(r.contact.nodes_held);
       tested += static_cast<double>(r.contact.vertices_tested);
+      iterations += r.contact.narrow_iterations;
+      const auto& cp = r.contact.phases_us;
+      ph[0].push_back(cp.gather);
+      ph[1].push_back(cp.release);
+      ph[2].push_back(cp.narrow);
+      ph[3].push_back(cp.hold);
+      ph[4].push_back(cp.feedback);
       model.release_tool();
       // The gather alone, with a refit first (what a contact pass after stepping pays).
       const collision::WorldTool placed = interaction::place_tool(ball, {centre, {}});
@@ -145,6 +158,65 @@ int main(int argc, char** argv) {
                 gathered / presses, inside / presses, held / presses, tested / presses,
                 bench::percentile(contact_us, 0.5), bench::percentile(query_us, 0.5),
                 solver.on_cuda() ? 0.0 : bench::percentile(brute_us, 0.5));
+    phase_rows.push_back({radius, bench::percentile(ph[0], 0.5), bench::percentile(ph[1], 0.5),
+                          bench::percentile(ph[2], 0.5), bench::percentile(ph[3], 0.5),
+                          bench::percentile(ph[4], 0.5), iterations / presses});
+  }
+  std::printf(
+      "\nthe contact pass's phases, p50 µs (ToolContact's steps; narrow: nodes to the tool "
+      "surface and the vertices' iterations)\n%8s | %9s %9s %9s %9s %9s | %10s\n",
+      "radius", "gather", "release", "narrow", "hold", "feedback", "iterations");
+  for (const PhaseRow& r : phase_rows)
+    std::printf("%8.0f | %9.0f %9.0f %9.0f %9.0f %9.0f | %10.1f\n", r.radius, r.gather, r.release,
+                r.narrow, r.hold, r.feedback, r.iterations);
+  // The narrow phase's incremental iterations against testing every cube every iteration (the
+  // reference they equal): two fresh twins of the model, one built with
+  // ContactOptions::retest_every_cube, given the same presses (4 mm balls 1 mm deep, random
+  // places) alternately.
+  {
+    auto twin = [&](bool every_cube) {
+      interaction::TissueModelOptions o = bench::soft_tissue(k, backend);
+      o.contact.retest_every_cube = every_cube;
+      auto m = std::make_unique<interaction::TissueModel>(bench::cranium_or_blobs().volume, o);
+      m->advance(m->dt() * 4);
+      return m;
+    };
+    const std::unique_ptr<interaction::TissueModel> incremental = twin(false), every = twin(true);
+    interaction::Tool ball;
+    ball.radius_mm = 4.0;
+    std::vector<double> inc_us, every_us;
+    double inc_tests = 0, every_tests = 0, iterations = 0;
+    bool same = true;
+    for (int p = 0; p < presses; ++p) {
+      const auto& s = incremental->surface();
+      std::uint32_t slot = 1 + static_cast<std::uint32_t>(u01(rng) * (s.vertex_slot_count() - 2));
+      while (!s.vertex_live(slot)) slot = 1 + slot % (s.vertex_slot_count() - 1);
+      const Vec3d n = to_double(incremental->coupler().normals()[slot]);
+      const Vec3d centre = to_double(incremental->coupler().positions()[slot]) + n * 3.0;
+      const interaction::EditReport a =
+          incremental->apply_tool(ball, {centre, {}}, interaction::ToolMode::kPress);
+      const interaction::EditReport b =
+          every->apply_tool(ball, {centre, {}}, interaction::ToolMode::kPress);
+      incremental->release_tool();
+      every->release_tool();
+      inc_us.push_back(a.contact.phases_us.narrow);
+      every_us.push_back(b.contact.phases_us.narrow);
+      inc_tests += static_cast<double>(a.contact.narrow_cube_tests);
+      every_tests += static_cast<double>(b.contact.narrow_cube_tests);
+      iterations += a.contact.narrow_iterations;
+      same = same && a.contact.force_un.x == b.contact.force_un.x &&
+             a.contact.force_un.y == b.contact.force_un.y &&
+             a.contact.force_un.z == b.contact.force_un.z &&
+             a.contact.nodes_held == b.contact.nodes_held &&
+             a.contact.vertices_pushed == b.contact.vertices_pushed;
+    }
+    const double inc = bench::percentile(inc_us, 0.5), all = bench::percentile(every_us, 0.5);
+    std::printf(
+        "\nnarrow phase, 4 mm, 1 mm deep, p50: incremental iterations %.0f µs, every cube every "
+        "iteration %.0f µs (%.2f×; %.1f iterations, %.0f against %.0f cube tests a pass); the "
+        "same outcome: %s\n",
+        inc, all, all / inc, iterations / presses, inc_tests / presses, every_tests / presses,
+        same ? "yes" : "NO");
   }
   // Several tools at once and a mesh tool, against one ball (4 mm, 1 mm deep, random places).
   {

@@ -5,6 +5,7 @@
 #include <iterator>
 
 #include "tsf/common/error.h"
+#include "tsf/common/stopwatch.h"
 #include "tsf/coupler/couple_vertex.h"
 
 namespace tsf::collision {
@@ -139,6 +140,30 @@ struct NarrowCubes {
   std::vector<std::int64_t> cells;  // lattice node index of each cube's lower corner, ascending
   std::vector<std::uint32_t> slots;
   std::vector<std::size_t> cube_begin;
+  // The cells' bounding box and, over it, each cell's index in `cells` (−1: not a narrow cube);
+  // empty when the box was too sparse to map (find() then searches `cells`).
+  Int3 lo{0, 0, 0}, ext{0, 0, 0};
+  std::vector<std::int32_t> index;
+
+  /// Index in `cells` of the cube with lower corner c, or −1.
+  std::ptrdiff_t find(const crms::LatticeGeometry& g, const Int3& c) const {
+    if (!index.empty()) {
+      if (c.x < lo.x || c.y < lo.y || c.z < lo.z || c.x >= lo.x + ext.x || c.y >= lo.y + ext.y ||
+          c.z >= lo.z + ext.z)
+        return -1;
+      return index[local(c.x, c.y, c.z)];
+    }
+    if (!g.contains(c.x, c.y, c.z)) return -1;
+    const std::int64_t id = g.index(c.x, c.y, c.z);
+    const auto it = std::lower_bound(cells.begin(), cells.end(), id);
+    return it != cells.end() && *it == id ? it - cells.begin() : -1;
+  }
+  std::size_t local(int x, int y, int z) const {
+    return static_cast<std::size_t>(x - lo.x) +
+           static_cast<std::size_t>(ext.x) *
+               (static_cast<std::size_t>(y - lo.y) +
+                static_cast<std::size_t>(ext.y) * static_cast<std::size_t>(z - lo.z));
+  }
 };
 
 /// Axis-aligned bounds of the tools that keep render vertices out.
@@ -171,23 +196,65 @@ NarrowCubes cubes_near_tool(const ContactScene& scene, const coupler::Coupler& c
   const crms::LatticeGeometry& g = scene.g;
   const double reach = length(g.spacing);
   NarrowCubes cubes;
+  // The cubes around each node near the tools: its 8 cubes (lower corners m − {0,1}³), marked
+  // in a map over their bounding box and read back in lattice order (ascending, each once): a
+  // few thousand cells, where sorting 8 entries per node took most of this step's time.
+  std::vector<Int3> near;
+  Int3 lo{g.dims.x, g.dims.y, g.dims.z}, hi{-1, -1, -1};
   for (std::size_t i = 0; i < scene.nb.size(); ++i) {
     const Vec3d p = scene.deformed(i, scene.nb.displacement);
     if (!boxes.near(p, p, reach)) continue;
     const Int3 m = g.coordinates(scene.nb.nodes[i]);
-    for (int o = 0; o < 8; ++o) {
-      const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
-                   m.z - coupler::corner_bit(o, 2)};
-      if (g.contains(c.x, c.y, c.z)) cubes.cells.push_back(g.index(c.x, c.y, c.z));
+    near.push_back(m);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], std::max(m[a] - 1, 0));
+      hi[a] = std::max(hi[a], m[a]);
     }
   }
-  std::sort(cubes.cells.begin(), cubes.cells.end());
-  cubes.cells.erase(std::unique(cubes.cells.begin(), cubes.cells.end()), cubes.cells.end());
+  if (!near.empty()) {
+    cubes.lo = lo;
+    cubes.ext = {hi.x - lo.x + 1, hi.y - lo.y + 1, hi.z - lo.z + 1};
+    const std::int64_t volume = cubes.ext.volume();
+    if (volume <= 64 * static_cast<std::int64_t>(near.size()) + 4096) {
+      cubes.index.assign(static_cast<std::size_t>(volume), -1);
+      for (const Int3& m : near)
+        for (int o = 0; o < 8; ++o) {
+          const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
+                       m.z - coupler::corner_bit(o, 2)};
+          if (g.contains(c.x, c.y, c.z)) cubes.index[cubes.local(c.x, c.y, c.z)] = 0;
+        }
+      for (int z = lo.z; z <= hi.z; ++z)
+        for (int y = lo.y; y <= hi.y; ++y)
+          for (int x = lo.x; x <= hi.x; ++x) {
+            std::int32_t& at = cubes.index[cubes.local(x, y, z)];
+            if (at < 0) continue;
+            at = static_cast<std::int32_t>(cubes.cells.size());
+            cubes.cells.push_back(g.index(x, y, z));
+          }
+    } else {  // nodes spread thinly over a large box: sort the cells instead
+      for (const Int3& m : near)
+        for (int o = 0; o < 8; ++o) {
+          const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
+                       m.z - coupler::corner_bit(o, 2)};
+          if (g.contains(c.x, c.y, c.z)) cubes.cells.push_back(g.index(c.x, c.y, c.z));
+        }
+      std::sort(cubes.cells.begin(), cubes.cells.end());
+      cubes.cells.erase(std::unique(cubes.cells.begin(), cubes.cells.end()), cubes.cells.end());
+    }
+  }
   for (std::int64_t c : cubes.cells) {
     cubes.cube_begin.push_back(cubes.slots.size());
     coupler.slots_in_cube(c, cubes.slots);
   }
   cubes.cube_begin.push_back(cubes.slots.size());
+  // The narrow phase reads each vertex's binding and sources, scattered over the coupler's slot
+  // arrays: ask for them all now, so that the loads overlap instead of waiting one by one.
+  const coupler::VertexBinding* bindings = coupler.bindings().data();
+  const std::uint32_t* sources = coupler.sources().data();
+  for (std::uint32_t slot : cubes.slots) {
+    __builtin_prefetch(bindings + slot);
+    __builtin_prefetch(sources + slot);
+  }
   return cubes;
 }
 
@@ -208,6 +275,12 @@ coupler::DeformedLatticeView lattice_geometry_view(const crms::LatticeGeometry& 
 /// maps every vertex through the corners as `overrides` displaces them; a vertex deeper than the
 /// tolerance asks its cube's corners for the least-norm motion W_c·δ/ΣW² that moves it by δ
 /// out along the tool normal; each node takes the longest correction asked of it.
+///
+/// After the first iteration only the cubes that read a node the last iteration moved are tested
+/// again: the vertices of a cube whose nodes stayed are where they were, so they are as deep as
+/// they were (that depth is kept per cube) and ask for what they asked before, which is nothing
+/// (a vertex that asks for a correction moves one of its corners, making its cube one to test
+/// again). The outcome is that of testing every cube every iteration.
 class NarrowPhase {
  public:
   NarrowPhase(const ContactScene& scene, const NarrowCubes& cubes, const coupler::Coupler& coupler,
@@ -221,11 +294,14 @@ class NarrowPhase {
         view_(lattice_geometry_view(scene.g)),
         reader_{&scene.nb, view_, &overrides},
         tolerance_(options.vertex_tolerance_spacings * scene.g.min_spacing()),
+        retest_every_cube_(options.retest_every_cube),
         h_max_(std::max(scene.g.spacing.x, std::max(scene.g.spacing.y, scene.g.spacing.z))),
         overrides_(overrides),
         correction_(scene.nb.size()),
         correction_len_(scene.nb.size()),
-        pushed_(cubes.slots.size(), 0) {}
+        pushed_(cubes.slots.size(), 0),
+        cube_deepest_(cubes.cells.size(), 0.0),
+        cube_stale_(cubes.cells.size(), 1) {}
 
   /// Reads and writes overrides; marks the nodes it moves in `moved`; writes out's
   /// narrow_iterations, max_vertex_depth_mm and vertices_pushed.
@@ -239,8 +315,10 @@ class NarrowPhase {
         break;
       }
       apply_corrections(moved);
+      mark_stale_cubes();
     }
     for (std::uint8_t p : pushed_) out.vertices_pushed += p;
+    out.narrow_cube_tests = cube_tests_;
   }
 
  private:
@@ -250,11 +328,43 @@ class NarrowPhase {
     double deepest = 0;
     for (std::size_t cube = 0; cube + 1 < cubes_.cube_begin.size(); ++cube) {
       if (cubes_.cube_begin[cube] == cubes_.cube_begin[cube + 1]) continue;
-      const Int3 cc = scene_.g.coordinates(cubes_.cells[cube]);
-      if (cube_far_from_tool(cc)) continue;
-      deepest = std::max(deepest, push_cube_vertices(cube, cc));
+      if (cube_stale_[cube]) {
+        ++cube_tests_;
+        const Int3 cc = scene_.g.coordinates(cubes_.cells[cube]);
+        cube_deepest_[cube] = cube_far_from_tool(cc) ? 0.0 : push_cube_vertices(cube, cc);
+      }
+      deepest = std::max(deepest, cube_deepest_[cube]);
     }
     return deepest;
+  }
+
+  /// The cubes to test in the next iteration: those that read a node the last one moved. A
+  /// cube's vertices read its 8 corners and, to infer missing ones, the corners' outside
+  /// neighbours (cube_corners.h: one step further along one axis), i.e. the nodes at offsets
+  /// r from its lower corner with two coordinates in {0, 1} and the third in {−1, 0, 1, 2}.
+  void mark_stale_cubes() {
+    std::fill(cube_stale_.begin(), cube_stale_.end(),
+              static_cast<std::uint8_t>(retest_every_cube_));
+    if (retest_every_cube_) return;
+    const crms::LatticeGeometry& g = scene_.g;
+    for (std::size_t i = 0; i < correction_len_.size(); ++i) {
+      if (!(correction_len_[i] > 0)) continue;
+      const Int3 m = g.coordinates(scene_.nb.nodes[i]);
+      for (int a = 0; a < 3; ++a) {  // the axis whose offset may reach −1 or 2
+        const int b = (a + 1) % 3, c = (a + 2) % 3;
+        for (int ra = -1; ra <= 2; ++ra)
+          for (int rb = 0; rb <= 1; ++rb)
+            for (int rc = 0; rc <= 1; ++rc) {
+              if (a > 0 && (ra == 0 || ra == 1)) continue;  // the corners: counted for a = 0
+              Int3 cell = m;
+              cell[a] -= ra;
+              cell[b] -= rb;
+              cell[c] -= rc;
+              const std::ptrdiff_t at = cubes_.find(g, cell);
+              if (at >= 0) cube_stale_[static_cast<std::size_t>(at)] = 1;
+            }
+      }
+    }
   }
 
   /// Cull: a cube's vertices lie within a spacing of its gathered corners (trilinear
@@ -360,11 +470,16 @@ class NarrowPhase {
   const coupler::CouplerMode mode_;
   const coupler::DeformedLatticeView view_;
   const NeighbourhoodReader reader_;
-  const double tolerance_, h_max_;
+  const double tolerance_;
+  const bool retest_every_cube_;
+  const double h_max_;
   std::vector<Vec3f>& overrides_;
   std::vector<Vec3f> correction_;
   std::vector<float> correction_len_;
-  std::vector<std::uint8_t> pushed_;  // per tested vertex
+  std::vector<std::uint8_t> pushed_;      // per tested vertex
+  std::vector<double> cube_deepest_;      // per cube: its deepest vertex in the last test
+  std::vector<std::uint8_t> cube_stale_;  // per cube: to be tested in this iteration
+  std::size_t cube_tests_ = 0;
 };
 
 /// Step 5. Constrains the moved nodes where `overrides` puts them (zero velocity) and releases the
@@ -452,6 +567,13 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   require(own < tools.size(), "tool contact: resolve() needs its own tool among the tools");
   ContactForce out;
   const crms::LatticeGeometry& g = geometry_;
+  Stopwatch clock;
+  // Microseconds since the last lap, and the clock restarted.
+  const auto lap = [&clock] {
+    const double us = clock.seconds() * 1e6;
+    clock.restart();
+    return us;
+  };
   // 1: gather. One ordinary tool alone: the gather's own exact test (the kernel's on CUDA); with
   // other tools about, or a mesh or field tool: the own tool's box, tested against every tool on
   // the host.
@@ -462,6 +584,7 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
   else
     gather_union(solver, gatherer, tools, own, margin, g, nb_);
   out.nodes_gathered = nb_.size();
+  out.phases_us.gather = lap();
   const ContactScene scene{g, anchored_, nb_, tools};
 
   // 2: release held nodes the tools no longer press.
@@ -471,6 +594,7 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
     gatherer.spring_forces_at(solver, held_, forces);
     split_held_nodes(scene, held_, forces, keep, release);
   }
+  out.phases_us.release = lap();
 
   // 3: nodes inside a tool go to its surface.
   std::vector<Vec3f> overrides(nb_.displacement);
@@ -486,10 +610,12 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
     NarrowPhase(scene, cubes, coupler, options_, boxes, overrides)
         .run(options_.max_narrow_iterations, moved, out);
   }
+  out.phases_us.narrow = lap();
 
   // 5: hold the moved nodes where they now are, release the rest of the let-go ones.
   held_ = hold_moved_nodes(solver, gatherer, scene, overrides, moved, keep, release, held_elsewhere,
                            out);
+  out.phases_us.hold = lap();
 
   // 6: what the tool feels.
   out.nodes_held = held_.size();
@@ -498,6 +624,7 @@ ContactForce ToolContact::resolve(crms::Solver& solver, NodeGatherer& gatherer,
     gatherer.spring_forces_at(solver, held_, forces);
     tool_feedback(scene, tools[own], held_, forces, overrides, out);
   }
+  out.phases_us.feedback = lap();
   return out;
 }
 

@@ -239,8 +239,10 @@ collision::ContactForce TissueModel::publish_contacts() {
     sum.vertices_tested += c.vertices_tested;
     sum.vertices_pushed += c.vertices_pushed;
     sum.narrow_iterations = std::max(sum.narrow_iterations, c.narrow_iterations);
+    sum.narrow_cube_tests += c.narrow_cube_tests;
     sum.max_vertex_depth_mm = std::max(sum.max_vertex_depth_mm, c.max_vertex_depth_mm);
     sum.nodes_gathered += c.nodes_gathered;
+    sum.phases_us += c.phases_us;
   }
   pusher_contact_ = {};
   for (const Pusher& p : pushers_) {
@@ -641,7 +643,7 @@ AdvanceReport TissueModel::advance(double dt_display) {
     }
     if (pressing) {
       clock.restart();
-      resolve_contacts();
+      r.contact_phases_us += resolve_contacts().phases_us;
       r.contact_us += micros(clock);
     }
   }

@@ -44,8 +44,25 @@ struct ContactForce {
   std::size_t vertices_tested = 0;
   std::size_t vertices_pushed = 0;  ///< vertices the narrow phase moved out
   int narrow_iterations = 0;
-  double max_vertex_depth_mm = 0;  ///< deepest vertex left inside (≤ tolerance normally)
-  std::size_t nodes_gathered = 0;  ///< nodes near the tool (collision cost)
+  std::size_t narrow_cube_tests = 0;  ///< cubes whose vertices the narrow phase's iterations tested
+  double max_vertex_depth_mm = 0;     ///< deepest vertex left inside (≤ tolerance normally)
+  std::size_t nodes_gathered = 0;     ///< nodes near the tool (collision cost)
+  /// Where the pass spent its time, µs (summed over the contacts of one publish).
+  struct Phases {
+    double gather = 0;    ///< step 1: the nodes near the tool (a device round trip on CUDA)
+    double release = 0;   ///< step 2: the held nodes' spring forces, which of them to let go
+    double narrow = 0;    ///< steps 3–4: nodes to the tool surface, the vertices' narrow phase
+    double hold = 0;      ///< step 5: the moved nodes constrained, the let-go ones released
+    double feedback = 0;  ///< step 6: the held nodes' spring forces, the tool's force and torque
+    Phases& operator+=(const Phases& o) {
+      gather += o.gather;
+      release += o.release;
+      narrow += o.narrow;
+      hold += o.hold;
+      feedback += o.feedback;
+      return *this;
+    }
+  } phases_us;
 };
 
 /// One tool's share of a contact with several tools: the force on it from its held nodes.
@@ -62,6 +79,10 @@ struct ContactOptions {
   /// A vertex deeper than this (fraction of the smallest spacing) is pushed out.
   double vertex_tolerance_spacings = 1e-3;
   int max_narrow_iterations = 16;
+  /// Test every cube in every iteration of the narrow phase instead of only those whose nodes
+  /// the last iteration moved: the reference the incremental iterations equal bit for bit
+  /// (ToolContactNarrow tests, bench_collision), at the cost of the cubes that did not change.
+  bool retest_every_cube = false;
 };
 
 class ToolContact {

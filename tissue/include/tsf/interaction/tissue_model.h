@@ -182,6 +182,7 @@ struct AdvanceReport {
   std::int64_t steps = 0;
   double simulated_s = 0;
   double step_us = 0, contact_us = 0, couple_us = 0;
+  collision::ContactForce::Phases contact_phases_us;  ///< contact_us by step of the passes
   std::optional<crms::Instability> instability;
   TearReport tear;
 };
