@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iterator>
 
+#include "tsf/collision/box_index.h"
 #include "tsf/common/error.h"
 #include "tsf/common/stopwatch.h"
 #include "tsf/coupler/couple_vertex.h"
@@ -140,29 +141,17 @@ struct NarrowCubes {
   std::vector<std::int64_t> cells;  // lattice node index of each cube's lower corner, ascending
   std::vector<std::uint32_t> slots;
   std::vector<std::size_t> cube_begin;
-  // The cells' bounding box and, over it, each cell's index in `cells` (−1: not a narrow cube);
-  // empty when the box was too sparse to map (find() then searches `cells`).
-  Int3 lo{0, 0, 0}, ext{0, 0, 0};
-  std::vector<std::int32_t> index;
+  // Over the cells' bounding box, each cell's index in `cells` (−1: not a narrow cube); empty
+  // when the box was too sparse to map (find() then searches `cells`).
+  BoxIndex index;
 
   /// Index in `cells` of the cube with lower corner c, or −1.
   std::ptrdiff_t find(const crms::LatticeGeometry& g, const Int3& c) const {
-    if (!index.empty()) {
-      if (c.x < lo.x || c.y < lo.y || c.z < lo.z || c.x >= lo.x + ext.x || c.y >= lo.y + ext.y ||
-          c.z >= lo.z + ext.z)
-        return -1;
-      return index[local(c.x, c.y, c.z)];
-    }
+    if (!index.empty()) return index.find(c.x, c.y, c.z);
     if (!g.contains(c.x, c.y, c.z)) return -1;
     const std::int64_t id = g.index(c.x, c.y, c.z);
     const auto it = std::lower_bound(cells.begin(), cells.end(), id);
     return it != cells.end() && *it == id ? it - cells.begin() : -1;
-  }
-  std::size_t local(int x, int y, int z) const {
-    return static_cast<std::size_t>(x - lo.x) +
-           static_cast<std::size_t>(ext.x) *
-               (static_cast<std::size_t>(y - lo.y) +
-                static_cast<std::size_t>(ext.y) * static_cast<std::size_t>(z - lo.z));
   }
 };
 
@@ -211,36 +200,31 @@ NarrowCubes cubes_near_tool(const ContactScene& scene, const coupler::Coupler& c
       hi[a] = std::max(hi[a], m[a]);
     }
   }
-  if (!near.empty()) {
-    cubes.lo = lo;
-    cubes.ext = {hi.x - lo.x + 1, hi.y - lo.y + 1, hi.z - lo.z + 1};
-    const std::int64_t volume = cubes.ext.volume();
-    if (volume <= 64 * static_cast<std::int64_t>(near.size()) + 4096) {
-      cubes.index.assign(static_cast<std::size_t>(volume), -1);
-      for (const Int3& m : near)
-        for (int o = 0; o < 8; ++o) {
-          const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
-                       m.z - coupler::corner_bit(o, 2)};
-          if (g.contains(c.x, c.y, c.z)) cubes.index[cubes.local(c.x, c.y, c.z)] = 0;
+  // Calls f(c) for the lattice cells c around the nodes near the tools (with repeats).
+  const auto for_each_cell = [&](auto&& f) {
+    for (const Int3& m : near)
+      for (int o = 0; o < 8; ++o) {
+        const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
+                     m.z - coupler::corner_bit(o, 2)};
+        if (g.contains(c.x, c.y, c.z)) f(c);
+      }
+  };
+  const Int3 ext{hi.x - lo.x + 1, hi.y - lo.y + 1, hi.z - lo.z + 1};
+  if (!near.empty() && BoxIndex::worth_it(ext.volume(), near.size())) {
+    cubes.index.assign(lo, ext);
+    for_each_cell([&](const Int3& c) { cubes.index.at(c.x, c.y, c.z) = 0; });
+    for (int z = lo.z; z <= hi.z; ++z)
+      for (int y = lo.y; y <= hi.y; ++y)
+        for (int x = lo.x; x <= hi.x; ++x) {
+          std::int32_t& at = cubes.index.at(x, y, z);
+          if (at < 0) continue;
+          at = static_cast<std::int32_t>(cubes.cells.size());
+          cubes.cells.push_back(g.index(x, y, z));
         }
-      for (int z = lo.z; z <= hi.z; ++z)
-        for (int y = lo.y; y <= hi.y; ++y)
-          for (int x = lo.x; x <= hi.x; ++x) {
-            std::int32_t& at = cubes.index[cubes.local(x, y, z)];
-            if (at < 0) continue;
-            at = static_cast<std::int32_t>(cubes.cells.size());
-            cubes.cells.push_back(g.index(x, y, z));
-          }
-    } else {  // nodes spread thinly over a large box: sort the cells instead
-      for (const Int3& m : near)
-        for (int o = 0; o < 8; ++o) {
-          const Int3 c{m.x - coupler::corner_bit(o, 0), m.y - coupler::corner_bit(o, 1),
-                       m.z - coupler::corner_bit(o, 2)};
-          if (g.contains(c.x, c.y, c.z)) cubes.cells.push_back(g.index(c.x, c.y, c.z));
-        }
-      std::sort(cubes.cells.begin(), cubes.cells.end());
-      cubes.cells.erase(std::unique(cubes.cells.begin(), cubes.cells.end()), cubes.cells.end());
-    }
+  } else {  // nodes spread thinly over a large box: sort the cells instead
+    for_each_cell([&](const Int3& c) { cubes.cells.push_back(g.index(c.x, c.y, c.z)); });
+    std::sort(cubes.cells.begin(), cubes.cells.end());
+    cubes.cells.erase(std::unique(cubes.cells.begin(), cubes.cells.end()), cubes.cells.end());
   }
   for (std::int64_t c : cubes.cells) {
     cubes.cube_begin.push_back(cubes.slots.size());

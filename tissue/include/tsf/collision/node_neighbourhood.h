@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "tsf/collision/box_index.h"
 #include "tsf/common/vec3.h"
 #include "tsf/coupler/deformed_lattice_view.h"
 
@@ -57,42 +58,27 @@ struct NodeNeighbourhood {
         last[a] = c[a] > last[a] ? c[a] : last[a];
       }
     }
-    local_lo_ = first;
-    local_dims_ = {last.x - first.x + 1, last.y - first.y + 1, last.z - first.z + 1};
+    const Int3 dims{last.x - first.x + 1, last.y - first.y + 1, last.z - first.z + 1};
     // Too sparse (a huge query box): keep the binary search rather than allocate the box.
-    if (local_dims_.volume() > 64 * static_cast<std::int64_t>(nodes.size()) + 4096) return;
-    local_.assign(static_cast<std::size_t>(local_dims_.volume()), -1);
+    if (!BoxIndex::worth_it(dims.volume(), nodes.size())) return;
+    local_.assign(first, dims);
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       const std::int64_t n = nodes[i];
       const Int3 c{static_cast<int>(n % nx), static_cast<int>((n / nx) % ny),
                    static_cast<int>(n / (nx * ny))};
-      local_[local_slot(c.x, c.y, c.z)] = static_cast<std::int32_t>(i);
+      local_.at(c.x, c.y, c.z) = static_cast<std::int32_t>(i);
     }
   }
   /// Index of node (i, j, k) in the arrays, or −1.
   std::ptrdiff_t find(int i, int j, int k, const Int3& lattice_dims) const {
-    if (!local_.empty()) {
-      if (i < local_lo_.x || j < local_lo_.y || k < local_lo_.z ||
-          i >= local_lo_.x + local_dims_.x || j >= local_lo_.y + local_dims_.y ||
-          k >= local_lo_.z + local_dims_.z)
-        return -1;
-      return local_[local_slot(i, j, k)];
-    }
+    if (!local_.empty()) return local_.find(i, j, k);
     return find(static_cast<std::int64_t>(i) +
                 static_cast<std::int64_t>(lattice_dims.x) *
                     (static_cast<std::int64_t>(j) + static_cast<std::int64_t>(lattice_dims.y) * k));
   }
 
  private:
-  std::size_t local_slot(int i, int j, int k) const {
-    return static_cast<std::size_t>(i - local_lo_.x) +
-           static_cast<std::size_t>(local_dims_.x) *
-               (static_cast<std::size_t>(j - local_lo_.y) +
-                static_cast<std::size_t>(local_dims_.y) *
-                    static_cast<std::size_t>(k - local_lo_.z));
-  }
-  std::vector<std::int32_t> local_;
-  Int3 local_lo_{}, local_dims_{};
+  BoxIndex local_;
 };
 
 /// A cube_corners.h reader over a neighbourhood (host only): nodes not gathered read as missing.
