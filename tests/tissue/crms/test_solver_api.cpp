@@ -71,6 +71,65 @@ TEST(CrmsSolver, AnchoredNodesStayAndConstraintsMoveNodes) {
   }
 }
 
+// A tool contact's hold step: letting some nodes go and holding others in one edit of the backend
+// (one upload and one wait on CUDA) is the two calls in that order, bit for bit.
+TEST(CrmsSolver, ReleaseAndConstrainIsTheTwoCallsInOne) {
+  for (Backend backend : available_backends()) {
+    SolverConfig c = config_for(backend);
+    c.gravity = {0, 0, -9810};
+    auto make = [&] {
+      Lattice l = box({8, 4, 4}, 1);
+      fix_nodes_in_box(l, {-1, -1, -1}, {0.5, 5, 5});
+      return Solver(std::move(l), c);
+    };
+    Solver two = make(), one = make();
+    const double dt = 0.5 * two.stable_dt();
+    const auto first = test::nodes_where(two.lattice(), [](Vec3d p) { return p.x > 6.5; });
+    const auto second =
+        test::nodes_where(two.lattice(), [](Vec3d p) { return p.x > 4.5 && p.x < 5.5; });
+    auto lifted = [&](const std::vector<std::int64_t>& nodes, double dz) {
+      std::vector<Vec3d> t;
+      for (auto n : nodes) t.push_back(two.lattice().geometry().rest_position(n) + Vec3d{0, 0, dz});
+      return t;
+    };
+    for (Solver* s : {&two, &one}) {
+      s->constrain_nodes(first, lifted(first, 1.0));
+      s->step(40, dt);
+    }
+    // Release the tip, hold a middle plane and one tip node again (in both lists: it ends up held).
+    std::vector<std::int64_t> hold = second;
+    hold.push_back(first.front());
+    std::vector<Vec3d> targets = lifted(hold, -0.5);
+    two.release_nodes(first);
+    two.constrain_nodes(hold, targets);
+    const std::uint64_t edits = one.edits();
+    one.release_and_constrain(first, hold, targets);
+    EXPECT_GT(one.edits(), edits);
+    EXPECT_TRUE(one.lattice().fixed(first.front()));
+    EXPECT_FALSE(one.lattice().fixed(first.back()));
+    for (std::int64_t n = 0; n < one.lattice().node_count(); ++n)
+      ASSERT_EQ(one.lattice().packed_flags(n), two.lattice().packed_flags(n)) << "node " << n;
+    two.step(60, dt);
+    one.step(60, dt);
+    const auto a = two.displacements(), b = one.displacements();
+    const auto va = two.velocities(), vb = one.velocities();
+    for (std::size_t n = 0; n < a.size(); ++n) {
+      ASSERT_EQ(a[n], b[n]) << one.backend_name() << " node " << n;
+      ASSERT_EQ(va[n], vb[n]) << one.backend_name() << " node " << n;
+    }
+    const auto p = one.positions();
+    for (std::size_t t = 0; t < hold.size(); ++t) EXPECT_NEAR(p[hold[t]].z, targets[t].z, 1e-5);
+    EXPECT_LT(p[first.back()].z, lifted(first, 1.0).back().z - 0.05);  // let go: falls
+    // Its arguments are checked as the two calls check theirs, before anything changes.
+    const std::uint64_t before = one.edits();
+    EXPECT_THROW(one.release_and_constrain({one.lattice().node_count()}, {}, {}), Error);
+    EXPECT_THROW(one.release_and_constrain({}, {0}, {}), Error);
+    EXPECT_THROW(one.release_and_constrain({}, {hold.front()}, {{std::nan(""), 0, 0}}), Error);
+    EXPECT_EQ(one.edits(), before);
+    EXPECT_TRUE(one.lattice().fixed(hold.front()));
+  }
+}
+
 TEST(CrmsSolver, ExternalForceStretchesABarByFOverK) {
   // A 1D bar of 2 nodes, one fixed: a force F on the other stretches the spring to F/ks·L.
   for (Backend backend : available_backends()) {

@@ -1,7 +1,10 @@
 // Collision queries on the GPU (collision_device.h). The gather kernel runs node_in_tool() — the
 // same TSF_HD test the CPU path runs on its broad-phase candidates — on every alive node inside
-// the query box and appends hits with an atomic counter; the host sorts them by node so both
-// backends return the same order. The force kernel calls crms::spring_force<F> on listed nodes.
+// the query box and appends hits with an atomic counter, straight into mapped page-locked host
+// memory; the host sorts them by node so both backends return the same order. The force kernel
+// calls crms::spring_force<F> on listed nodes, reading the ids from and writing the forces to
+// mapped host memory. Each query is one launch sequence and one wait (docs/deform-cut.md,
+// "The contact pass, where its time goes").
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -29,27 +32,42 @@ struct GatherHit {
   int inside;
 };
 
+/// Tests every alive node against the box and the tool and appends the hits to `hits` (mapped
+/// host memory) through `counter`. The last block to finish writes the count to `found_host`
+/// (mapped host memory too) and sets `counter` and `blocks_done` back to zero for the next
+/// launch, so that a gather is one launch and one wait: no memset before it, no copy after it.
 __global__ void gather_kernel(coupler::DeformedLatticeView lat, Vec3f lo, Vec3f hi, WorldTool tool,
                               int has_tool, GatherHit* hits, unsigned long long capacity,
-                              unsigned long long* counter) {
+                              unsigned long long* counter, unsigned int* blocks_done,
+                              unsigned long long* found_host) {
   const long long n = static_cast<long long>(blockIdx.x) * blockDim.x + threadIdx.x;
-  const long long count = lat.dims.volume();
-  if (n >= count) return;
-  if (!lat.alive(n)) return;
-  const int i = static_cast<int>(n % lat.dims.x);
-  const int j = static_cast<int>((n / lat.dims.x) % lat.dims.y);
-  const int k = static_cast<int>(n / (static_cast<long long>(lat.dims.x) * lat.dims.y));
-  const Vec3f u = lat.displacement(n);
-  const Vec3f p = lat.rest(i, j, k) + u;
-  if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z) return;
-  GatherHit h;
-  h.node = n;
-  h.u = u;
-  h.target = Vec3f{0, 0, 0};
-  h.normal = Vec3f{0, 0, 0};
-  h.inside = has_tool ? (node_in_tool(tool, p, h.target, h.normal) ? 1 : 0) : 0;
-  const unsigned long long slot = atomicAdd(counter, 1ull);
-  if (slot < capacity) hits[slot] = h;
+  if (n < lat.dims.volume() && lat.alive(n)) {
+    const int i = static_cast<int>(n % lat.dims.x);
+    const int j = static_cast<int>((n / lat.dims.x) % lat.dims.y);
+    const int k = static_cast<int>(n / (static_cast<long long>(lat.dims.x) * lat.dims.y));
+    const Vec3f u = lat.displacement(n);
+    const Vec3f p = lat.rest(i, j, k) + u;
+    if (p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z) {
+      GatherHit h;
+      h.node = n;
+      h.u = u;
+      h.target = Vec3f{0, 0, 0};
+      h.normal = Vec3f{0, 0, 0};
+      h.inside = has_tool ? (node_in_tool(tool, p, h.target, h.normal) ? 1 : 0) : 0;
+      const unsigned long long slot = atomicAdd(counter, 1ull);
+      if (slot < capacity) hits[slot] = h;
+    }
+  }
+  // Every thread's count is in before its block reports done (the fence orders the two), so the
+  // block that reports last reads the final count.
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0 && atomicAdd(blocks_done, 1u) == gridDim.x - 1) {
+    __threadfence();
+    *found_host = atomicAdd(counter, 0ull);
+    *counter = 0;
+    *blocks_done = 0;
+  }
 }
 
 template <unsigned F>
@@ -77,7 +95,12 @@ class CudaCollisionDevice final : public CollisionDevice {
             "collision: the CUDA path is not available: " + cuda_status().reason);
     stream_ = make_stream();
     counter_.resize(1);
-    hits_.resize(4096);
+    blocks_done_.resize(1);
+    counter_.fill_zero(stream_.get());  // then each gather leaves them at zero for the next
+    blocks_done_.fill_zero(stream_.get());
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    found_host_.resize(1);
+    hits_host_.resize(4096);
   }
 
   void gather(const coupler::DeformedLatticeView& lattice, const Vec3f& lo, const Vec3f& hi,
@@ -89,25 +112,22 @@ class CudaCollisionDevice final : public CollisionDevice {
     if (count <= 0) return;
     const unsigned blocks = static_cast<unsigned>((count + 255) / 256);
     const WorldTool t = tool ? *tool : WorldTool{};
+    // The kernel writes its hits and their count straight into page-locked host memory (mapped:
+    // one address on both sides under unified addressing), so the gather is one launch and one
+    // wait, with no copy of the hits after learning how many there are.
     unsigned long long found = 0;
     for (int attempt = 0; attempt < 2; ++attempt) {
-      TSF_CUDA_CHECK(
-          cudaMemsetAsync(counter_.data(), 0, sizeof(unsigned long long), stream_.get()));
       gather_kernel<<<blocks, 256, 0, stream_.get()>>>(
-          lattice, lo, hi, t, tool ? 1 : 0, hits_.data(), hits_.capacity(), counter_.data());
+          lattice, lo, hi, t, tool ? 1 : 0, hits_host_.data(), hits_host_.capacity(),
+          counter_.data(), blocks_done_.data(), found_host_.data());
       TSF_CUDA_CHECK_LAUNCH();
-      TSF_CUDA_CHECK(cudaMemcpyAsync(&found, counter_.data(), sizeof(found), cudaMemcpyDeviceToHost,
-                                     stream_.get()));
       TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-      if (found <= hits_.capacity()) break;
-      hits_.resize(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
+      found = found_host_.data()[0];
+      if (found <= hits_host_.capacity()) break;
+      hits_host_.resize(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
     }
-    require(found <= hits_.capacity(), "collision: gather overflowed its buffer twice");
-    host_hits_.resize(static_cast<std::size_t>(found));
-    if (found > 0)
-      TSF_CUDA_CHECK(cudaMemcpyAsync(host_hits_.data(), hits_.data(), found * sizeof(GatherHit),
-                                     cudaMemcpyDeviceToHost, stream_.get()));
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    require(found <= hits_host_.capacity(), "collision: gather overflowed its buffer twice");
+    host_hits_.assign(hits_host_.data(), hits_host_.data() + found);
     std::sort(host_hits_.begin(), host_hits_.end(),
               [](const GatherHit& a, const GatherHit& b) { return a.node < b.node; });
     const std::size_t n = host_hits_.size();
@@ -132,30 +152,32 @@ class CudaCollisionDevice final : public CollisionDevice {
     forces.assign(nodes.size(), Vec3f{0, 0, 0});
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
-    nodes_.resize(nodes.size());
-    forces_.resize(nodes.size());
-    std::vector<long long> ids(nodes.begin(), nodes.end());
-    TSF_CUDA_CHECK(cudaMemcpyAsync(nodes_.data(), ids.data(), ids.size() * sizeof(long long),
-                                   cudaMemcpyHostToDevice, stream_.get()));
+    // The ids go up and the forces come down through mapped page-locked memory, which the kernel
+    // reads and writes directly: one launch and one wait, no copies queued around it.
+    ids_host_.resize(nodes.size());
+    forces_host_.resize(nodes.size());
+    std::copy(nodes.begin(), nodes.end(), ids_host_.data());
     const unsigned blocks = static_cast<unsigned>((count + 127) / 128);
     require(features <= crms::features::kAll,
             "collision: unknown CRMS feature set " + std::to_string(features));
     crms::dispatch_features(features, [&](auto f) {
       constexpr unsigned F = decltype(f)::value;
-      spring_force_kernel<F><<<blocks, 128, 0, stream_.get()>>>(
-          lattice, crms::ConstStateView(state), palette, nodes_.data(), count, forces_.data());
+      spring_force_kernel<F>
+          <<<blocks, 128, 0, stream_.get()>>>(lattice, crms::ConstStateView(state), palette,
+                                              ids_host_.data(), count, forces_host_.data());
     });
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaMemcpyAsync(forces.data(), forces_.data(), nodes.size() * sizeof(Vec3f),
-                                   cudaMemcpyDeviceToHost, stream_.get()));
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    std::copy(forces_host_.data(), forces_host_.data() + count, forces.begin());
   }
 
  private:
   DeviceBuffer<unsigned long long> counter_;
-  DeviceBuffer<GatherHit> hits_;
-  DeviceBuffer<long long> nodes_;
-  DeviceBuffer<Vec3f> forces_;
+  DeviceBuffer<unsigned int> blocks_done_;
+  PinnedBuffer<unsigned long long> found_host_;
+  PinnedBuffer<GatherHit> hits_host_;  // written by the gather kernel (mapped)
+  PinnedBuffer<long long> ids_host_;   // read by the force kernel (mapped)
+  PinnedBuffer<Vec3f> forces_host_;    // written by the force kernel (mapped)
   std::vector<GatherHit> host_hits_;
   // Last: destroyed first, after waiting for the work that uses the buffers above.
   UniqueStream stream_;

@@ -487,8 +487,7 @@ std::vector<std::int64_t> hold_moved_nodes(
   // A node another contact holds stays held: it is that contact's to let go.
   std::set_difference(let_go.begin(), let_go.end(), held_elsewhere.begin(), held_elsewhere.end(),
                       std::back_inserter(really_released));
-  if (!really_released.empty()) solver.release_nodes(really_released);
-  if (!hold.empty()) solver.constrain_nodes(hold, targets);
+  solver.release_and_constrain(really_released, hold, targets);  // one upload, one wait
   out.nodes_released = really_released.size();
   std::vector<std::int64_t> now;
   std::set_union(keep.begin(), keep.end(), hold.begin(), hold.end(), std::back_inserter(now));

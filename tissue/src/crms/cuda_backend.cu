@@ -1083,6 +1083,25 @@ class CudaBackend final : public SolverBackend {
   void update_flags(const std::vector<std::int64_t>& nodes,
                     const std::vector<std::uint8_t>& flags) override {
     if (nodes.empty()) return;
+    queue_flags(nodes, flags);
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+  }
+  void update_flags_and_write_nodes(const std::vector<std::int64_t>& flag_nodes,
+                                    const std::vector<std::uint8_t>& flags,
+                                    const std::vector<std::int64_t>& nodes,
+                                    const std::vector<Vec3f>& u,
+                                    const std::vector<Vec3f>& v) override {
+    // The scatters share the staging buffers: the stream orders the second copy into them after
+    // the first kernel has read them (and the pageable sources are staged before each copy
+    // returns), so one wait at the end covers both.
+    if (flag_nodes.empty() && nodes.empty()) return;
+    if (!flag_nodes.empty()) queue_flags(flag_nodes, flags);
+    if (!nodes.empty()) queue_nodes(nodes, u, v);
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+  }
+  /// update_flags() without the wait: the scatter is queued on the stream.
+  void queue_flags(const std::vector<std::int64_t>& nodes, const std::vector<std::uint8_t>& flags) {
+    if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
     bool alive_changed = false;
     for (std::size_t t = 0; t < nodes.size(); ++t) {
@@ -1104,12 +1123,10 @@ class CudaBackend final : public SolverBackend {
     if (tile_plan_stale_) upload_tile_plan();
     if (brick_plan_stale_) upload_brick_plan();
     if (alive_changed) upload_alive_list();
-    stage_scatter(nodes, flags.data(), flags.size());
+    stage_scatter(0, nodes, flags.data(), flags.size());
     scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
-        flags_.data(), scatter_nodes_.data(),
-        reinterpret_cast<const std::uint8_t*>(scatter_values_.data()), count);
+        flags_.data(), scatter_[0].nodes.data(), scatter_[0].values.data(), count);
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void enable_external_forces() override {
@@ -1124,11 +1141,11 @@ class CudaBackend final : public SolverBackend {
                            const std::vector<Vec3f>& forces) override {
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
-    stage_scatter(nodes, reinterpret_cast<const std::uint8_t*>(forces.data()),
+    stage_scatter(1, nodes, reinterpret_cast<const std::uint8_t*>(forces.data()),
                   forces.size() * sizeof(Vec3f));
     scatter_vec3_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
         external_force_[0].data(), external_force_[1].data(), external_force_[2].data(),
-        scatter_nodes_.data(), reinterpret_cast<const float*>(scatter_values_.data()), count);
+        scatter_[1].nodes.data(), reinterpret_cast<const float*>(scatter_[1].values.data()), count);
     TSF_CUDA_CHECK_LAUNCH();
     TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
@@ -1139,6 +1156,13 @@ class CudaBackend final : public SolverBackend {
   void write_nodes(const std::vector<std::int64_t>& nodes, const std::vector<Vec3f>& u,
                    const std::vector<Vec3f>& v) override {
     if (nodes.empty()) return;
+    queue_nodes(nodes, u, v);
+    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+  }
+  /// write_nodes() without the wait.
+  void queue_nodes(const std::vector<std::int64_t>& nodes, const std::vector<Vec3f>& u,
+                   const std::vector<Vec3f>& v) {
+    if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
     std::vector<float> values(6 * nodes.size());
     for (std::size_t t = 0; t < nodes.size(); ++t)
@@ -1146,13 +1170,12 @@ class CudaBackend final : public SolverBackend {
         values[6 * t + a] = u[t][a];
         values[6 * t + 3 + a] = v[t][a];
       }
-    stage_scatter(nodes, reinterpret_cast<const std::uint8_t*>(values.data()),
+    stage_scatter(1, nodes, reinterpret_cast<const std::uint8_t*>(values.data()),
                   values.size() * sizeof(float));
     scatter_state_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
-        state_view(), scatter_nodes_.data(), reinterpret_cast<const float*>(scatter_values_.data()),
-        count);
+        state_view(), scatter_[1].nodes.data(),
+        reinterpret_cast<const float*>(scatter_[1].values.data()), count);
     TSF_CUDA_CHECK_LAUNCH();
-    TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
   }
 
   void write_state(const std::vector<Vec3f>& u, const std::vector<Vec3f>& v) override {
@@ -1738,22 +1761,24 @@ class CudaBackend final : public SolverBackend {
   }
 
   /// Uploads node indices and raw values for a scatter kernel (buffers grow as needed).
-  void stage_scatter(const std::vector<std::int64_t>& nodes, const std::uint8_t* values,
+  /// Stages a scatter's node ids and values in page-locked host memory, which the scatter
+  /// kernels read directly (mapped: the same address on both sides under unified addressing), so
+  /// an edit of a few nodes is its kernel launches and one wait, with no copies queued. Slot 0
+  /// holds the flags, slot 1 the states or forces: both can be in flight before the one wait of
+  /// update_flags_and_write_nodes(). Every scatter waits for its kernels before it returns, so
+  /// the next one may overwrite a slot.
+  void stage_scatter(int slot, const std::vector<std::int64_t>& nodes, const std::uint8_t* values,
                      std::size_t value_bytes) {
-    if (nodes.size() > scatter_capacity_ || value_bytes > scatter_value_capacity_) {
+    ScatterStage& st = scatter_[slot];
+    if (nodes.size() > st.nodes.capacity() || value_bytes > st.values.capacity()) {
       TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-      scatter_nodes_.release();
-      scatter_values_.release();
-      scatter_capacity_ = std::max<std::size_t>(nodes.size(), 2 * scatter_capacity_);
-      scatter_value_capacity_ = std::max<std::size_t>(value_bytes, 2 * scatter_value_capacity_);
-      scatter_nodes_.resize(scatter_capacity_);
-      scatter_values_.resize(scatter_value_capacity_);
+      st.nodes.grow_to(nodes.size());
+      st.values.grow_to(value_bytes);
     }
-    TSF_CUDA_CHECK(cudaMemcpyAsync(scatter_nodes_.data(), nodes.data(),
-                                   nodes.size() * sizeof(std::int64_t), cudaMemcpyHostToDevice,
-                                   stream_.get()));
-    TSF_CUDA_CHECK(cudaMemcpyAsync(scatter_values_.data(), values, value_bytes,
-                                   cudaMemcpyHostToDevice, stream_.get()));
+    st.nodes.resize(nodes.size());
+    st.values.resize(value_bytes);
+    std::copy(nodes.begin(), nodes.end(), st.nodes.data());
+    std::memcpy(st.values.data(), values, value_bytes);
   }
 
   LatticeGeometry geometry_;
@@ -1824,9 +1849,11 @@ class CudaBackend final : public SolverBackend {
   DeviceBuffer<int> brick_list_;    // brick launch: the bricks that hold a moving node
   DeviceBuffer<float> node_terms_;  // node-parallel kernel: 15 vec3 terms per node
   PinnedBuffer<int> plan_staging_;
-  DeviceBuffer<std::int64_t> scatter_nodes_;
-  DeviceBuffer<std::uint8_t> scatter_values_;
-  std::size_t scatter_capacity_ = 0, scatter_value_capacity_ = 0;
+  struct ScatterStage {
+    PinnedBuffer<std::int64_t> nodes;
+    PinnedBuffer<std::uint8_t> values;
+  };
+  ScatterStage scatter_[2];  // stage_scatter(): 0 the flags, 1 the states or forces
 };
 
 }  // namespace

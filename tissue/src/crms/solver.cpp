@@ -514,20 +514,7 @@ void Solver::clear_external_forces() {
 
 void Solver::constrain_nodes(const std::vector<std::int64_t>& nodes,
                              const std::vector<Vec3d>& targets) {
-  ++edits_;
-  require(nodes.size() == targets.size(), "constrain_nodes: nodes and targets differ in size");
-  std::vector<Vec3f> u(nodes.size()), v(nodes.size());
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    require(nodes[i] >= 0 && nodes[i] < lattice_.node_count(),
-            "constrain_nodes: node " + std::to_string(nodes[i]) + " is out of range");
-    require(
-        std::isfinite(targets[i].x) && std::isfinite(targets[i].y) && std::isfinite(targets[i].z),
-        "constrain_nodes: target of node " + std::to_string(nodes[i]) + " is not finite");
-    lattice_.set_fixed(nodes[i], true);
-    u[i] = to_float(targets[i] - lattice_.geometry().rest_position(nodes[i]));
-  }
-  refresh_flags(nodes);
-  backend_->write_nodes(nodes, u, v);
+  release_and_constrain({}, nodes, targets);
 }
 
 void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
@@ -538,6 +525,39 @@ void Solver::release_nodes(const std::vector<std::int64_t>& nodes) {
     lattice_.set_fixed(n, false);
   }
   refresh_flags(nodes);
+}
+
+void Solver::release_and_constrain(const std::vector<std::int64_t>& release,
+                                   const std::vector<std::int64_t>& hold,
+                                   const std::vector<Vec3d>& targets) {
+  require(hold.size() == targets.size(), "constrain_nodes: nodes and targets differ in size");
+  if (release.empty() && hold.empty()) return;
+  for (std::int64_t n : release)
+    require(n >= 0 && n < lattice_.node_count(),
+            "release_nodes: node " + std::to_string(n) + " is out of range");
+  std::vector<Vec3f> u(hold.size()), v(hold.size());
+  for (std::size_t i = 0; i < hold.size(); ++i) {
+    require(hold[i] >= 0 && hold[i] < lattice_.node_count(),
+            "constrain_nodes: node " + std::to_string(hold[i]) + " is out of range");
+    require(
+        std::isfinite(targets[i].x) && std::isfinite(targets[i].y) && std::isfinite(targets[i].z),
+        "constrain_nodes: target of node " + std::to_string(hold[i]) + " is not finite");
+    u[i] = to_float(targets[i] - lattice_.geometry().rest_position(hold[i]));
+  }
+  ++edits_;
+  // Released first, then held: a node in both ends up held, as with the two calls in that order.
+  for (std::int64_t n : release) lattice_.set_fixed(n, false);
+  for (std::int64_t n : hold) lattice_.set_fixed(n, true);
+  std::vector<std::int64_t> touched;
+  touched.reserve(release.size() + hold.size());
+  touched.insert(touched.end(), release.begin(), release.end());
+  touched.insert(touched.end(), hold.begin(), hold.end());
+  std::vector<std::int64_t> list;
+  std::vector<std::uint8_t> flags;
+  flag_update(touched, list, flags);
+  // One edit of the backend: on CUDA the flags and the held nodes' states are queued on the
+  // solver's stream and waited for once.
+  backend_->update_flags_and_write_nodes(list, flags, hold, u, v);
 }
 
 void Solver::set_node_states(const std::vector<std::int64_t>& nodes,
@@ -598,13 +618,21 @@ void Solver::break_springs(const std::vector<SpringRef>& springs) {
 }
 
 void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {
+  std::vector<std::int64_t> list;
+  std::vector<std::uint8_t> flags;
+  flag_update(nodes, list, flags);
+  backend_->update_flags(list, flags);
+}
+
+void Solver::flag_update(const std::vector<std::int64_t>& nodes, std::vector<std::int64_t>& list,
+                         std::vector<std::uint8_t>& flags) {
   // Tearing cleared links on the backend only: bring them to the host lattice first so that
   // the flags uploaded below do not restore them.
   if (effect_bits_ & effect_bits::kTearing) sync_torn_links();
   // The nodes and their neighbours, each once, ascending. Few of them (a tool contact's dozens)
   // are sorted; many (a cut's ~3,600 touched nodes name ~100 k with repeats; a std::set of them
   // took 1.2 ms) are marked and read off the marked range, which spans whole lattice planes.
-  std::vector<std::int64_t> list;
+  list.clear();
   list.reserve(nodes.size() * (kFaceDirections + 1));
   std::int64_t lo = lattice_.node_count(), hi = -1;
   for (std::int64_t n : nodes) {
@@ -631,9 +659,8 @@ void Solver::refresh_flags(const std::vector<std::int64_t>& nodes) {
         list.push_back(n);
       }
   }
-  std::vector<std::uint8_t> flags(list.size());
+  flags.resize(list.size());
   for (std::size_t i = 0; i < list.size(); ++i) flags[i] = lattice_.packed_flags(list[i]);
-  backend_->update_flags(list, flags);
 }
 
 std::vector<Vec3f> Solver::positions() const {

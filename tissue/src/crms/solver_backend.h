@@ -65,6 +65,16 @@ class SolverBackend {
   virtual void write_nodes(const std::vector<std::int64_t>& nodes, const std::vector<Vec3f>& u,
                            const std::vector<Vec3f>& v) = 0;
   virtual void write_state(const std::vector<Vec3f>& u, const std::vector<Vec3f>& v) = 0;
+  /// update_flags(flag_nodes, flags), then write_nodes(nodes, u, v): one edit (CUDA queues both
+  /// on its stream and waits once).
+  virtual void update_flags_and_write_nodes(const std::vector<std::int64_t>& flag_nodes,
+                                            const std::vector<std::uint8_t>& flags,
+                                            const std::vector<std::int64_t>& nodes,
+                                            const std::vector<Vec3f>& u,
+                                            const std::vector<Vec3f>& v) {
+    update_flags(flag_nodes, flags);
+    write_nodes(nodes, u, v);
+  }
   /// Waits for queued work and copies the current state (either pointer may be null).
   virtual void read_state(std::vector<Vec3f>* u, std::vector<Vec3f>* v) = 0;
 

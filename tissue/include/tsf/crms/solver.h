@@ -135,6 +135,11 @@ class Solver {
                        const std::vector<Vec3d>& targets_mm);
   /// Frees constrained nodes (they keep their current position and start at rest).
   void release_nodes(const std::vector<std::int64_t>& nodes);
+  /// release_nodes(release), then constrain_nodes(hold, targets_mm), as one edit of the backend
+  /// (a tool contact's hold step): on CUDA one upload of the flags and the held states, one wait.
+  void release_and_constrain(const std::vector<std::int64_t>& release,
+                             const std::vector<std::int64_t>& hold,
+                             const std::vector<Vec3d>& targets_mm);
   /// Overwrites positions and velocities of some nodes (tools moving nodes to a surface).
   void set_node_states(const std::vector<std::int64_t>& nodes,
                        const std::vector<Vec3d>& positions_mm,
@@ -212,7 +217,12 @@ class Solver {
   /// Adds the velocity signals of every node (host copies of the velocities).
   void measure_velocities(const std::vector<Vec3f>& v0, const std::vector<Vec3f>& v1, double dt,
                           VelocitySignals& s) const;
+  /// Uploads the packed flags of `nodes` and their face neighbours.
   void refresh_flags(const std::vector<std::int64_t>& nodes);
+  /// The list refresh_flags uploads: `nodes` and their face neighbours, each once, ascending,
+  /// with their packed flags.
+  void flag_update(const std::vector<std::int64_t>& nodes, std::vector<std::int64_t>& list,
+                   std::vector<std::uint8_t>& flags);
   void step_implicit(int n, double dt, StepReport& report);
   Instability make_instability(std::int64_t node, std::int64_t step) const;
   EffectParameters effect_parameters(double dt) const;
