@@ -3,8 +3,8 @@
 // the query box and appends hits with an atomic counter, straight into mapped page-locked host
 // memory; the host sorts them by node so both backends return the same order. The force kernel
 // calls crms::spring_force<F> on listed nodes, reading the ids from and writing the forces to
-// mapped host memory. Each query is one launch sequence and one wait (docs/deform-cut.md,
-// "The contact pass, where its time goes").
+// mapped host memory. Each query is one launch and one wait (docs/deform-cut.md, "The device
+// round trips of a pass").
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -127,21 +127,21 @@ class CudaCollisionDevice final : public CollisionDevice {
       hits_host_.resize(static_cast<std::size_t>(found) * 2);  // too many for the buffer: retry
     }
     require(found <= hits_host_.capacity(), "collision: gather overflowed its buffer twice");
-    host_hits_.assign(hits_host_.data(), hits_host_.data() + found);
-    std::sort(host_hits_.begin(), host_hits_.end(),
+    GatherHit* hits = hits_host_.data();  // the kernel is done with them: sorted in place
+    const auto n = static_cast<std::size_t>(found);
+    std::sort(hits, hits + n,
               [](const GatherHit& a, const GatherHit& b) { return a.node < b.node; });
-    const std::size_t n = host_hits_.size();
     out.nodes.resize(n);
     out.displacement.resize(n);
     out.inside.resize(n);
     out.target.resize(n);
     out.normal.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      out.nodes[i] = host_hits_[i].node;
-      out.displacement[i] = host_hits_[i].u;
-      out.inside[i] = static_cast<std::uint8_t>(host_hits_[i].inside);
-      out.target[i] = host_hits_[i].target;
-      out.normal[i] = host_hits_[i].normal;
+      out.nodes[i] = hits[i].node;
+      out.displacement[i] = hits[i].u;
+      out.inside[i] = static_cast<std::uint8_t>(hits[i].inside);
+      out.target[i] = hits[i].target;
+      out.normal[i] = hits[i].normal;
     }
   }
 
@@ -178,7 +178,6 @@ class CudaCollisionDevice final : public CollisionDevice {
   PinnedBuffer<GatherHit> hits_host_;  // written by the gather kernel (mapped)
   PinnedBuffer<long long> ids_host_;   // read by the force kernel (mapped)
   PinnedBuffer<Vec3f> forces_host_;    // written by the force kernel (mapped)
-  std::vector<GatherHit> host_hits_;
   // Last: destroyed first, after waiting for the work that uses the buffers above.
   UniqueStream stream_;
 };

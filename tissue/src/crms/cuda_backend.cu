@@ -1091,9 +1091,8 @@ class CudaBackend final : public SolverBackend {
                                     const std::vector<std::int64_t>& nodes,
                                     const std::vector<Vec3f>& u,
                                     const std::vector<Vec3f>& v) override {
-    // The scatters share the staging buffers: the stream orders the second copy into them after
-    // the first kernel has read them (and the pageable sources are staged before each copy
-    // returns), so one wait at the end covers both.
+    // The two scatters stage in separate slots (stage_scatter), so both are in flight before
+    // the one wait.
     if (flag_nodes.empty() && nodes.empty()) return;
     if (!flag_nodes.empty()) queue_flags(flag_nodes, flags);
     if (!nodes.empty()) queue_nodes(nodes, u, v);
@@ -1123,7 +1122,7 @@ class CudaBackend final : public SolverBackend {
     if (tile_plan_stale_) upload_tile_plan();
     if (brick_plan_stale_) upload_brick_plan();
     if (alive_changed) upload_alive_list();
-    stage_scatter(0, nodes, flags.data(), flags.size());
+    std::memcpy(stage_scatter(0, nodes, flags.size()), flags.data(), flags.size());
     scatter_flags_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
         flags_.data(), scatter_[0].nodes.data(), scatter_[0].values.data(), count);
     TSF_CUDA_CHECK_LAUNCH();
@@ -1141,8 +1140,8 @@ class CudaBackend final : public SolverBackend {
                            const std::vector<Vec3f>& forces) override {
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
-    stage_scatter(1, nodes, reinterpret_cast<const std::uint8_t*>(forces.data()),
-                  forces.size() * sizeof(Vec3f));
+    std::memcpy(stage_scatter(1, nodes, forces.size() * sizeof(Vec3f)), forces.data(),
+                forces.size() * sizeof(Vec3f));
     scatter_vec3_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
         external_force_[0].data(), external_force_[1].data(), external_force_[2].data(),
         scatter_[1].nodes.data(), reinterpret_cast<const float*>(scatter_[1].values.data()), count);
@@ -1164,14 +1163,13 @@ class CudaBackend final : public SolverBackend {
                    const std::vector<Vec3f>& v) {
     if (nodes.empty()) return;
     const int count = static_cast<int>(nodes.size());
-    std::vector<float> values(6 * nodes.size());
+    auto* values =
+        reinterpret_cast<float*>(stage_scatter(1, nodes, 6 * nodes.size() * sizeof(float)));
     for (std::size_t t = 0; t < nodes.size(); ++t)
       for (int a = 0; a < 3; ++a) {
         values[6 * t + a] = u[t][a];
         values[6 * t + 3 + a] = v[t][a];
       }
-    stage_scatter(1, nodes, reinterpret_cast<const std::uint8_t*>(values.data()),
-                  values.size() * sizeof(float));
     scatter_state_kernel<<<(count + 255) / 256, 256, 0, stream_.get()>>>(
         state_view(), scatter_[1].nodes.data(),
         reinterpret_cast<const float*>(scatter_[1].values.data()), count);
@@ -1760,15 +1758,15 @@ class CudaBackend final : public SolverBackend {
     return graphs_.back().exec.get();
   }
 
-  /// Uploads node indices and raw values for a scatter kernel (buffers grow as needed).
-  /// Stages a scatter's node ids and values in page-locked host memory, which the scatter
-  /// kernels read directly (mapped: the same address on both sides under unified addressing), so
-  /// an edit of a few nodes is its kernel launches and one wait, with no copies queued. Slot 0
-  /// holds the flags, slot 1 the states or forces: both can be in flight before the one wait of
+  /// Stages a scatter's node ids in page-locked host memory and returns room there for its
+  /// `value_bytes` of values, which the caller fills; the scatter kernels read both directly
+  /// (mapped: the same address on both sides under unified addressing), so an edit of a few
+  /// nodes is its kernel launches and one wait, with no copies queued. Slot 0 holds the flags,
+  /// slot 1 the states or forces: both can be in flight before the one wait of
   /// update_flags_and_write_nodes(). Every scatter waits for its kernels before it returns, so
   /// the next one may overwrite a slot.
-  void stage_scatter(int slot, const std::vector<std::int64_t>& nodes, const std::uint8_t* values,
-                     std::size_t value_bytes) {
+  std::uint8_t* stage_scatter(int slot, const std::vector<std::int64_t>& nodes,
+                              std::size_t value_bytes) {
     ScatterStage& st = scatter_[slot];
     if (nodes.size() > st.nodes.capacity() || value_bytes > st.values.capacity()) {
       TSF_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
@@ -1778,7 +1776,7 @@ class CudaBackend final : public SolverBackend {
     st.nodes.resize(nodes.size());
     st.values.resize(value_bytes);
     std::copy(nodes.begin(), nodes.end(), st.nodes.data());
-    std::memcpy(st.values.data(), values, value_bytes);
+    return st.values.data();
   }
 
   LatticeGeometry geometry_;
