@@ -11,20 +11,30 @@
 #error "define TSF_CRMS_CPU_ISA and TSF_CRMS_CPU_ISA_KERNELS before including cpu_kernels_isa.h"
 #endif
 
+// Sanitizer builds keep the compiler's own inlining: flattening the kernels' whole call trees
+// under ASan instrumentation took one core over 20 minutes for this file (the baseline set, 2-core
+// CI machine); the instrumented code is the same functions, called rather than inlined.
+#if !defined(TSF_CRMS_CPU_FLATTEN)
+#if defined(__SANITIZE_ADDRESS__)
+#define TSF_CRMS_CPU_FLATTEN
+#else
+#define TSF_CRMS_CPU_FLATTEN __attribute__((flatten))
+#endif
+#endif
+
 namespace tsf::crms::cpu::TSF_CRMS_CPU_ISA {
 
 #include "cpu_row_loops.inc"
 
 template <unsigned F>
-__attribute__((flatten)) std::int64_t step_row_per_node_entry(const StepContext& c, int j, int k,
-                                                              const RowScratch& scratch) {
+TSF_CRMS_CPU_FLATTEN std::int64_t step_row_per_node_entry(const StepContext& c, int j, int k,
+                                                          const RowScratch& scratch) {
   return step_row_per_node<F>(c, j, k, scratch);
 }
 
 template <unsigned F>
-__attribute__((flatten)) std::int64_t march_tile_entry(const StepContext& c, const TermRing& ring,
-                                                       const Tile& tile,
-                                                       const RowScratch& scratch) {
+TSF_CRMS_CPU_FLATTEN std::int64_t march_tile_entry(const StepContext& c, const TermRing& ring,
+                                                   const Tile& tile, const RowScratch& scratch) {
   return march_tile<F>(c, ring, tile, scratch);
 }
 
