@@ -152,22 +152,92 @@ TEST(EditThreads, TheSampleFaceIsCutAndAblatedAlikeOnOneAndSeveralThreads) {
 class VoxelOrderSweeper final : public BladeSweeper {
  public:
   int calls = 0;
-  void sweep(const BladeTool& blade, const std::vector<BladeSweepStep>& steps, const VoxelBox& box,
-             const VolumeGeometry& g, double h, std::vector<float>& weight) override {
+  void sweep(const BladeSweepPlan& plan, const VolumeGeometry& g,
+             std::vector<float>& weight) override {
     ++calls;
+    const VoxelBox& box = plan.box;
+    const double h = plan.h;
     weight.assign(static_cast<std::size_t>(box.voxel_count()), 0.0f);
     std::size_t v = 0;
     for (int k = box.lo.z; k < box.hi.z; ++k)
       for (int j = box.lo.y; j < box.hi.y; ++j)
-        for (int i = box.lo.x; i < box.hi.x; ++i, ++v)
-          for (const BladeSweepStep& s : steps) {
-            if (!s.box.contains(i, j, k)) continue;
-            const double d =
-                blade_distance(blade, s.pose, g.index_to_tissue({double(i), double(j), double(k)}));
-            weight[v] = std::max(weight[v], d < h ? falloff_weight(d, h) : 0.0f);
-          }
+        for (int i = box.lo.x; i < box.hi.x; ++i, ++v) {
+          const Vec3d first = g.index_to_tissue({double(box.lo.x), double(j), double(k)});
+          BladeDistanceMin nearest;
+          for (const BladeSweepStep& s : plan.steps)
+            if (s.box.contains(i, j, k))
+              nearest.add(plan.blade.half_extents,
+                          blade_row_frame(s.pose, first, g.spacing.x).at(i - box.lo.x));
+          const double d = nearest.distance();
+          weight[v] = d < h ? falloff_weight(d, h) : 0.0f;
+        }
   }
 };
+
+/// The direct form of a sweep's weights: per voxel, the largest fall-off weight over the
+/// sub-steps whose box reaches it, each from blade_distance() of the voxel's own position.
+std::vector<float> visit_every_sub_step(const BladeSweepPlan& plan, const VolumeGeometry& g) {
+  const VoxelBox& box = plan.box;
+  std::vector<float> weight(static_cast<std::size_t>(box.voxel_count()), 0.0f);
+  std::size_t v = 0;
+  for (int k = box.lo.z; k < box.hi.z; ++k)
+    for (int j = box.lo.y; j < box.hi.y; ++j)
+      for (int i = box.lo.x; i < box.hi.x; ++i, ++v)
+        for (const BladeSweepStep& s : plan.steps) {
+          if (!s.box.contains(i, j, k)) continue;
+          const double d = blade_distance(plan.blade, s.pose,
+                                          g.index_to_tissue({double(i), double(j), double(k)}));
+          weight[v] = std::max(weight[v], d < plan.h ? falloff_weight(d, plan.h) : 0.0f);
+        }
+  return weight;
+}
+
+// The sweep's contract (each row's voxels placed from the row's first one, the smallest distance
+// kept and the fall-off taken once) gives the direct form's weights: for cuts along, across and
+// oblique to the blade, short and long, with a hard and a soft fall-off, and a blade that turns.
+TEST(BladeSweeper, TheSmallestDistanceAlongRowsGivesTheDirectFormsWeights) {
+  VolumeGeometry g;
+  g.dims = {40, 36, 30};
+  g.spacing = {0.9, 1.1, 1.4};
+  g.origin = {-12, 3, 7};
+  const Vec3d c = g.index_to_tissue({20, 18, 15});
+  struct Case {
+    Vec3d half, move;
+    Rotation from, to;
+    double falloff;
+  };
+  const Rotation along_y = Rotation::about_axis({1, 0, 0}, M_PI / 2);
+  const Rotation oblique = Rotation::about_axis({1, 2, 3}, 0.7);
+  const std::vector<Case> cases = {
+      {{10, 10, 0.5}, {0, 0, -20}, along_y, along_y, -1},
+      {{10, 10, 0.5}, {0, 18, 0}, along_y, along_y, -1},
+      {{6, 3, 1}, {7, -5, 9}, oblique, oblique, 0.5},
+      {{6, 3, 1}, {0.3, 0.2, 0.1}, oblique, oblique, 0},
+      {{2, 8, 0.25}, {-14, 3, -2}, Rotation{}, Rotation{}, 2.0},
+      {{10, 10, 0.5}, {2, 0, 18}, along_y, Rotation::about_axis({1, 0.3, 0}, M_PI / 3), -1},
+      {{6, 3, 1}, {0, 0, 0}, oblique, Rotation::about_axis({0, 1, 1}, 2.1), 0.5},
+  };
+  std::size_t full = 0;  // weight 1: deeper than the fall-off inside the blade
+  for (const Case& cs : cases) {
+    RemovalOptions o;
+    o.falloff_mm = cs.falloff;
+    const BladeSweepPlan plan = plan_blade_sweep(
+        g, BladeTool{cs.half}, {c - cs.move * 0.5, cs.from}, {c + cs.move * 0.5, cs.to}, o);
+    VoxelOrderSweeper contract;
+    std::vector<float> found;
+    contract.sweep(plan, g, found);
+    const std::vector<float> direct = visit_every_sub_step(plan, g);
+    ASSERT_EQ(found.size(), direct.size());
+    std::size_t reached = 0;
+    for (std::size_t v = 0; v < found.size(); ++v) {
+      ASSERT_NEAR(found[v], direct[v], 1e-6f) << "voxel " << v << " of the sweep's box";
+      reached += direct[v] > 0.0f;
+      full += direct[v] == 1.0f;
+    }
+    EXPECT_GT(reached, 100u) << "a case that reaches few voxels tests little";
+  }
+  EXPECT_GT(full, 100u);
+}
 
 TEST(BladeSweeper, ASweeperKeepingTheContractMakesTheStrokesOwnCut) {
   const VoxelVolume sample = io::read_tissue_volume_nrrd(
@@ -177,18 +247,22 @@ TEST(BladeSweeper, ASweeperKeepingTheContractMakesTheStrokesOwnCut) {
   const Rotation along_y = Rotation::about_axis({1, 0, 0}, M_PI / 2);
   const Vec3d c = g.index_to_tissue({g.dims.x * 0.5, g.dims.y * 0.3, g.dims.z * 0.5});
   const ToolPose from{c + Vec3d{0, 0, 40}, along_y}, to{c + Vec3d{0, 0, -30}, along_y};
+  // The scene's cut (the blade does not turn), then one that turns the blade by 30° on its way.
+  const ToolPose turned{c + Vec3d{0, 0, -30}, Rotation::about_axis({1, 0.2, 0}, M_PI / 3)};
   RemovalOptions o;
-  VoxelVolume host(sample), swept(sample);
-  ToolStroke a, b;
   VoxelOrderSweeper sweeper;
-  const VoxelBox ha = a.cut_blade(host, blade, from, to, o);
-  const VoxelBox hb = b.cut_blade(swept, blade, from, to, o, &sweeper);
-  EXPECT_EQ(sweeper.calls, 1);
-  ASSERT_GT(ha.voxel_count(), 1000);
-  EXPECT_TRUE(ha == hb);
-  EXPECT_TRUE(std::as_const(host).density_data() == std::as_const(swept).density_data())
-      << "the voxels differ";
-  EXPECT_TRUE(a.last_reached() == b.last_reached());
+  for (const ToolPose* end : {&to, &turned}) {
+    VoxelVolume host(sample), swept(sample);
+    ToolStroke a, b;
+    const VoxelBox ha = a.cut_blade(host, blade, from, *end, o);
+    const VoxelBox hb = b.cut_blade(swept, blade, from, *end, o, &sweeper);
+    ASSERT_GT(ha.voxel_count(), 1000);
+    EXPECT_TRUE(ha == hb);
+    EXPECT_TRUE(std::as_const(host).density_data() == std::as_const(swept).density_data())
+        << "the voxels differ";
+    EXPECT_TRUE(a.last_reached() == b.last_reached());
+  }
+  EXPECT_EQ(sweeper.calls, 2);
   if (!cuda_status().available) {
     try {
       (void)make_cuda_blade_sweeper();

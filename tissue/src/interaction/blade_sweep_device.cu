@@ -1,12 +1,14 @@
 // The blade sweep of a cut on the CUDA device (ToolStroke::cut_blade with a sweeper). The host's
 // sweep visits each voxel of the swept box once per sub-step whose world-axis box reaches it
 // (~60 times for the sinus scene's 40 mm blade through 70 mm of face: 1.2 M blade distances);
-// here one thread per voxel of the box takes the largest weight over those sub-steps, reading
-// the sub-steps as uniform loads (every thread of a warp reads the same one). The weights come
-// back to the host, which applies them with the stroke's memory (ToolStroke::apply), so the edit
-// is the host's edit: the distance and the fall-off are tool_shapes.h's TSF_HD functions, and
-// this file is compiled with --fmad=false (tissue/CMakeLists.txt) as tool_stroke.cpp is with
-// -ffp-contract=off, so both give the same weights bit for bit (BladeSweep.* tests).
+// here one thread per voxel of the box keeps its smallest distance over those sub-steps
+// (BladeDistanceMin, the voxel placed along its row as the host's row loop places it), reading
+// the sub-steps as uniform loads (every thread of a warp reads the same one), and takes the
+// fall-off once. The weights come back to the host, which applies them with the stroke's memory
+// (ToolStroke::apply), so the edit is the host's edit: the distance and the fall-off are
+// tool_shapes.h's TSF_HD functions, and this file is compiled with --fmad=false
+// (tissue/CMakeLists.txt) as tool_stroke.cpp is with -ffp-contract=off, so both give the same
+// weights bit for bit (EditsOnTheDevice.* tests).
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -31,16 +33,16 @@ __global__ void blade_sweep_kernel(BladeTool blade, const BladeSweepStep* steps,
   const int i = box.lo.x + static_cast<int>(v % ext.x);
   const int j = box.lo.y + static_cast<int>((v / ext.x) % ext.y);
   const int k = box.lo.z + static_cast<int>(v / (static_cast<std::int64_t>(ext.x) * ext.y));
-  const Vec3d p = g.index_to_tissue({double(i), double(j), double(k)});
-  float w = 0.0f;
+  // The host's blade_row: the row's frame from its first voxel, the voxel m = i − box.lo.x along.
+  const Vec3d first = g.index_to_tissue({double(box.lo.x), double(j), double(k)});
+  BladeDistanceMin nearest;
   for (int n = 0; n < step_count; ++n) {
     const BladeSweepStep& s = steps[n];
     if (!s.box.contains(i, j, k)) continue;
-    const double d = blade_distance(blade, s.pose, p);
-    const float wn = d < h ? falloff_weight(d, h) : 0.0f;
-    w = w < wn ? wn : w;  // std::max(w, wn), as the host's row loop takes it
+    nearest.add(blade.half_extents, blade_row_frame(s.pose, first, g.spacing.x).at(i - box.lo.x));
   }
-  weight[v] = w;
+  const double d = nearest.distance();
+  weight[v] = d < h ? falloff_weight(d, h) : 0.0f;
 }
 
 class CudaBladeSweeper final : public BladeSweeper {
@@ -57,8 +59,10 @@ class CudaBladeSweeper final : public BladeSweeper {
     weights_host_.grow_to(std::size_t{1} << 18);
   }
 
-  void sweep(const BladeTool& blade, const std::vector<BladeSweepStep>& steps, const VoxelBox& box,
-             const VolumeGeometry& geometry, double h, std::vector<float>& weight) override {
+  void sweep(const BladeSweepPlan& plan, const VolumeGeometry& geometry,
+             std::vector<float>& weight) override {
+    const std::vector<BladeSweepStep>& steps = plan.steps;
+    const VoxelBox& box = plan.box;
     const auto count = static_cast<std::size_t>(box.empty() ? 0 : box.voxel_count());
     weight.assign(count, 0.0f);
     if (count == 0 || steps.empty()) return;
@@ -69,8 +73,9 @@ class CudaBladeSweeper final : public BladeSweeper {
     weights_.grow_to(count);
     constexpr unsigned kThreads = 256;
     const auto blocks = static_cast<unsigned>((count + kThreads - 1) / kThreads);
-    blade_sweep_kernel<<<blocks, kThreads, 0, stream_.get()>>>(
-        blade, steps_.data(), static_cast<int>(steps.size()), box, geometry, h, weights_.data());
+    blade_sweep_kernel<<<blocks, kThreads, 0, stream_.get()>>>(plan.blade, steps_.data(),
+                                                               static_cast<int>(steps.size()), box,
+                                                               geometry, plan.h, weights_.data());
     TSF_CUDA_CHECK_LAUNCH();
     weights_host_.grow_to(count);
     weights_.download(weights_host_.data(), count, stream_.get());

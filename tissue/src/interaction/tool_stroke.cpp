@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,21 +39,22 @@ int sub_steps(double travel_mm, double voxel_mm, const char* what) {
   return steps;
 }
 
-/// One row (j, k), voxels [i0, i1), of a blade sweep's sub-step at `pose`: row[i − i0] becomes
-/// the larger of itself and the voxel's fall-off weight. Branch-free (a select, not an if) so it
-/// vectorises, and built for the wider vector units too (chosen when the program loads): the
-/// same IEEE operations in the same order in every build (no contraction into FMA under
-/// -std=c++17), so every build gives the same weights.
+/// One sub-step's share of a row of a blade sweep: voxels [m0, m1) of the row (m counted from the
+/// sweep box's first x), their smallest distances so far in inside[m] and outside2[m]
+/// (BladeDistanceMin) taking this sub-step in. Branch-free (selects) with no square root or
+/// division, so it vectorises, and built for the wider vector units too (chosen when the
+/// program loads): the same IEEE operations in the same order in every build (no contraction
+/// into FMA: this file is compiled with -ffp-contract=off), so every build gives the same weights.
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-void blade_row(const BladeTool& blade, const ToolPose& pose, const VolumeGeometry& g, double h,
-               int j, int k, int i0, int i1, float* row) {
-  for (int i = i0; i < i1; ++i) {
-    const double d =
-        blade_distance(blade, pose, g.index_to_tissue({double(i), double(j), double(k)}));
-    const float w = d < h ? falloff_weight(d, h) : 0.0f;
-    row[i - i0] = std::max(row[i - i0], w);
+void blade_row(const Vec3d& half_extents, const BladeRowFrame& frame, int m0, int m1,
+               double* inside, double* outside2) {
+  for (int m = m0; m < m1; ++m) {
+    BladeDistanceMin acc{inside[m], outside2[m]};
+    acc.add(half_extents, frame.at(m));
+    inside[m] = acc.inside;
+    outside2[m] = acc.outside2;
   }
 }
 
@@ -216,37 +218,52 @@ VoxelBox ToolStroke::cut_blade(VoxelVolume& volume, const BladeSweepPlan& plan,
                        static_cast<std::size_t>(ext.y) * static_cast<std::size_t>(k - box.lo.z))];
   };
   if (sweeper) {
-    sweeper->sweep(plan.blade, steps, box, g, h, weight);
+    sweeper->sweep(plan, g, weight);
     require(weight.size() == static_cast<std::size_t>(box.voxel_count()),
             "cut: the blade sweeper returned the wrong number of weights (internal)");
     sweep_seconds_ = clock.seconds();
     return apply(volume, box, o, [&](int i, int j, int k) { return at(i, j, k); });
   }
-  // A cut sweeps a large blade through many sub-steps (the sinus scene's: ~150 sub-steps of
-  // ~8 k voxels, each voxel of the box visited ~60 times). Above kParallelCutVisits each thread
-  // takes a share of the sub-steps into a weight buffer of its own, and the buffers are merged by
-  // their maximum (which does not depend on the order): no barrier per sub-step.
-  auto sweep = [&](std::vector<float>& into, std::size_t first, std::size_t last) {
-    for (std::size_t n = first; n < last; ++n) {
+  // Every sub-step visits the voxels its box reaches (the sinus scene's cut: ~150 sub-steps of
+  // ~8 k voxels, each voxel of the box visited ~60 times), keeping each voxel's smallest
+  // distance; the fall-off is taken once per voxel at the end. Above kParallelCutVisits each
+  // thread takes a share of the sub-steps into minima of its own, and then a share of the voxels,
+  // whose minima over the threads it takes (minima do not depend on the order): one barrier.
+  const std::size_t count = weight.size();
+  const Vec3d& half = plan.blade.half_extents;
+  const int threads = plan.visits >= kParallelCutVisits ? omp_get_max_threads() : 1;
+  // Per thread, `count` inside minima then `count` squared outside minima; each thread fills its
+  // own (first touch on its core).
+  const std::unique_ptr<double[]> minima(new double[2 * count * static_cast<std::size_t>(threads)]);
+#pragma omp parallel num_threads(threads) if (threads > 1)
+  {
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    const auto share = static_cast<std::size_t>(omp_get_num_threads());
+    double* inside = minima.get() + 2 * count * t;
+    double* outside2 = inside + count;
+    std::fill(inside, inside + count, 1.0);
+    std::fill(outside2, outside2 + count, INFINITY);
+    for (std::size_t n = steps.size() * t / share; n < steps.size() * (t + 1) / share; ++n) {
       const VoxelBox& sb = steps[n].box;
       for (int k = sb.lo.z; k < sb.hi.z; ++k)
-        for (int j = sb.lo.y; j < sb.hi.y; ++j)
-          blade_row(plan.blade, steps[n].pose, g, h, j, k, sb.lo.x, sb.hi.x,
-                    into.data() + (&at(sb.lo.x, j, k) - weight.data()));
+        for (int j = sb.lo.y; j < sb.hi.y; ++j) {
+          const BladeRowFrame frame = blade_row_frame(
+              steps[n].pose, g.index_to_tissue({double(box.lo.x), double(j), double(k)}),
+              g.spacing.x);
+          const std::size_t row = static_cast<std::size_t>(&at(box.lo.x, j, k) - weight.data());
+          blade_row(half, frame, sb.lo.x - box.lo.x, sb.hi.x - box.lo.x, inside + row,
+                    outside2 + row);
+        }
     }
-  };
-  const int threads = plan.visits >= kParallelCutVisits ? omp_get_max_threads() : 1;
-  if (threads <= 1) {
-    sweep(weight, 0, steps.size());
-  } else {
-#pragma omp parallel num_threads(threads)
-    {
-      const auto t = static_cast<std::size_t>(omp_get_thread_num());
-      const auto count = static_cast<std::size_t>(omp_get_num_threads());
-      std::vector<float> own(weight.size(), 0.0f);
-      sweep(own, steps.size() * t / count, steps.size() * (t + 1) / count);
-#pragma omp critical(tsf_cut_sweep_merge)
-      for (std::size_t v = 0; v < own.size(); ++v) weight[v] = std::max(weight[v], own[v]);
+#pragma omp barrier
+#pragma omp for schedule(static)
+    for (std::int64_t v = 0; v < static_cast<std::int64_t>(count); ++v) {
+      const auto at_v = static_cast<std::size_t>(v);
+      BladeDistanceMin nearest;
+      for (std::size_t u = 0; u < share; ++u)
+        nearest.merge({minima[2 * count * u + at_v], minima[2 * count * u + count + at_v]});
+      const double d = nearest.distance();
+      weight[at_v] = d < h ? falloff_weight(d, h) : 0.0f;
     }
   }
   sweep_seconds_ = clock.seconds();

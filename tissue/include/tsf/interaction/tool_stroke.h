@@ -32,16 +32,18 @@ struct BladeSweepStep {
   VoxelBox box;  ///< within the sweep's box
 };
 
+struct BladeSweepPlan;
+
 /// Computes a blade sweep's weights somewhere other than the calling thread (the CUDA backend's
 /// edits: make_cuda_blade_sweeper). Gives exactly what the host's sweep gives: weight[v] over the
-/// voxels of `box` (x fastest) is the largest over the steps whose box holds v of
-/// falloff_weight(blade_distance(v), h) (0 at distance >= h), the same IEEE operations
-/// (tool_shapes.h) in the same order, nothing contracted into FMA.
+/// voxels of the plan's box (x fastest) is falloff_weight(d, h) (0 at d >= h) of the blade's
+/// smallest distance d from v over the sub-steps whose box holds v, each placed along its row
+/// (BladeRowFrame from the row's voxel at the box's first x) and kept as a BladeDistanceMin:
+/// the same IEEE operations (tool_shapes.h) in the same order, nothing contracted into FMA.
 class BladeSweeper {
  public:
   virtual ~BladeSweeper() = default;
-  virtual void sweep(const BladeTool& blade, const std::vector<BladeSweepStep>& steps,
-                     const VoxelBox& box, const VolumeGeometry& geometry, double h,
+  virtual void sweep(const BladeSweepPlan& plan, const VolumeGeometry& geometry,
                      std::vector<float>& weight) = 0;
 };
 

@@ -99,6 +99,48 @@ TSF_HD_INLINE double blade_distance(const BladeTool& b, const ToolPose& pose, co
   return box_distance_local(b.half_extents, pose.orientation.apply_inverse(p - pose.position));
 }
 
+/// A blade's sub-step seen from a row of voxels along x: the tool-local position of the row's
+/// first voxel and the step from one voxel of the row to the next, so that voxel m of the row
+/// lies at base + step · m (three multiply-adds per voxel instead of a rotation).
+struct BladeRowFrame {
+  Vec3d base, step;
+  TSF_HD_INLINE Vec3d at(int m) const {
+    const double t = static_cast<double>(m);
+    return {base.x + step.x * t, base.y + step.y * t, base.z + step.z * t};
+  }
+};
+TSF_HD_INLINE BladeRowFrame blade_row_frame(const ToolPose& pose, const Vec3d& first_voxel,
+                                            double spacing_x) {
+  return {pose.orientation.apply_inverse(first_voxel - pose.position),
+          pose.orientation.apply_inverse(Vec3d{spacing_x, 0.0, 0.0})};
+}
+
+/// A point's smallest signed distance from a blade over several sub-steps, in two parts so that
+/// adding a sub-step takes no square root (box_distance_local is |outside| + inside, and one of
+/// the two is zero): the most negative inside distance of the sub-steps that hold the point
+/// (1 while none does) and the smallest squared outside distance (+inf while none). Both are
+/// minima, so neither the order of the sub-steps nor how threads share them changes the result;
+/// distance() is the smallest box_distance_local (sqrt is monotone and correctly rounded).
+struct BladeDistanceMin {
+  double inside = 1.0, outside2 = INFINITY;
+
+  TSF_HD_INLINE void add(const Vec3d& half_extents, const Vec3d& p_local) {
+    const Vec3d q{fabs(p_local.x) - half_extents.x, fabs(p_local.y) - half_extents.y,
+                  fabs(p_local.z) - half_extents.z};
+    const Vec3d outside{q.x > 0 ? q.x : 0.0, q.y > 0 ? q.y : 0.0, q.z > 0 ? q.z : 0.0};
+    const double o2 = dot(outside, outside);
+    const double yz = q.y > q.z ? q.y : q.z;
+    const double largest = q.x > yz ? q.x : yz;  // <= 0 where o2 == 0: the point is inside
+    inside = o2 == 0.0 && largest < inside ? largest : inside;
+    outside2 = o2 < outside2 ? o2 : outside2;
+  }
+  TSF_HD_INLINE void merge(const BladeDistanceMin& o) {
+    inside = o.inside < inside ? o.inside : inside;
+    outside2 = o.outside2 < outside2 ? o.outside2 : outside2;
+  }
+  TSF_HD_INLINE double distance() const { return inside <= 0.0 ? inside : sqrt(outside2); }
+};
+
 /// Edit weight for a point at signed distance `d` (mm) from the tool surface: 1 deeper than
 /// `half_width` inside, 0 farther than `half_width` outside, a smoothstep between (so an edit at
 /// full strength on solid tissue puts the 0.5 iso-level on the tool surface and leaves a density
