@@ -6,6 +6,7 @@
 
 #include "interaction_test_helpers.h"
 #include "tsf/common/error.h"
+#include "tsf/interaction/tool_stroke.h"
 
 namespace tsf::interaction {
 namespace {
@@ -19,6 +20,26 @@ TissueModel solid_block() {
     crms::fix_nodes_in_box(l, {-1e9, -1e9, -1e9}, {1e9, 1e9, 3.0});
   };
   return TissueModel(block_volume({40, 40, 40}, {1, 1, 1}, {39, 39, 39}), o);
+}
+
+// The stroke's memory of applied weights (open addressing): every voxel keeps its own weight
+// through the table's growth, voxel indices that collide in the low bits included, a voxel not
+// reached reads 0, and after clear() nothing is remembered.
+TEST(AblationVolume, TheStrokesMemoryKeepsEachVoxelsWeightThroughGrowth) {
+  AppliedWeights applied;
+  auto voxel = [](std::size_t i) { return i * 65536 + (i % 7); };  // low bits repeat
+  for (std::size_t i = 0; i < 50000; ++i) applied[voxel(i)] = static_cast<float>(i % 1000) + 0.5f;
+  EXPECT_EQ(applied.size(), 50000u);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < 50000; ++i)
+    wrong += applied[voxel(i)] != static_cast<float>(i % 1000) + 0.5f;
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_EQ(applied.size(), 50000u) << "reading a remembered voxel adds nothing";
+  EXPECT_EQ(applied[3], 0.0f);
+  EXPECT_EQ(applied.size(), 50001u);
+  applied.clear();
+  EXPECT_EQ(applied.size(), 0u);
+  EXPECT_EQ(applied[voxel(17)], 0.0f);
 }
 
 TEST(AblationVolume, ABallDraggedThroughSolidTissueRemovesItsCapsule) {
