@@ -129,10 +129,9 @@ void Coupler::link(std::uint32_t slot) {
 std::uint32_t Coupler::acquire_frame(std::int32_t cell, std::uint32_t sources, bool single_piece) {
   const std::uint64_t key =
       (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell)) << 32) | sources;
-  const std::uint32_t found = frame_index_.find(key);
-  if (found != FrameIndex::kAbsent) {
-    ++frame_refs_[found];
-    return found;
+  if (const std::uint32_t* found = frame_index_.find(key)) {
+    ++frame_refs_[*found];
+    return *found;
   }
   std::uint32_t f;
   if (!free_frames_.empty()) {
@@ -148,7 +147,7 @@ std::uint32_t Coupler::acquire_frame(std::int32_t cell, std::uint32_t sources, b
   frames_[f] = {cell, sources};
   frame_refs_[f] = 1;
   frame_single_[f] = single_piece ? 1 : 0;
-  frame_index_.insert(key, f);
+  frame_index_[key] = f;
   if (device_) pending_frames_.push_back(f);
   return f;
 }

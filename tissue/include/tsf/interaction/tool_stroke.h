@@ -12,13 +12,13 @@
 // and is dropped by end() (the tool lifted, or a new stroke).
 #pragma once
 
-#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
 
+#include "tsf/common/open_hash_map.h"
 #include "tsf/volume/tool_shapes.h"
 #include "tsf/volume/volume_edits.h"
 #include "tsf/volume/voxel_box.h"
@@ -70,57 +70,8 @@ BladeSweepPlan plan_blade_sweep(const VolumeGeometry& geometry, const BladeTool&
                                 const ToolPose& from, const ToolPose& to,
                                 const RemovalOptions& options);
 
-/// The weight a stroke has applied so far, per voxel index: open addressing with linear probing,
-/// a power-of-two table kept at most half full (one probe per voxel in the common case and no
-/// allocation per voxel: a cut remembers ~10 k voxels).
-class AppliedWeights {
- public:
-  /// The weight applied to `voxel`, 0 (and remembered) when the stroke has not reached it yet.
-  float& operator[](std::size_t voxel) {
-    if (2 * (size_ + 1) > keys_.size()) grow();
-    const std::size_t mask = keys_.size() - 1;
-    for (std::size_t h = slot_of(voxel, mask);; h = (h + 1) & mask) {
-      if (keys_[h] == voxel) return values_[h];
-      if (keys_[h] == kEmpty) {
-        keys_[h] = voxel;
-        values_[h] = 0.0f;
-        ++size_;
-        return values_[h];
-      }
-    }
-  }
-  void clear() {
-    if (size_ == 0) return;
-    std::fill(keys_.begin(), keys_.end(), kEmpty);
-    size_ = 0;
-  }
-  std::size_t size() const { return size_; }
-
- private:
-  static constexpr std::size_t kEmpty = ~std::size_t{0};
-  static std::size_t slot_of(std::size_t voxel, std::size_t mask) {
-    return static_cast<std::size_t>((static_cast<std::uint64_t>(voxel) * 0x9E3779B97F4A7C15ull) >>
-                                    32) &
-           mask;
-  }
-  void grow() {
-    std::vector<std::size_t> keys(std::max<std::size_t>(1024, 2 * keys_.size()), kEmpty);
-    std::vector<float> values(keys.size(), 0.0f);
-    const std::size_t mask = keys.size() - 1;
-    for (std::size_t i = 0; i < keys_.size(); ++i) {
-      if (keys_[i] == kEmpty) continue;
-      std::size_t h = slot_of(keys_[i], mask);
-      while (keys[h] != kEmpty) h = (h + 1) & mask;
-      keys[h] = keys_[i];
-      values[h] = values_[i];
-    }
-    keys_.swap(keys);
-    values_.swap(values);
-  }
-  std::vector<std::size_t> keys_;
-  std::vector<float> values_;
-  std::size_t size_ = 0;
-};
+/// The weight a stroke has applied so far, per voxel index (0 where it has not reached yet).
+using AppliedWeights = OpenHashMap<float>;
 
 class ToolStroke {
  public:
