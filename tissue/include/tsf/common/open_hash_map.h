@@ -24,20 +24,15 @@ class OpenHashMap {
   }
   /// The value stored for `key`, or nullptr.
   const Value* find(std::uint64_t key) const {
-    if (slots_.empty()) return nullptr;
-    const std::size_t mask = slots_.size() - 1;
-    for (std::size_t i = hash(key) & mask;; i = (i + 1) & mask) {
-      const Slot& s = slots_[i];
-      if (s.state == kEmpty) return nullptr;
-      if (s.state == kFull && s.key == key) return &s.value;
-    }
+    const std::size_t i = locate(key);
+    return i == kNowhere ? nullptr : &slots_[i].value;
   }
   /// The value stored for `key`, stored as Value{} first when absent.
   Value& operator[](std::uint64_t key) {
     if (2 * (used_ + 1) > slots_.size()) rehash();
     const std::size_t mask = slots_.size() - 1;
     std::size_t reuse = slots_.size();  // the first tombstone on the probe path
-    std::size_t i = hash(key) & mask;
+    std::size_t i = hash(key);
     for (;; i = (i + 1) & mask) {
       Slot& s = slots_[i];
       if (s.state == kFull && s.key == key) return s.value;
@@ -55,33 +50,38 @@ class OpenHashMap {
   }
   /// Removes `key` when present.
   void erase(std::uint64_t key) {
-    if (slots_.empty()) return;
-    const std::size_t mask = slots_.size() - 1;
-    for (std::size_t i = hash(key) & mask;; i = (i + 1) & mask) {
-      Slot& s = slots_[i];
-      if (s.state == kEmpty) return;
-      if (s.state == kFull && s.key == key) {
-        s.state = kTombstone;
-        --size_;
-        return;
-      }
-    }
+    const std::size_t i = locate(key);
+    if (i == kNowhere) return;
+    slots_[i].state = kTombstone;
+    --size_;
   }
 
  private:
   static constexpr std::uint8_t kEmpty = 0, kFull = 1, kTombstone = 2;
+  static constexpr std::size_t kNowhere = ~std::size_t{0};
   struct Slot {
     std::uint64_t key = 0;
     Value value{};
     std::uint8_t state = kEmpty;
   };
-  // Fibonacci hashing: the key times 2^64/φ, the product's top bits. One multiply; every bit of
-  // the key reaches the top ones, so keys that differ only in their high bits (the coupler's cube
-  // cells) or only in their low ones (a row of voxels) spread as well.
+  // Fibonacci hashing: the key times 2^64/φ, the product's top log2(capacity) bits, a slot index.
+  // One multiply; every bit of the key reaches the top ones, so keys that differ only in their high
+  // bits (the coupler's cube cells) or only in their low ones (a row of voxels) spread as well.
   std::size_t hash(std::uint64_t k) const {
     return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_);
   }
-  // Re-inserts the keys present (tombstones dropped) into a table at least twice their number.
+  // The slot holding `key`, or kNowhere.
+  std::size_t locate(std::uint64_t key) const {
+    if (slots_.empty()) return kNowhere;
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t i = hash(key);; i = (i + 1) & mask) {
+      const Slot& s = slots_[i];
+      if (s.state == kEmpty) return kNowhere;
+      if (s.state == kFull && s.key == key) return i;
+    }
+  }
+  // Re-inserts the keys present (tombstones dropped) into a table at least four times their
+  // number, so that it is at most a quarter full afterwards.
   void rehash() {
     std::size_t capacity = slots_.empty() ? 1024 : slots_.size();
     while (4 * (size_ + 1) > capacity) capacity *= 2;
@@ -92,7 +92,7 @@ class OpenHashMap {
     const std::size_t mask = capacity - 1;
     for (const Slot& s : old) {
       if (s.state != kFull) continue;
-      std::size_t i = hash(s.key) & mask;
+      std::size_t i = hash(s.key);
       while (slots_[i].state != kEmpty) i = (i + 1) & mask;
       slots_[i] = s;
     }
