@@ -127,8 +127,7 @@ void Coupler::link(std::uint32_t slot) {
 }
 
 std::uint32_t Coupler::acquire_frame(std::int32_t cell, std::uint32_t sources, bool single_piece) {
-  const std::uint64_t key =
-      (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell)) << 32) | sources;
+  const std::uint64_t key = frame_key(cell, sources);
   if (const std::uint32_t* found = frame_index_.find(key)) {
     ++frame_refs_[*found];
     return *found;
@@ -156,8 +155,7 @@ void Coupler::release_frame(std::uint32_t f) {
   if (f == kNoFrame || f >= frames_.size() || frame_refs_[f] == 0) return;
   if (--frame_refs_[f] > 0) return;
   const CubeFrame& fr = frames_[f];
-  frame_index_.erase((static_cast<std::uint64_t>(static_cast<std::uint32_t>(fr.cell)) << 32) |
-                     fr.sources);
+  frame_index_.erase(frame_key(fr.cell, fr.sources));
   frames_[f] = {};
   free_frames_.push_back(f);
   if (device_) pending_frames_.push_back(f);

@@ -1,5 +1,4 @@
-// The coupler's index of frames by key (cube cell in the high 32 bits, sources in the low ones)
-// to frame id.
+// The coupler's index of frames: frame id by key (cube cell, sources).
 #pragma once
 
 #include <cstdint>
@@ -9,5 +8,10 @@
 namespace tsf::coupler {
 
 using FrameIndex = OpenHashMap<std::uint32_t>;
+
+/// A frame's key in the index: its cube cell in the high 32 bits, its sources in the low ones.
+inline std::uint64_t frame_key(std::int32_t cell, std::uint32_t sources) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cell)) << 32) | sources;
+}
 
 }  // namespace tsf::coupler
